@@ -1,0 +1,132 @@
+//! Two-point kernel quadrature: the coefficient of the diffuse transport
+//! kernel over a pair of elements (paper §3, K_rp; DESIGN.md §1).
+//!
+//! wavrad stores the symmetric *geometric throughput*
+//! `T(a,c) = ∫_a ∫_c cosθ_a cosθ_c V / (π r²) dA_c dA_a`, from which both
+//! directions of a link follow: `F(a,c) = T/|a|`, `F(c,a) = T/|c|`
+//! (reciprocity holds by construction).
+
+pub mod form_factor;
+
+use crate::scene::Patch;
+use crate::tracing::SceneTracer;
+
+/// Quadrature settings for kernel coefficients.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Quadrature {
+    /// Gauss–Legendre order per axis on the outer (point) element.
+    pub points: usize,
+    /// Order per axis of the visibility sample grid on the inner element
+    /// (`rays` × `rays` occlusion rays per outer point).
+    pub rays: usize,
+}
+
+impl Default for Quadrature {
+    fn default() -> Self {
+        Quadrature { points: 2, rays: 2 }
+    }
+}
+
+/// An element taking part in a kernel evaluation: its geometry and the
+/// surface it lies on (whose primitives never occlude the interaction).
+#[derive(Debug, Clone, Copy)]
+pub struct KernelElement<'a> {
+    /// Element geometry.
+    pub patch: &'a Patch,
+    /// Index of its surface.
+    pub surface: u32,
+}
+
+/// True when the two planar elements cannot exchange light at all: one lies
+/// entirely behind (or in the plane of) the other's front side.
+pub fn faces_away(a: &Patch, c: &Patch) -> bool {
+    let behind = |p: &Patch, q: &Patch| {
+        let (n, o) = (p.normal(), p.vertices()[0]);
+        q.vertices().iter().all(|v| n.dot(*v - o) <= 1e-12 * (1.0 + v.length()))
+    };
+    behind(a, c) || behind(c, a)
+}
+
+/// Geometric throughput T(a,c) with visibility.
+///
+/// The outer integral runs over the smaller element with Gauss–Legendre
+/// points; the inner one is Lambert's closed form over the larger element
+/// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
+/// from the point to a grid of points on it.
+pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
+    let (outer, inner) = if a.patch.area() <= c.patch.area() { (a, c) } else { (c, a) };
+    let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
+    let polygon = inner.patch.vertices();
+    let targets = inner.patch.gauss_points(q.rays);
+    let skip = |prim: u32| {
+        let s = tracer.surface_of(prim);
+        s == a.surface || s == c.surface
+    };
+    let mut sum = 0.0;
+    for x in outer.patch.gauss_points(q.points) {
+        let unoccluded_ff = form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
+        if unoccluded_ff <= 0.0 {
+            continue;
+        }
+        let (mut seen, mut total) = (0usize, 0usize);
+        for y in &targets {
+            if n_outer.dot(y.position - x.position) <= 0.0 {
+                continue;
+            }
+            total += 1;
+            if !tracer.occluder.occluded_except(x.position, y.position, skip) {
+                seen += 1;
+            }
+        }
+        if total > 0 {
+            sum += x.weight * unoccluded_ff * seen as f64 / total as f64;
+        }
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Scene, Surface};
+    use glam::DVec3;
+
+    fn surface(patch: Patch) -> Surface {
+        Surface {
+            name: String::new(),
+            patch,
+            reflectance: [0.5; 3],
+            emission: [0.0; 3],
+        }
+    }
+
+    #[test]
+    fn occluder_between_parallel_squares_blocks_light() {
+        let bottom = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let top = Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, 1.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let blocker = Patch::Parallelogram {
+            origin: DVec3::new(-1.0, -1.0, 0.5),
+            edge_s: DVec3::X * 3.0,
+            edge_t: DVec3::Y * 3.0,
+        };
+        let open = SceneTracer::new(&Scene::from_surfaces(vec![surface(bottom), surface(top)]));
+        let closed = SceneTracer::new(&Scene::from_surfaces(vec![
+            surface(bottom),
+            surface(top),
+            surface(blocker),
+        ]));
+        let q = Quadrature::default();
+        let b = KernelElement { patch: &bottom, surface: 0 };
+        let t = KernelElement { patch: &top, surface: 1 };
+        assert!(throughput(&open, q, b, t) > 0.1);
+        assert_eq!(throughput(&closed, q, b, t), 0.0);
+    }
+}

@@ -1,0 +1,253 @@
+//! The scene as the solver sees it: planar patches with diffuse optics, a
+//! sensor and a film. Readers of scene files (`wavrad-io`) build this; the
+//! solver never sees file formats.
+//!
+//! Every [`Surface`] is one-sided: it reflects and emits only on the side its
+//! normal points to, as Mitsuba's `diffuse` BSDF and `area` emitter do. A
+//! `twosided` material becomes two surfaces, one per side.
+
+use glam::{DMat4, DVec3};
+
+/// Linear RGB triple (reflectance, radiance).
+pub type Rgb = [f64; 3];
+
+/// The planar shape of a surface, parametrised over the unit square (paper §2:
+/// "each u,v pair taking the value in a unit square will span the full area").
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Patch {
+    /// `origin + s·edge_s + t·edge_t`, (s,t) ∈ [0,1]². Normal is
+    /// `edge_s × edge_t` normalised.
+    Parallelogram {
+        /// Corner at (s,t) = (0,0).
+        origin: DVec3,
+        /// Edge from (0,0) to (1,0).
+        edge_s: DVec3,
+        /// Edge from (0,0) to (0,1).
+        edge_t: DVec3,
+    },
+    /// Triangle with vertices in counter-clockwise order seen from the front;
+    /// normal is `(v1−v0) × (v2−v0)` normalised.
+    Triangle([DVec3; 3]),
+}
+
+/// One planar, one-sided surface with diffuse reflectance and emission.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Surface {
+    /// Where it came from, for messages and statistics (shape id or index).
+    pub name: String,
+    /// Geometry.
+    pub patch: Patch,
+    /// Diffuse reflectance ρ per channel, each in [0, 1].
+    pub reflectance: Rgb,
+    /// Emitted radiance Le per channel (zero for non-emitters).
+    pub emission: Rgb,
+}
+
+/// Pixel reconstruction filter of the film (Mitsuba's `rfilter`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PixelFilter {
+    /// Box of radius 0.5 pixel.
+    Box,
+    /// Gaussian with the given standard deviation in pixels, truncated at
+    /// 4·stddev (Mitsuba 3's `gaussian`, default stddev 0.5).
+    Gaussian {
+        /// Standard deviation in pixels.
+        stddev: f64,
+    },
+}
+
+/// Film: image size and pixel filter (Mitsuba's `hdrfilm`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Film {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Reconstruction filter.
+    pub filter: PixelFilter,
+}
+
+/// Projection of a sensor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Projection {
+    /// Pinhole camera; `fov_x_degrees` is the full horizontal field of view
+    /// (any `fov_axis` is converted to x using the film's aspect ratio).
+    Perspective {
+        /// Horizontal field of view in degrees.
+        fov_x_degrees: f64,
+    },
+    /// Orthographic camera: the camera-space square [-1,1]² (scaled by
+    /// `world_from_camera`) maps to the film, x spanning the width.
+    Orthographic,
+}
+
+/// A sensor with Mitsuba's conventions: camera space looks along +z, +y is
+/// up and +x is *left* (what `lookat` produces), so that the same world ray
+/// lands on the same pixel as in Mitsuba 3.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// `to_world` of the sensor.
+    pub world_from_camera: DMat4,
+    /// Perspective or orthographic.
+    pub projection: Projection,
+    /// Near clip distance along the view axis.
+    pub near_clip: f64,
+    /// Far clip distance.
+    pub far_clip: f64,
+}
+
+/// Settings read from the scene's `integrator`/`sampler` that matter to wavrad.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RenderHints {
+    /// Samples per pixel asked for by the scene's sampler, if any.
+    pub samples_per_pixel: Option<u32>,
+}
+
+/// A complete scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// All surfaces (after expanding two-sided materials into two surfaces).
+    pub surfaces: Vec<Surface>,
+    /// The first sensor, if the file has one.
+    pub camera: Option<Camera>,
+    /// The sensor's film (defaults to 768×576 gaussian, as Mitsuba's hdrfilm).
+    pub film: Film,
+    /// What the integrator and sampler asked for.
+    pub hints: RenderHints,
+}
+
+impl Patch {
+    /// Vertices in parameter order: (0,0), (1,0), (1,1), (0,1) for a
+    /// parallelogram; v0, v1, v2 for a triangle.
+    pub fn vertices(&self) -> Vec<DVec3> {
+        match *self {
+            Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            } => vec![origin, origin + edge_s, origin + edge_s + edge_t, origin + edge_t],
+            Patch::Triangle(v) => v.to_vec(),
+        }
+    }
+
+    /// Unnormalised normal whose length is the parallelogram's area, or twice
+    /// the triangle's.
+    fn cross(&self) -> DVec3 {
+        match *self {
+            Patch::Parallelogram { edge_s, edge_t, .. } => edge_s.cross(edge_t),
+            Patch::Triangle([a, b, c]) => (b - a).cross(c - a),
+        }
+    }
+
+    /// Surface area.
+    pub fn area(&self) -> f64 {
+        match self {
+            Patch::Parallelogram { .. } => self.cross().length(),
+            Patch::Triangle(_) => 0.5 * self.cross().length(),
+        }
+    }
+
+    /// Unit normal of the front side.
+    pub fn normal(&self) -> DVec3 {
+        self.cross().normalize_or_zero()
+    }
+
+    /// The same patch seen from the other side (normal reversed).
+    pub fn flipped(&self) -> Patch {
+        match *self {
+            Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            } => Patch::Parallelogram {
+                origin,
+                edge_s: edge_t,
+                edge_t: edge_s,
+            },
+            Patch::Triangle([a, b, c]) => Patch::Triangle([a, c, b]),
+        }
+    }
+
+    /// Apply an affine transform (points transform as points).
+    pub fn transformed(&self, m: &DMat4) -> Patch {
+        match *self {
+            Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            } => Patch::Parallelogram {
+                origin: m.transform_point3(origin),
+                edge_s: m.transform_vector3(edge_s),
+                edge_t: m.transform_vector3(edge_t),
+            },
+            Patch::Triangle(v) => Patch::Triangle(v.map(|p| m.transform_point3(p))),
+        }
+    }
+
+    /// True when the patch has (numerically) zero area.
+    pub fn is_degenerate(&self) -> bool {
+        let scale = self
+            .vertices()
+            .iter()
+            .map(|v| v.length_squared())
+            .fold(1e-300, f64::max);
+        self.cross().length_squared() <= 1e-24 * scale * scale
+    }
+}
+
+impl Default for Film {
+    fn default() -> Self {
+        Film {
+            width: 768,
+            height: 576,
+            filter: PixelFilter::Gaussian { stddev: 0.5 },
+        }
+    }
+}
+
+impl Scene {
+    /// A scene of the given surfaces with no sensor and a default film.
+    pub fn from_surfaces(surfaces: Vec<Surface>) -> Self {
+        Scene {
+            surfaces,
+            camera: None,
+            film: Film::default(),
+            hints: RenderHints::default(),
+        }
+    }
+}
+
+impl Surface {
+    /// True when the surface emits light.
+    pub fn is_emitter(&self) -> bool {
+        self.emission.iter().any(|&e| e > 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flipped_parallelogram_keeps_area_and_reverses_normal() {
+        let p = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X * 2.0,
+            edge_t: DVec3::Y,
+        };
+        assert!((p.area() - 2.0).abs() < 1e-12);
+        assert!((p.normal() - DVec3::Z).length() < 1e-12);
+        let f = p.flipped();
+        assert!((f.area() - 2.0).abs() < 1e-12);
+        assert!((f.normal() + DVec3::Z).length() < 1e-12);
+    }
+
+    #[test]
+    fn triangle_area_and_degeneracy() {
+        let t = Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]);
+        assert!((t.area() - 0.5).abs() < 1e-12);
+        assert!(!t.is_degenerate());
+        let d = Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::X * 2.0]);
+        assert!(d.is_degenerate());
+    }
+}

@@ -1,0 +1,63 @@
+//! Hierarchical push–pull (paper §4.2, "2d_reconstruct_decompose"): radiance
+//! gathered at any level is pushed down to the leaves, where emission is
+//! added, and area-weighted averages are pulled back up, so every node holds
+//! the average radiance over its element.
+
+use crate::hierarchy::ElementTree;
+use crate::scene::Rgb;
+
+/// Given the radiance `gathered` at each node of `tree` and the surface's
+/// emitted radiance, return the new radiance average of every node.
+pub fn push_pull(tree: &ElementTree, gathered: &[Rgb], emission: Rgb) -> Vec<Rgb> {
+    let mut radiance = vec![[0.0; 3]; tree.nodes.len()];
+    visit(tree, 0, [0.0; 3], gathered, emission, &mut radiance);
+    radiance
+}
+
+fn visit(tree: &ElementTree, node: usize, above: Rgb, gathered: &[Rgb], emission: Rgb, out: &mut [Rgb]) -> Rgb {
+    let down = add(above, gathered[node]);
+    let value = match tree.nodes[node].first_child {
+        None => add(emission, down),
+        Some(first) => {
+            // Children have equal areas, so the area-weighted mean is the mean.
+            let mut sum = [0.0; 3];
+            for k in 0..4 {
+                sum = add(sum, visit(tree, first as usize + k, down, gathered, emission, out));
+            }
+            sum.map(|x| 0.25 * x)
+        }
+    };
+    out[node] = value;
+    value
+}
+
+fn add(a: Rgb, b: Rgb) -> Rgb {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::ElementId;
+    use crate::scene::Patch;
+    use glam::DVec3;
+    use std::collections::BTreeSet;
+
+    #[test]
+    fn push_pull_conserves_the_area_average() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ids: BTreeSet<_> = [ElementId::ROOT.child(2).child(1)].into_iter().collect();
+        let tree = ElementTree::build(&root, &ids);
+        let mut gathered = vec![[0.0; 3]; tree.nodes.len()];
+        gathered[0] = [1.0, 2.0, 3.0]; // at the root: reaches every leaf
+        let deep = tree.index_of(ElementId::ROOT.child(2).child(1)).unwrap() as usize;
+        gathered[deep] = [16.0, 0.0, 0.0]; // 1/16 of the area
+        let l = push_pull(&tree, &gathered, [0.5, 0.5, 0.5]);
+        assert_eq!(l[deep], [17.5, 2.5, 3.5]);
+        assert_eq!(l[0], [2.5, 2.5, 3.5]);
+    }
+}

@@ -1,0 +1,106 @@
+//! Statistics of a solution: the quantities the paper reports in §5 ("two
+//! point nodes", "two point interactions"), per-level counts, time per phase
+//! and peak memory.
+
+use crate::hierarchy::ElementTree;
+use crate::link::Link;
+use crate::scene::Scene;
+use crate::solve::SolveSettings;
+use serde::Serialize;
+
+/// Wall-clock seconds spent in each phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct PhaseTimes {
+    /// Building the ray-tracing acceleration structure.
+    pub visibility_build_s: f64,
+    /// Adaptive kernel projection (links).
+    pub kernels_s: f64,
+    /// Building element hierarchies and transfer lists.
+    pub hierarchy_s: f64,
+    /// Gauss–Seidel gathering with push–pull.
+    pub solve_s: f64,
+    /// Rendering (zero until an image is rendered).
+    pub render_s: f64,
+}
+
+/// Statistics of one solve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stats {
+    /// Number of surfaces (two-sided materials count twice).
+    pub surfaces: usize,
+    /// Elements in all hierarchies: the paper's "two point nodes".
+    pub two_point_nodes: usize,
+    /// Links: the paper's "two point interactions".
+    pub two_point_interactions: usize,
+    /// Elements per level (index = level).
+    pub nodes_per_level: Vec<usize>,
+    /// Links per level of their finer element (index = level).
+    pub interactions_per_level: Vec<usize>,
+    /// Oracle threshold (paper's orthonormal normalisation).
+    pub threshold: f64,
+    /// Maximum element level.
+    pub max_level: u32,
+    /// Gauss–Seidel sweeps done.
+    pub iterations: u32,
+    /// Largest change of a coarsest coefficient in the last sweep, relative
+    /// to the brightest emitted radiance.
+    pub residual: f64,
+    /// Whether the residual reached the tolerance.
+    pub converged: bool,
+    /// Time per phase.
+    pub times: PhaseTimes,
+    /// Peak resident memory of the process in bytes, where the OS tells.
+    pub peak_memory_bytes: Option<u64>,
+}
+
+impl Stats {
+    pub(crate) fn new(
+        scene: &Scene,
+        settings: &SolveSettings,
+        trees: &[ElementTree],
+        links: &[Link],
+        iterations: u32,
+        residual: f64,
+        times: PhaseTimes,
+    ) -> Stats {
+        let mut nodes_per_level = Vec::new();
+        for t in trees {
+            for (l, n) in t.count_per_level().into_iter().enumerate() {
+                if nodes_per_level.len() <= l {
+                    nodes_per_level.resize(l + 1, 0);
+                }
+                nodes_per_level[l] += n;
+            }
+        }
+        let mut interactions_per_level = vec![0; nodes_per_level.len().max(1)];
+        for l in links {
+            let level = l.a.level.max(l.c.level) as usize;
+            if interactions_per_level.len() <= level {
+                interactions_per_level.resize(level + 1, 0);
+            }
+            interactions_per_level[level] += 1;
+        }
+        Stats {
+            surfaces: scene.surfaces.len(),
+            two_point_nodes: trees.iter().map(|t| t.nodes.len()).sum(),
+            two_point_interactions: links.len(),
+            nodes_per_level,
+            interactions_per_level,
+            threshold: settings.refine.oracle.threshold,
+            max_level: settings.refine.max_level,
+            iterations,
+            residual,
+            converged: residual <= settings.tolerance,
+            times,
+            peak_memory_bytes: peak_memory_bytes(),
+        }
+    }
+}
+
+/// Peak resident set size of this process (Linux `VmHWM`), if known.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}

@@ -1,0 +1,417 @@
+//! Visibility: ray and segment queries against the scene's triangles.
+//!
+//! This module owns the acceleration structure the solver asks "is the
+//! segment between these two points blocked?" (the visibility term V of the
+//! form factor kernel) and "what does this ray hit first?". It is built once
+//! from the scene's triangles and is immutable and `Send + Sync`, so rayon
+//! worker threads share one [`Occluder`].
+//!
+//! The traversal is done by [`obvhs`](https://crates.io/crates/obvhs) (a
+//! compressed 8-wide BVH, "CWBVH", built with PLOC + reinsertion, SIMD node
+//! tests). It was chosen by measurement among obvhs, `bvh`, `parry3d` and
+//! Embree; the numbers, the machine and the command that reproduces them are in
+//! `docs/bvh-choice.md` (`cargo run --release --manifest-path
+//! benches/bvh-choice/Cargo.toml`).
+//!
+//! # Precision
+//!
+//! obvhs works in `f32` and the solver in `f64`. The BVH is used only to *cull*:
+//! every box is padded outwards (relative 1e-5 of the scene size) and the `f32`
+//! ray is started a little behind the real origin, with its far end pushed a
+//! little beyond the real one, so the `f32` traversal never rejects a triangle
+//! that the exact test could hit. Each candidate triangle is then tested in
+//! `f64` (Möller–Trumbore, edges inclusive so the shared diagonal of a quad
+//! does not leak), which alone decides hit/miss, `t`, `u` and `v`. The backing
+//! off of the origin also works around obvhs' node test, which ignores boxes
+//! closer than 1e-4 along the ray.
+//!
+//! Occlusion queries stop at the first blocking triangle (any-hit early exit).
+
+use glam::DVec3;
+use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray, BvhBuildParams};
+
+/// Fraction of a segment excluded at each end by [`Occluder::occluded`] and
+/// [`Occluder::occluded_except`]: a hit counts only for `t ∈ (ε, 1 − ε)` where
+/// `t` runs from 0 at `from` to 1 at `to`. It keeps a segment that ends on a
+/// surface from being blocked by that surface.
+pub const SEGMENT_EPSILON: f64 = 1e-6;
+
+/// Relative padding of the `f32` bounding boxes (times the scene's size).
+const BOX_PAD: f64 = 1e-5;
+
+/// A closest hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit, in units of `|dir|` (the point is `origin + t·dir`).
+    pub t: f64,
+    /// Index of the triangle in the slice given to [`Occluder::new`].
+    pub primitive: u32,
+    /// Barycentric coordinate along `v1 − v0`.
+    pub u: f64,
+    /// Barycentric coordinate along `v2 − v0`.
+    pub v: f64,
+}
+
+/// One triangle as the exact test wants it, in BVH order.
+#[derive(Debug, Clone, Copy)]
+struct Tri {
+    v0: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    id: u32,
+}
+
+impl Tri {
+    /// Möller–Trumbore in f64. Returns `(t, u, v)`; `None` for a miss or a
+    /// ray parallel to the triangle's plane. Edges count as inside.
+    #[inline(always)]
+    fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, f64, f64)> {
+        let p = dir.cross(self.e2);
+        let det = self.e1.dot(p);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = origin - self.v0;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(self.e1);
+        let v = dir.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        Some((self.e2.dot(q) * inv, u, v))
+    }
+}
+
+/// Acceleration structure over triangles (built once, immutable, `Send + Sync`
+/// so rayon threads can query it).
+#[derive(Debug, Clone)]
+pub struct Occluder {
+    /// `None` for an empty scene.
+    bvh: Option<CwBvh>,
+    /// Triangles in the order of `bvh.primitive_indices`.
+    tris: Vec<Tri>,
+    /// How far (world units) the f32 ray starts behind the real origin and
+    /// overshoots the real end.
+    slack: f64,
+}
+
+impl Occluder {
+    /// Builds the BVH over `triangles`. Primitive ids in results are indices
+    /// into this slice. Degenerate (zero-area) triangles are kept but never hit.
+    pub fn new(triangles: &[[DVec3; 3]]) -> Self {
+        if triangles.is_empty() {
+            return Occluder { bvh: None, tris: Vec::new(), slack: 0.0 };
+        }
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for tri in triangles {
+            for p in tri {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        let scale = lo.abs().max(hi.abs()).max_element().max((hi - lo).max_element());
+        let pad = BOX_PAD * scale.max(f64::MIN_POSITIVE);
+        let aabbs: Vec<Aabb> = triangles
+            .iter()
+            .map(|[a, b, c]| {
+                let mn = a.min(*b).min(*c) - DVec3::splat(pad);
+                let mx = a.max(*b).max(*c) + DVec3::splat(pad);
+                Aabb::new(to_f32_down(mn).into(), to_f32_up(mx).into())
+            })
+            .collect();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &aabbs,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = triangles[i as usize];
+                Tri { v0: a, e1: b - a, e2: c - a, id: i }
+            })
+            .collect();
+        Occluder {
+            bvh: Some(bvh),
+            tris,
+            // obvhs skips boxes closer than 1e-4 along the (unit) f32 ray.
+            slack: 2e-4 + 4.0 * pad,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// True when there are no triangles.
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    /// True if any triangle intersects the open segment from `from` to `to`,
+    /// excluding [`SEGMENT_EPSILON`] of its length at both ends (any-hit early
+    /// exit).
+    pub fn occluded(&self, from: DVec3, to: DVec3) -> bool {
+        self.occluded_except(from, to, |_| false)
+    }
+
+    /// Same as [`occluded`](Self::occluded) but ignoring hits on primitives
+    /// for which `skip(prim)` is true (used to ignore the two surfaces whose
+    /// interaction is evaluated).
+    pub fn occluded_except(&self, from: DVec3, to: DVec3, skip: impl Fn(u32) -> bool) -> bool {
+        let Some(bvh) = &self.bvh else { return false };
+        let dir = to - from;
+        let Some((ray, _)) = self.cull_ray(from, dir, 1.0) else { return false };
+        let (t0, t1) = (SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON);
+        !bvh.ray_traverse_miss(ray, |_, slot| {
+            let tri = &self.tris[slot];
+            match tri.intersect(from, dir) {
+                Some((t, _, _)) if t > t0 && t < t1 && !skip(tri.id) => 0.0,
+                _ => f32::INFINITY,
+            }
+        })
+    }
+
+    /// Closest hit along `origin + t·dir` with `t ∈ (tmin, tmax)` (open
+    /// interval; `tmax` may be `f64::INFINITY`).
+    pub fn intersect(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        if !(tmin < tmax) {
+            return None;
+        }
+        let (ray, len) = self.cull_ray(origin, dir, tmax)?;
+        let mut best: Option<Hit> = None;
+        let mut best_t = tmax;
+        let mut hit = obvhs::ray::RayHit::none();
+        bvh.ray_traverse(ray, &mut hit, |_, slot| {
+            let tri = &self.tris[slot];
+            match tri.intersect(origin, dir) {
+                Some((t, u, v)) if t > tmin && t < best_t => {
+                    best_t = t;
+                    best = Some(Hit { t, primitive: tri.id, u, v });
+                    // Shrink the f32 ray conservatively (see `cull_ray`).
+                    self.cull_tmax(t, len)
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// The f32 ray that obvhs traverses for `origin + t·dir`, `t ≤ tmax`:
+    /// unit direction, started `slack` behind `origin`, and `|dir|`. `None`
+    /// for a zero or non-finite direction.
+    #[inline(always)]
+    fn cull_ray(&self, origin: DVec3, dir: DVec3, tmax: f64) -> Option<(Ray, f64)> {
+        let len = dir.length();
+        if !(len > 0.0) || !len.is_finite() || !origin.is_finite() {
+            return None;
+        }
+        let unit = dir / len;
+        let o = origin - unit * self.slack;
+        let ray = Ray::new(
+            [o.x as f32, o.y as f32, o.z as f32].into(),
+            [unit.x as f32, unit.y as f32, unit.z as f32].into(),
+            0.0,
+            self.cull_tmax(tmax, len),
+        );
+        Some((ray, len))
+    }
+
+    /// f32 ray parameter, rounded generously up, for parameter `t` of the
+    /// f64 ray of length `len`.
+    #[inline(always)]
+    fn cull_tmax(&self, t: f64, len: f64) -> f32 {
+        let d = t * len + 2.0 * self.slack;
+        let d = d + d * 1e-5;
+        if d.is_finite() && d < f32::MAX as f64 {
+            d as f32
+        } else {
+            f32::INFINITY
+        }
+    }
+}
+
+/// Rounds each component to an f32 not above it.
+fn to_f32_down(p: DVec3) -> [f32; 3] {
+    p.to_array().map(|x| {
+        let f = x as f32;
+        if (f as f64) > x {
+            f.next_down()
+        } else {
+            f
+        }
+    })
+}
+
+/// Rounds each component to an f32 not below it.
+fn to_f32_up(p: DVec3) -> [f32; 3] {
+    p.to_array().map(|x| {
+        let f = x as f32;
+        if (f as f64) < x {
+            f.next_up()
+        } else {
+            f
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles covering the square `z = z0`, x,y ∈ [-1, 1].
+    /// Triangle ids: `base`, `base + 1`; `base` has v0 = (-1,-1,z0).
+    fn quad(z0: f64) -> [[DVec3; 3]; 2] {
+        let a = DVec3::new(-1.0, -1.0, z0);
+        let b = DVec3::new(1.0, -1.0, z0);
+        let c = DVec3::new(1.0, 1.0, z0);
+        let d = DVec3::new(-1.0, 1.0, z0);
+        [[a, b, c], [a, c, d]]
+    }
+
+    fn assert_send_sync<T: Send + Sync>() {}
+
+    #[test]
+    fn occluder_is_send_and_sync() {
+        assert_send_sync::<Occluder>();
+    }
+
+    #[test]
+    fn quad_occludes_segment() {
+        let occ = Occluder::new(&quad(0.0));
+        assert_eq!(occ.len(), 2);
+        assert!(!occ.is_empty());
+        assert!(occ.occluded(DVec3::new(0.2, 0.3, -1.0), DVec3::new(-0.1, 0.1, 1.0)));
+        // Through the shared diagonal: must not leak.
+        assert!(occ.occluded(DVec3::new(0.5, 0.5, -1.0), DVec3::new(0.5, 0.5, 1.0)));
+        // Beside the quad.
+        assert!(!occ.occluded(DVec3::new(1.5, 0.0, -1.0), DVec3::new(1.5, 0.0, 1.0)));
+        // Segment that stops before the quad.
+        assert!(!occ.occluded(DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, -0.01)));
+        // Very short segment right in front of the quad (obvhs' 1e-4 node cut-off).
+        assert!(occ.occluded(DVec3::new(0.0, 0.0, -1e-7), DVec3::new(0.0, 0.0, 1e-7)));
+        // Parallel to and in the plane of the quad: no hit.
+        assert!(!occ.occluded(DVec3::new(-0.5, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn segment_ending_on_surface_is_not_occluded_by_it() {
+        let mut tris = quad(0.0).to_vec();
+        tris.extend(quad(2.0));
+        let occ = Occluder::new(&tris);
+        let on0 = DVec3::new(0.123_456_789, -0.3, 0.0);
+        let on2 = DVec3::new(-0.7, 0.4, 2.0);
+        assert!(!occ.occluded(on0, on2));
+        assert!(!occ.occluded(on2, on0));
+        // Oblique, ending at an arbitrary point computed on the plane.
+        let p = DVec3::new(-1.0, -1.0, 0.0) + 0.3137 * DVec3::new(2.0, 0.0, 0.0) + 0.2291 * DVec3::new(0.0, 2.0, 0.0);
+        assert!(!occ.occluded(DVec3::new(0.9, 0.8, 1.3), p));
+        // ... but a segment crossing the plane is occluded.
+        assert!(occ.occluded(DVec3::new(0.1, 0.1, 1.0), DVec3::new(0.1, 0.1, -1.0)));
+    }
+
+    #[test]
+    fn intersect_returns_nearest_with_t_u_v() {
+        let mut tris = quad(3.0).to_vec(); // ids 0, 1 (far)
+        tris.extend(quad(1.0)); // ids 2, 3 (near)
+        let occ = Occluder::new(&tris);
+        // dir of length 2: t in units of |dir|.
+        let origin = DVec3::new(0.5, -0.5, 0.0);
+        let dir = DVec3::new(0.0, 0.0, 2.0);
+        let hit = occ.intersect(origin, dir, 0.0, f64::INFINITY).expect("hit");
+        assert_eq!(hit.primitive, 2);
+        assert!((hit.t - 0.5).abs() < 1e-12, "{hit:?}");
+        // Triangle 2: v0 = (-1,-1,1), e1 = (2,0,0), e2 = (2,2,0);
+        // (0.5,-0.5) = v0 + u e1 + v e2 → v = 0.25, u = 0.5.
+        assert!((hit.u - 0.5).abs() < 1e-12, "{hit:?}");
+        assert!((hit.v - 0.25).abs() < 1e-12, "{hit:?}");
+        // tmin past the near quad gives the far one.
+        let far = occ.intersect(origin, dir, 0.6, f64::INFINITY).expect("far hit");
+        assert_eq!(far.primitive, 0);
+        assert!((far.t - 1.5).abs() < 1e-12);
+        // tmax before the near quad: nothing; tmax is exclusive.
+        assert_eq!(occ.intersect(origin, dir, 0.0, 0.4), None);
+        assert_eq!(occ.intersect(origin, dir, 0.0, 0.5), None);
+        // Backwards: nothing.
+        assert_eq!(occ.intersect(origin, -dir, 0.0, f64::INFINITY), None);
+    }
+
+    #[test]
+    fn skip_ignores_primitives() {
+        let mut tris = quad(0.0).to_vec(); // 0, 1
+        tris.extend(quad(1.0)); // 2, 3
+        let occ = Occluder::new(&tris);
+        let (a, b) = (DVec3::new(0.5, -0.5, -1.0), DVec3::new(0.5, -0.5, 2.0));
+        assert!(occ.occluded(a, b));
+        assert!(occ.occluded_except(a, b, |p| p < 2));
+        assert!(occ.occluded_except(a, b, |p| p >= 2));
+        assert!(!occ.occluded_except(a, b, |_| true));
+        // (0.5,-0.5) is in triangle 0 and triangle 2 only.
+        assert!(!occ.occluded_except(a, b, |p| p == 0 || p == 2));
+    }
+
+    #[test]
+    fn empty_scene() {
+        let occ = Occluder::new(&[]);
+        assert!(occ.is_empty());
+        assert_eq!(occ.len(), 0);
+        assert!(!occ.occluded(DVec3::ZERO, DVec3::ONE));
+        assert!(!occ.occluded_except(DVec3::ZERO, DVec3::ONE, |_| false));
+        assert_eq!(occ.intersect(DVec3::ZERO, DVec3::X, 0.0, f64::INFINITY), None);
+    }
+
+    #[test]
+    fn degenerate_queries_do_not_panic() {
+        let occ = Occluder::new(&quad(0.0));
+        assert!(!occ.occluded(DVec3::ONE, DVec3::ONE));
+        assert_eq!(occ.intersect(DVec3::ONE, DVec3::ZERO, 0.0, 1.0), None);
+        assert_eq!(occ.intersect(DVec3::new(0.0, 0.0, 1.0), -DVec3::Z, 2.0, 1.0), None);
+    }
+
+    #[test]
+    fn matches_brute_force_on_random_segments() {
+        // A small cluttered scene; compare with testing every triangle.
+        let mut rng = 0x1234_5678_9abc_def0_u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let tris: Vec<[DVec3; 3]> = (0..200)
+            .map(|_| {
+                let c = DVec3::new(next(), next(), next());
+                [c, c + 0.2 * DVec3::new(next(), next(), next()), c + 0.2 * DVec3::new(next(), next(), next())]
+            })
+            .collect();
+        let occ = Occluder::new(&tris);
+        let brute: Vec<Tri> = tris
+            .iter()
+            .enumerate()
+            .map(|(i, [a, b, c])| Tri { v0: *a, e1: *b - *a, e2: *c - *a, id: i as u32 })
+            .collect();
+        for _ in 0..2000 {
+            let a = DVec3::new(next(), next(), next()) * 1.2;
+            let b = DVec3::new(next(), next(), next()) * 1.2;
+            let dir = b - a;
+            let want_occ = brute.iter().any(|t| {
+                matches!(t.intersect(a, dir), Some((t, _, _)) if t > SEGMENT_EPSILON && t < 1.0 - SEGMENT_EPSILON)
+            });
+            assert_eq!(occ.occluded(a, b), want_occ);
+            let want_hit = brute
+                .iter()
+                .filter_map(|t| t.intersect(a, dir).filter(|h| h.0 > 0.0).map(|h| (h.0, t.id)))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            let got = occ.intersect(a, dir, 0.0, f64::INFINITY).map(|h| (h.t, h.primitive));
+            assert_eq!(got, want_hit);
+        }
+    }
+}
