@@ -1,0 +1,53 @@
+//! Triangle meshes from Wavefront OBJ and Stanford PLY files.
+//!
+//! Both readers return the triangles in file order, polygons fan-triangulated,
+//! vertex order (winding) kept: the front side is the one the vertices turn
+//! counter-clockwise around, as in [`wavrad_core::scene::Patch::Triangle`].
+//! Normals, texture coordinates and every other attribute are ignored.
+//! Degenerate triangles are kept; callers decide what to do with them.
+
+mod obj;
+mod ply;
+
+pub use obj::read_obj;
+pub use ply::read_ply;
+
+use glam::DVec3;
+
+/// Three vertices, counter-clockwise seen from the front.
+pub type Triangle = [DVec3; 3];
+
+/// Fan-triangulate one polygon given as indices into `positions`, appending
+/// to `out`. Fails with the offending index when one is out of range.
+fn push_fan(
+    positions: &[DVec3],
+    polygon: &[usize],
+    out: &mut Vec<Triangle>,
+) -> std::result::Result<(), usize> {
+    let vertex = |i: usize| positions.get(i).copied().ok_or(i);
+    if polygon.len() < 3 {
+        return Ok(());
+    }
+    let first = vertex(polygon[0])?;
+    for pair in polygon[1..].windows(2) {
+        out.push([first, vertex(pair[0])?, vertex(pair[1])?]);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fan_of_a_quad_keeps_winding() {
+        let p = [DVec3::ZERO, DVec3::X, DVec3::X + DVec3::Y, DVec3::Y];
+        let mut out = Vec::new();
+        push_fan(&p, &[0, 1, 2, 3], &mut out).unwrap();
+        assert_eq!(out.len(), 2);
+        for t in &out {
+            assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
+        }
+        assert_eq!(push_fan(&p, &[0, 1, 9], &mut out), Err(9));
+    }
+}

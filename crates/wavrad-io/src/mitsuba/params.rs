@@ -1,0 +1,547 @@
+//! Objects and their typed parameters: `<float>`, `<integer>`, `<boolean>`,
+//! `<string>`, `<point>`, `<vector>`, `<rgb>`, `<spectrum>`, `<transform>`,
+//! and nested objects (directly or through `<ref>`).
+//!
+//! A plugin asks for each parameter it knows by name; [`Object::finish`]
+//! then rejects whatever was left unasked, so an unknown or misspelled
+//! parameter is an error naming the plugin, the parameter and its line.
+
+use std::collections::HashMap;
+
+use glam::{DMat4, DVec3};
+use wavrad_core::scene::Rgb;
+
+use super::document::{Element, Location};
+use super::transform::parse_transform;
+use crate::error::Result;
+
+/// Top-level objects by `id`.
+pub(crate) type Ids<'a> = HashMap<&'a str, &'a Element>;
+
+/// Tags of objects wavrad can meet nested in other objects.
+const OBJECT_TAGS: &[&str] = &[
+    "shape",
+    "bsdf",
+    "emitter",
+    "sensor",
+    "film",
+    "rfilter",
+    "sampler",
+    "integrator",
+];
+
+/// Tags of Mitsuba objects wavrad rejects, with the reason.
+const UNSUPPORTED_TAGS: &[(&str, &str)] = &[
+    (
+        "texture",
+        "textures are not supported; give a constant <rgb>, <float> or <spectrum> instead",
+    ),
+    ("medium", "participating media are not supported"),
+    ("phase", "participating media are not supported"),
+    ("volume", "volumes are not supported"),
+];
+
+/// A parameter value.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Value {
+    Float(f64),
+    Integer(i64),
+    Boolean(bool),
+    String(String),
+    Point(DVec3),
+    Vector(DVec3),
+    Rgb(Rgb),
+    Spectrum(f64),
+    Transform(DMat4),
+}
+
+impl Value {
+    fn tag(&self) -> &'static str {
+        match self {
+            Value::Float(_) => "float",
+            Value::Integer(_) => "integer",
+            Value::Boolean(_) => "boolean",
+            Value::String(_) => "string",
+            Value::Point(_) => "point",
+            Value::Vector(_) => "vector",
+            Value::Rgb(_) => "rgb",
+            Value::Spectrum(_) => "spectrum",
+            Value::Transform(_) => "transform",
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Property {
+    name: String,
+    value: Value,
+    at: Location,
+    used: bool,
+}
+
+/// An object nested in another, directly or through `<ref>`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Nested<'a> {
+    /// The object's element (the target, for a `<ref>`).
+    pub element: &'a Element,
+    /// Where it is used: the `<ref>` or the element itself.
+    pub at: &'a Location,
+}
+
+impl<'a> Nested<'a> {
+    /// `shape`, `bsdf`, …
+    pub fn tag(&self) -> &'a str {
+        &self.element.tag
+    }
+
+    /// The plugin name (`type` attribute), empty if absent.
+    pub fn plugin(&self) -> &'a str {
+        self.element.attr("type").unwrap_or("")
+    }
+}
+
+/// One object (`<shape type="rectangle">`, …) with its parameters parsed.
+#[derive(Debug)]
+pub(crate) struct Object<'a> {
+    /// `shape`, `bsdf`, …
+    pub tag: &'a str,
+    /// The `type` attribute.
+    pub plugin: &'a str,
+    /// The element.
+    pub element: &'a Element,
+    /// Nested objects, in document order.
+    pub nested: Vec<Nested<'a>>,
+    props: Vec<Property>,
+    known: Vec<&'static str>,
+}
+
+impl<'a> Object<'a> {
+    /// Parse `element` (an object tag) and its children. `<ref>`s resolve
+    /// through `ids`.
+    pub fn parse(element: &'a Element, ids: &Ids<'a>) -> Result<Object<'a>> {
+        let plugin = if element.tag == "scene" {
+            "scene"
+        } else {
+            element.check_attrs(&["type", "id", "name"])?;
+            element.required_attr("type")?
+        };
+        let mut object = Object {
+            tag: &element.tag,
+            plugin,
+            element,
+            nested: Vec::new(),
+            props: Vec::new(),
+            known: Vec::new(),
+        };
+        for child in &element.children {
+            let tag = child.tag.as_str();
+            if tag == "ref" {
+                child.check_attrs(&["id", "name"])?;
+                let id = child.required_attr("id")?;
+                let target = ids
+                    .get(id)
+                    .ok_or_else(|| child.at.error(format!("<ref> to unknown id \"{id}\"")))?;
+                if let Some((_, why)) = UNSUPPORTED_TAGS.iter().find(|(t, _)| *t == target.tag) {
+                    return Err(child
+                        .at
+                        .error(format!("<ref id=\"{id}\"> names a <{}>: {why}", target.tag)));
+                }
+                object.nested.push(Nested {
+                    element: target,
+                    at: &child.at,
+                });
+            } else if OBJECT_TAGS.contains(&tag) {
+                object.nested.push(Nested {
+                    element: child,
+                    at: &child.at,
+                });
+            } else if let Some((_, why)) = UNSUPPORTED_TAGS.iter().find(|(t, _)| *t == tag) {
+                let plugin = child
+                    .attr("type")
+                    .map(|t| format!(" type=\"{t}\""))
+                    .unwrap_or_default();
+                return Err(child
+                    .at
+                    .error(format!("unsupported element <{tag}{plugin}>: {why}")));
+            } else {
+                let value = parse_value(child)?;
+                let name = child.required_attr("name")?;
+                if let Some(first) = object.props.iter().find(|p| p.name == name) {
+                    return Err(child.at.error(format!(
+                        "parameter \"{name}\" of {} given twice (first at line {})",
+                        object.describe(),
+                        first.at.line
+                    )));
+                }
+                object.props.push(Property {
+                    name: name.to_string(),
+                    value,
+                    at: child.at.clone(),
+                    used: false,
+                });
+            }
+        }
+        Ok(object)
+    }
+
+    /// `shape "rectangle"`, for messages.
+    pub fn describe(&self) -> String {
+        if self.tag == "scene" {
+            "<scene>".to_string()
+        } else {
+            format!("{} \"{}\"", self.tag, self.plugin)
+        }
+    }
+
+    /// Where the object is written.
+    pub fn at(&self) -> &'a Location {
+        &self.element.at
+    }
+
+    /// Where parameter `name` is written (the object's location if absent).
+    pub fn location_of(&self, name: &str) -> &Location {
+        self.props
+            .iter()
+            .find(|p| p.name == name)
+            .map_or(&self.element.at, |p| &p.at)
+    }
+
+    fn take(&mut self, name: &'static str) -> Option<(Value, Location)> {
+        if !self.known.contains(&name) {
+            self.known.push(name);
+        }
+        let p = self.props.iter_mut().find(|p| p.name == name)?;
+        p.used = true;
+        Some((p.value.clone(), p.at.clone()))
+    }
+
+    fn mismatch(&self, name: &str, expected: &str, found: &Value, at: &Location) -> crate::Error {
+        at.error(format!(
+            "parameter \"{name}\" of {} must be {expected}, not <{}>",
+            self.describe(),
+            found.tag()
+        ))
+    }
+
+    /// A `<float>` (or `<integer>`) parameter.
+    pub fn float(&mut self, name: &'static str) -> Result<Option<f64>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Float(v) => Ok(Some(v)),
+            Value::Integer(v) => Ok(Some(v as f64)),
+            other => Err(self.mismatch(name, "a <float>", &other, &at)),
+        }
+    }
+
+    /// An `<integer>` parameter.
+    pub fn integer(&mut self, name: &'static str) -> Result<Option<i64>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Integer(v) => Ok(Some(v)),
+            other => Err(self.mismatch(name, "an <integer>", &other, &at)),
+        }
+    }
+
+    /// A `<boolean>` parameter.
+    pub fn boolean(&mut self, name: &'static str) -> Result<Option<bool>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Boolean(v) => Ok(Some(v)),
+            other => Err(self.mismatch(name, "a <boolean>", &other, &at)),
+        }
+    }
+
+    /// A `<string>` parameter.
+    pub fn string(&mut self, name: &'static str) -> Result<Option<String>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::String(v) => Ok(Some(v)),
+            other => Err(self.mismatch(name, "a <string>", &other, &at)),
+        }
+    }
+
+    /// A constant color: `<rgb>`, `<float>`, `<integer>` or a single-valued
+    /// `<spectrum>`. A nested `<texture>` under this name has already been
+    /// rejected by [`Object::parse`].
+    pub fn color(&mut self, name: &'static str) -> Result<Option<Rgb>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Rgb(c) => Ok(Some(c)),
+            Value::Float(v) | Value::Spectrum(v) => Ok(Some([v; 3])),
+            Value::Integer(v) => Ok(Some([v as f64; 3])),
+            other => Err(self.mismatch(name, "an <rgb>, <float> or <spectrum>", &other, &at)),
+        }
+    }
+
+    /// A `<transform>` parameter.
+    pub fn transform(&mut self, name: &'static str) -> Result<Option<DMat4>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Transform(m) => Ok(Some(m)),
+            other => Err(self.mismatch(name, "a <transform>", &other, &at)),
+        }
+    }
+
+    /// Accept parameters that do not matter to wavrad, whatever their type.
+    pub fn ignore(&mut self, names: &[&'static str]) {
+        for &name in names {
+            self.take(name);
+        }
+    }
+
+    /// Accept every parameter (for plugins whose settings wavrad ignores).
+    pub fn ignore_all(&mut self) {
+        for p in &mut self.props {
+            p.used = true;
+        }
+    }
+
+    /// Fail on the first parameter the plugin did not ask for.
+    pub fn finish(&self) -> Result<()> {
+        match self.props.iter().find(|p| !p.used) {
+            None => Ok(()),
+            Some(p) => {
+                let known = if self.known.is_empty() {
+                    "it takes none".to_string()
+                } else {
+                    format!("known: {}", self.known.join(", "))
+                };
+                Err(p.at.error(format!(
+                    "unknown parameter \"{}\" for {} ({known})",
+                    p.name,
+                    self.describe()
+                )))
+            }
+        }
+    }
+
+    /// The error for a nested object this plugin does not take.
+    pub fn unexpected(&self, nested: &Nested) -> crate::Error {
+        nested.at.error(format!(
+            "{} cannot contain a <{}> (type \"{}\")",
+            self.describe(),
+            nested.tag(),
+            nested.plugin()
+        ))
+    }
+}
+
+/// Parse a parameter element.
+fn parse_value(e: &Element) -> Result<Value> {
+    fn value(e: &Element) -> Result<&str> {
+        e.required_attr("value")
+    }
+    Ok(match e.tag.as_str() {
+        "float" => {
+            e.check_attrs(&["name", "value"])?;
+            Value::Float(parse_f64(value(e)?, e)?)
+        }
+        "integer" => {
+            e.check_attrs(&["name", "value"])?;
+            let v = value(e)?;
+            Value::Integer(v.trim().parse().map_err(|_| {
+                e.at.error(format!("malformed integer \"{v}\" in {}", describe(e)))
+            })?)
+        }
+        "boolean" => {
+            e.check_attrs(&["name", "value"])?;
+            let v = value(e)?;
+            Value::Boolean(match v.trim().to_ascii_lowercase().as_str() {
+                "true" => true,
+                "false" => false,
+                _ => {
+                    return Err(e.at.error(format!(
+                        "malformed boolean \"{v}\" in {} (expected true or false)",
+                        describe(e)
+                    )))
+                }
+            })
+        }
+        "string" => {
+            e.check_attrs(&["name", "value"])?;
+            Value::String(value(e)?.to_string())
+        }
+        "point" | "vector" => {
+            e.check_attrs(&["name", "value", "x", "y", "z"])?;
+            let v = parse_xyz(e, 0.0)?;
+            if e.tag == "point" {
+                Value::Point(v)
+            } else {
+                Value::Vector(v)
+            }
+        }
+        "rgb" => {
+            e.check_attrs(&["name", "value"])?;
+            let v = parse_numbers(value(e)?, e)?;
+            match v.as_slice() {
+                [x] => Value::Rgb([*x; 3]),
+                [r, g, b] => Value::Rgb([*r, *g, *b]),
+                _ => {
+                    return Err(e.at.error(format!(
+                        "{} needs 1 or 3 values, got {}",
+                        describe(e),
+                        v.len()
+                    )))
+                }
+            }
+        }
+        "spectrum" => {
+            e.check_attrs(&["name", "value", "filename"])?;
+            if e.attr("filename").is_some() {
+                return Err(e.at.error(format!(
+                    "{}: spectra from files are not supported (give a single value)",
+                    describe(e)
+                )));
+            }
+            let v = value(e)?;
+            if v.contains(':') {
+                return Err(e.at.error(format!(
+                    "{}: only a constant spectrum (a single value) is supported, not \"{v}\"",
+                    describe(e)
+                )));
+            }
+            match parse_numbers(v, e)?.as_slice() {
+                [x] => Value::Spectrum(*x),
+                _ => {
+                    return Err(e.at.error(format!(
+                        "{}: only a constant spectrum (a single value) is supported, not \"{v}\"",
+                        describe(e)
+                    )))
+                }
+            }
+        }
+        "transform" => {
+            e.check_attrs(&["name"])?;
+            Value::Transform(parse_transform(e)?)
+        }
+        other => return Err(e.at.error(format!("unknown element <{other}>"))),
+    })
+}
+
+/// `<float name="fov">`, for messages.
+pub(crate) fn describe(e: &Element) -> String {
+    match e.attr("name") {
+        Some(name) => format!("<{} name=\"{name}\">", e.tag),
+        None => format!("<{}>", e.tag),
+    }
+}
+
+/// Numbers separated by commas and/or white space; each must be finite.
+pub(crate) fn parse_numbers(text: &str, e: &Element) -> Result<Vec<f64>> {
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(|t| match t.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(e
+                .at
+                .error(format!("malformed number \"{t}\" in {}", describe(e)))),
+        })
+        .collect()
+}
+
+/// Exactly one number.
+pub(crate) fn parse_f64(text: &str, e: &Element) -> Result<f64> {
+    match parse_numbers(text, e)?.as_slice() {
+        [v] => Ok(*v),
+        _ => Err(e.at.error(format!(
+            "malformed number \"{text}\" in {} (expected one value)",
+            describe(e)
+        ))),
+    }
+}
+
+/// A 3-vector from `value="x, y, z"` (or one value for all three) or from
+/// `x`, `y`, `z` attributes, missing ones being `default`.
+pub(crate) fn parse_xyz(e: &Element, default: f64) -> Result<DVec3> {
+    if let Some(v) = e.attr("value") {
+        if ["x", "y", "z"].iter().any(|k| e.attr(k).is_some()) {
+            return Err(e.at.error(format!(
+                "{}: give either \"value\" or \"x\", \"y\", \"z\", not both",
+                describe(e)
+            )));
+        }
+        return match parse_numbers(v, e)?.as_slice() {
+            [s] => Ok(DVec3::splat(*s)),
+            [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
+            other => Err(e.at.error(format!(
+                "{} needs 1 or 3 values, got {}",
+                describe(e),
+                other.len()
+            ))),
+        };
+    }
+    let c = |k: &str| e.attr(k).map_or(Ok(default), |t| parse_f64(t, e));
+    Ok(DVec3::new(c("x")?, c("y")?, c("z")?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mitsuba::document::read_scene_document;
+    use std::path::Path;
+
+    fn elements(xml: &str) -> Vec<Element> {
+        read_scene_document(xml, "p.xml", Path::new("."), None, &[]).unwrap()
+    }
+
+    #[test]
+    fn typed_values_and_unknown_parameter() {
+        let e = elements(
+            r#"<scene><shape type="x">
+            <float name="f" value="1.5"/>
+            <integer name="i" value="-3"/>
+            <boolean name="b" value="True"/>
+            <rgb name="c" value="0.1, 0.2,0.3"/>
+            <spectrum name="s" value="0.25"/>
+            <point name="p" x="1" z="3"/>
+            <string name="extra" value="?"/>
+            </shape></scene>"#,
+        );
+        let ids = Ids::new();
+        let mut o = Object::parse(&e[0], &ids).unwrap();
+        assert_eq!(o.float("f").unwrap(), Some(1.5));
+        assert_eq!(o.float("i").unwrap(), Some(-3.0));
+        assert_eq!(o.boolean("b").unwrap(), Some(true));
+        assert_eq!(o.color("c").unwrap(), Some([0.1, 0.2, 0.3]));
+        assert_eq!(o.color("s").unwrap(), Some([0.25; 3]));
+        assert_eq!(o.float("missing").unwrap(), None);
+        assert!(o.integer("f").is_err());
+        o.ignore(&["p"]);
+        let msg = o.finish().unwrap_err().to_string();
+        assert!(
+            msg.starts_with("p.xml:8:") && msg.contains("\"extra\"") && msg.contains("shape \"x\""),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn malformed_numbers_name_the_line() {
+        let xml =
+            "<scene><shape type=\"x\">\n\n<float name=\"f\" value=\"1.5.2\"/></shape></scene>";
+        let e = elements(xml);
+        let msg = Object::parse(&e[0], &Ids::new()).unwrap_err().to_string();
+        assert!(
+            msg.starts_with("p.xml:3:") && msg.contains("1.5.2"),
+            "{msg}"
+        );
+        for bad in ["nan", "inf", ""] {
+            let xml = format!(
+                "<scene><shape type=\"x\"><float name=\"f\" value=\"{bad}\"/></shape></scene>"
+            );
+            let e = elements(&xml);
+            assert!(Object::parse(&e[0], &Ids::new()).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,366 @@
+//! Loading valid Mitsuba scenes: geometry, materials, emitters, sensors.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use wavrad_core::scene::{Patch, PixelFilter, Projection, Scene};
+use wavrad_io::{load_scene, load_scene_str, load_scene_with};
+
+fn load(xml: &str) -> Scene {
+    load_scene_str(xml, Path::new("."), "test.xml", &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn scene(body: &str) -> Scene {
+    load(&format!("<scene version=\"3.0.0\">{body}</scene>"))
+}
+
+fn close(a: DVec3, b: DVec3) -> bool {
+    a.abs_diff_eq(b, 1e-9)
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/fixtures")
+        .join(name)
+}
+
+#[test]
+fn cornell_box_written_by_mitsuba_dict_to_xml() {
+    let path = fixture("cornell_box_dict_to_xml.xml");
+    if !path.exists() {
+        eprintln!("skipped: {} is absent", path.display());
+        return;
+    }
+    let s = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    // 6 rectangles + 2 cubes × 6 faces, all one-sided.
+    assert_eq!(s.surfaces.len(), 18);
+    let lights: Vec<_> = s.surfaces.iter().filter(|x| x.is_emitter()).collect();
+    assert_eq!(lights.len(), 1);
+    assert_eq!(lights[0].name, "light");
+    assert_eq!(lights[0].emission, [18.387, 13.9873, 6.75357]);
+    assert!((lights[0].patch.area() - 4.0 * 0.23 * 0.19).abs() < 1e-6);
+    assert!(lights[0].patch.normal().y < -0.999, "light faces down");
+    let floor = s.surfaces.iter().find(|x| x.name == "floor").unwrap();
+    assert!(floor.patch.normal().y > 0.999);
+    assert!((floor.reflectance[0] - 0.885809).abs() < 1e-12);
+    let green = s.surfaces.iter().find(|x| x.name == "green-wall").unwrap();
+    assert!(
+        green.patch.normal().x < -0.999,
+        "green wall at x=+1 faces −x"
+    );
+    // Sensor: fov_axis "smaller" on a square film is x.
+    let camera = s.camera.expect("camera");
+    match camera.projection {
+        Projection::Perspective { fov_x_degrees } => {
+            assert!((fov_x_degrees - 39.3077).abs() < 1e-9)
+        }
+        other => panic!("{other:?}"),
+    }
+    let eye = camera.world_from_camera.transform_point3(DVec3::ZERO);
+    assert!((eye - DVec3::new(0.0, 0.0, 3.9)).length() < 1e-6);
+    assert!(
+        camera.world_from_camera.z_axis.z < -0.999,
+        "looks towards −z"
+    );
+    assert_eq!((camera.near_clip, camera.far_clip), (0.001, 100.0));
+    assert_eq!((s.film.width, s.film.height), (256, 256));
+    assert_eq!(s.film.filter, PixelFilter::Gaussian { stddev: 0.5 });
+    assert_eq!(s.hints.samples_per_pixel, Some(64));
+
+    // Overrides win over the file's defaults, and change the fov conversion.
+    let o = [("spp", "16"), ("resx", "512")].map(|(a, b)| (a.to_string(), b.to_string()));
+    let s = load_scene_with(&path, &o).unwrap();
+    assert_eq!(s.hints.samples_per_pixel, Some(16));
+    assert_eq!((s.film.width, s.film.height), (512, 256));
+    let Projection::Perspective { fov_x_degrees } = s.camera.unwrap().projection else {
+        panic!()
+    };
+    // aspect 2 > 1: "smaller" is y, so tan(fx/2) = 2 tan(fy/2).
+    let expected = 2.0
+        * (2.0 * (39.3077f64.to_radians() / 2.0).tan())
+            .atan()
+            .to_degrees();
+    assert!((fov_x_degrees - expected).abs() < 1e-9);
+}
+
+#[test]
+fn rectangle_area_normal_and_parametrisation() {
+    let s = scene(
+        r#"<shape type="rectangle">
+            <transform name="to_world">
+                <scale x="2" y="3"/>
+                <rotate x="1" angle="-90"/>
+                <translate y="-1"/>
+            </transform>
+        </shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 1);
+    let p = s.surfaces[0].patch;
+    assert!((p.area() - 24.0).abs() < 1e-12);
+    assert!(close(p.normal(), DVec3::Y));
+    let Patch::Parallelogram { origin, edge_s, .. } = p else {
+        panic!("{p:?}")
+    };
+    // uv (0,0) is local (-1,-1,0); (1,0) is local (1,-1,0).
+    assert!(close(origin, DVec3::new(-2.0, -1.0, 3.0)));
+    assert!(close(edge_s, DVec3::new(4.0, 0.0, 0.0)));
+    assert_eq!(
+        s.surfaces[0].reflectance, [0.5; 3],
+        "Mitsuba's default BSDF"
+    );
+    assert_eq!(s.surfaces[0].emission, [0.0; 3]);
+    assert!(s.camera.is_none());
+    assert_eq!(s.film, wavrad_core::scene::Film::default());
+}
+
+#[test]
+fn cube_faces_are_outward_parallelograms() {
+    let s = scene(
+        r#"<shape type="cube"><transform name="to_world">
+            <scale value="0.5, 1, 2"/><translate value="10 0 0"/>
+        </transform></shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 6);
+    let area: f64 = s.surfaces.iter().map(|x| x.patch.area()).sum();
+    assert!((area - 2.0 * (1.0 * 2.0 + 1.0 * 4.0 + 2.0 * 4.0)).abs() < 1e-12);
+    let centre = DVec3::new(10.0, 0.0, 0.0);
+    for surface in &s.surfaces {
+        assert!(matches!(surface.patch, Patch::Parallelogram { .. }));
+        let v = surface.patch.vertices();
+        let face_centre = v.iter().sum::<DVec3>() / 4.0;
+        assert!(
+            surface.patch.normal().dot(face_centre - centre) > 0.0,
+            "outward"
+        );
+    }
+}
+
+#[test]
+fn mirroring_transform_keeps_mitsubas_normal() {
+    // Mitsuba transforms the rectangle's normal as a normal: scale z = −1
+    // turns +z into −z although the geometry is unchanged.
+    let s = scene(
+        r#"<shape type="rectangle"><transform name="to_world"><scale z="-1"/></transform></shape>"#,
+    );
+    assert!(close(s.surfaces[0].patch.normal(), -DVec3::Z));
+}
+
+#[test]
+fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
+    let s = scene(
+        r#"<shape type="rectangle" id="lamp">
+            <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.4 0.6"/></bsdf></bsdf>
+            <emitter type="area"><spectrum name="radiance" value="5"/></emitter>
+        </shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 2);
+    let (front, back) = (&s.surfaces[0], &s.surfaces[1]);
+    assert!(close(front.patch.normal(), DVec3::Z));
+    assert!(close(back.patch.normal(), -DVec3::Z));
+    assert_eq!(front.reflectance, [0.2, 0.4, 0.6]);
+    assert_eq!(back.reflectance, [0.2, 0.4, 0.6]);
+    assert_eq!(front.emission, [5.0; 3]);
+    assert_eq!(back.emission, [0.0; 3]);
+    assert_eq!(front.name, "lamp");
+
+    // Two nested BSDFs: front and back differ.
+    let s = scene(
+        r#"<shape type="rectangle"><bsdf type="twosided">
+            <bsdf type="diffuse"><float name="reflectance" value="0.1"/></bsdf>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.9"/></bsdf>
+        </bsdf></shape>"#,
+    );
+    assert_eq!(s.surfaces[0].reflectance, [0.1; 3]);
+    assert_eq!(s.surfaces[1].reflectance, [0.9; 3]);
+}
+
+#[test]
+fn flip_normals_flips_every_patch_and_the_emitting_side() {
+    let s = scene(
+        r#"<shape type="cube"><boolean name="flip_normals" value="true"/>
+            <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+    );
+    for surface in &s.surfaces {
+        let c = surface.patch.vertices().iter().sum::<DVec3>() / 4.0;
+        assert!(surface.patch.normal().dot(c) < 0.0, "inward");
+        assert!(surface.is_emitter());
+    }
+}
+
+#[test]
+fn references_and_substitution() {
+    let xml = r#"<scene version="2.1.0">
+        <default name="refl" value="0.25"/>
+        <default name="name" value="grey"/>
+        <bsdf type="diffuse" id="$name"><float name="reflectance" value="$refl"/></bsdf>
+        <shape type="rectangle"><ref id="grey"/></shape>
+        <shape type="rectangle"><ref name="bsdf" id="grey"/></shape>
+    </scene>"#;
+    let s = load(xml);
+    assert_eq!(s.surfaces.len(), 2);
+    assert!(s.surfaces.iter().all(|x| x.reflectance == [0.25; 3]));
+    let o = vec![("refl".to_string(), "0.75".to_string())];
+    let s = load_scene_str(xml, Path::new("."), "t.xml", &o).unwrap();
+    assert_eq!(s.surfaces[0].reflectance, [0.75; 3]);
+}
+
+#[test]
+fn includes_resolve_beside_the_including_file() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("parts")).unwrap();
+    fs::write(
+        dir.path().join("main.xml"),
+        r#"<scene version="3.0.0">
+            <include filename="parts/materials.xml"/>
+            <shape type="rectangle"><ref id="red"/></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    // Nested include: beside parts/materials.xml.
+    fs::write(
+        dir.path().join("parts/materials.xml"),
+        r#"<scene version="3.0.0"><include filename="more.xml"/>
+            <bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.5 0 0"/></bsdf></scene>"#,
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("parts/more.xml"),
+        r#"<scene version="3.0.0"><shape type="cube"/></scene>"#,
+    )
+    .unwrap();
+    let s = load_scene(&dir.path().join("main.xml")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.surfaces.len(), 7);
+    assert_eq!(s.surfaces[6].reflectance, [0.5, 0.0, 0.0]);
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) {
+    fs::write(dir.join(name), bytes).unwrap();
+}
+
+#[test]
+fn obj_and_ply_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    // A quad (two triangles) plus one degenerate triangle that is skipped.
+    write(
+        dir.path(),
+        "quad.obj",
+        b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 5\n",
+    );
+    write(
+        dir.path(),
+        "tri.ply",
+        b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n0 1 0\n1 0 0\n3 0 1 2\n",
+    );
+    let mut binary = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+    for v in [0f32, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0, 0.0] {
+        binary.extend_from_slice(&v.to_le_bytes());
+    }
+    binary.push(3);
+    for i in [0i32, 1, 2] {
+        binary.extend_from_slice(&i.to_le_bytes());
+    }
+    write(dir.path(), "tri_bin.ply", &binary);
+    let xml = r#"<scene version="3.0.0">
+        <shape type="obj"><string name="filename" value="quad.obj"/>
+            <transform name="to_world"><translate z="5"/></transform></shape>
+        <shape type="ply"><string name="filename" value="tri.ply"/><boolean name="face_normals" value="true"/></shape>
+        <shape type="ply"><string name="filename" value="tri_bin.ply"/></shape>
+    </scene>"#;
+    let s = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.surfaces.len(), 4);
+    for quad in &s.surfaces[..2] {
+        assert!(matches!(quad.patch, Patch::Triangle(_)));
+        assert!(close(quad.patch.normal(), DVec3::Z));
+        assert!((quad.patch.area() - 0.5).abs() < 1e-12);
+        assert!(quad.patch.vertices().iter().all(|v| v.z == 5.0));
+    }
+    // Clockwise in the file as seen from +z: faces −z.
+    assert!(close(s.surfaces[2].patch.normal(), -DVec3::Z));
+    assert!(close(s.surfaces[3].patch.normal(), DVec3::Z));
+    assert!((s.surfaces[3].patch.area() - 2.0).abs() < 1e-12);
+}
+
+fn perspective(film: &str, fov: &str) -> (f64, Scene) {
+    let s = scene(&format!(
+        r#"<sensor type="perspective">{fov}
+            <film type="hdrfilm">{film}</film></sensor>"#
+    ));
+    match s.camera.unwrap().projection {
+        Projection::Perspective { fov_x_degrees } => (fov_x_degrees, s),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn fov_axis_converts_to_horizontal() {
+    let film = r#"<integer name="width" value="200"/><integer name="height" value="100"/>"#;
+    let t = |deg: f64| (deg.to_radians() / 2.0).tan();
+    let fx = |tan_half: f64| 2.0 * tan_half.atan().to_degrees();
+    let cases = [
+        ("x", fx(t(40.0))),
+        ("y", fx(t(40.0) * 2.0)),
+        ("diagonal", fx(t(40.0) / (1.0f64 + 0.25).sqrt())),
+        ("smaller", fx(t(40.0) * 2.0)),
+        ("larger", fx(t(40.0))),
+    ];
+    for (axis, expected) in cases {
+        let (got, _) = perspective(
+            film,
+            &format!(r#"<float name="fov" value="40"/><string name="fov_axis" value="{axis}"/>"#),
+        );
+        assert!((got - expected).abs() < 1e-9, "{axis}: {got} vs {expected}");
+    }
+    // Diagonal, by hand: tan(fd/2) = tan(fx/2)·sqrt(1 + 1/aspect²).
+    let (got, _) = perspective(
+        film,
+        r#"<float name="fov" value="40"/><string name="fov_axis" value="diagonal"/>"#,
+    );
+    assert!(((got / 2.0).to_radians().tan() * 1.25f64.sqrt() - t(40.0)).abs() < 1e-12);
+    // No fov: Mitsuba's 50 mm lens, a diagonal fov of 46.8°.
+    let (got, s) = perspective("", "");
+    let aspect: f64 = 768.0 / 576.0;
+    let diagonal_half = 36f64.hypot(24.0) / 100.0;
+    let expected = fx(diagonal_half / (1.0 + 1.0 / (aspect * aspect)).sqrt());
+    assert!((got - expected).abs() < 1e-9);
+    let c = s.camera.unwrap();
+    assert_eq!((c.near_clip, c.far_clip), (0.01, 1e4));
+    assert_eq!(s.hints.samples_per_pixel, None);
+}
+
+#[test]
+fn film_filter_sampler_and_orthographic() {
+    let s = scene(
+        r#"<sensor type="orthographic">
+            <transform name="to_world"><scale value="3"/><lookat origin="0 0 5" target="0 0 0" up="0 1 0"/></transform>
+            <float name="near_clip" value="0.5"/><float name="far_clip" value="50"/>
+            <sampler type="stratified"><integer name="sample_count" value="9"/><integer name="seed" value="3"/></sampler>
+            <film type="hdrfilm">
+                <integer name="width" value="32"/><integer name="height" value="24"/>
+                <integer name="crop_width" value="32"/><integer name="crop_offset_x" value="0"/>
+                <string name="pixel_format" value="rgba"/><boolean name="banner" value="false"/>
+                <rfilter type="box"/>
+            </film>
+        </sensor>
+        <sensor type="perspective"/>
+        <integrator type="path"><integer name="max_depth" value="-1"/><whatever/></integrator>"#,
+    );
+    let c = s.camera.unwrap();
+    assert_eq!(c.projection, Projection::Orthographic);
+    assert_eq!((c.near_clip, c.far_clip), (0.5, 50.0));
+    assert!((c.world_from_camera.x_axis.length() - 3.0).abs() < 1e-12);
+    assert_eq!(
+        (s.film.width, s.film.height, s.film.filter),
+        (32, 24, PixelFilter::Box)
+    );
+    assert_eq!(s.hints.samples_per_pixel, Some(9));
+
+    let s = scene(
+        r#"<sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <sensor type="perspective"><float name="fov" value="30"/>
+            <film type="hdrfilm"><rfilter type="gaussian"><float name="stddev" value="0.3"/></rfilter></film>
+        </sensor>"#,
+    );
+    assert_eq!(s.film.filter, PixelFilter::Gaussian { stddev: 0.3 });
+    assert_eq!(s.hints.samples_per_pixel, Some(4));
+}

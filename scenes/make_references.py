@@ -1,0 +1,185 @@
+#!/usr/bin/env python3
+"""Regenerate wavrad's Mitsuba 3 reference data.
+
+Outputs (paths relative to the repository root):
+
+  tests/fixtures/cornell_box_dict_to_xml.xml
+      mi.cornell_box() written verbatim by Mitsuba's own dict -> XML writer
+      (Mitsuba >= 3.6: mi.parser.parse_dict + mi.parser.write_file; older
+      versions had mitsuba.xml.dict_to_xml).  Loader test fixture.
+
+  scenes/cornell-box/reference.exr
+      Path-traced reference of scenes/cornell-box/scene.xml (path integrator,
+      max_depth = -1), RGB float32, channels R,G,B.
+
+The reference is the average of two independent halves (A: seeds 0..P-1,
+B: seeds P..2P-1, each pass rendering --pass-spp samples per pixel).  The
+self-noise is estimated from the two halves:
+
+  noise_half = sqrt(mean((A-B)^2)) / mean(B) / sqrt(2)   (relative RMSE of one half)
+  noise_ref  = noise_half / sqrt(2)                       (of the committed average)
+
+Usage:
+  python3 scenes/make_references.py                       # everything, defaults
+  python3 scenes/make_references.py --spp 98304 --res 128
+  python3 scenes/make_references.py --fixture-only
+  python3 scenes/make_references.py --verify-only         # XML-vs-dict check
+
+Variant: llvm_ad_rgb if available (needs a libLLVM shared library, LLVM >= 17:
+LLVM 14/15/16 abort with "Cannot select: fminimum" on AVX-512 CPUs), else
+scalar_rgb.  If DRJIT_LIBLLVM_PATH is unset, this script looks for the newest
+libLLVM-NN.so with NN >= 17 in the usual system library folders.
+"""
+
+import argparse
+import glob
+import os
+import re
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+SCENE_XML = os.path.join(HERE, "cornell-box", "scene.xml")
+REFERENCE_EXR = os.path.join(HERE, "cornell-box", "reference.exr")
+FIXTURE_XML = os.path.join(ROOT, "tests", "fixtures", "cornell_box_dict_to_xml.xml")
+
+
+def find_libllvm():
+    if os.environ.get("DRJIT_LIBLLVM_PATH"):
+        return os.environ["DRJIT_LIBLLVM_PATH"]
+    cands = []
+    for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu",
+              "/usr/lib", "/usr/local/lib", "/usr/lib64"):
+        for p in glob.glob(os.path.join(d, "libLLVM-*.so*")) + \
+                glob.glob(os.path.join(d, "libLLVM.so.*")):
+            m = re.search(r"libLLVM[-.](?:so\.)?(\d+)", os.path.basename(p))
+            if m and int(m.group(1)) >= 17:
+                cands.append((int(m.group(1)), p))
+    if not cands:
+        return None
+    cands.sort()
+    os.environ["DRJIT_LIBLLVM_PATH"] = cands[-1][1]
+    return cands[-1][1]
+
+
+def pick_variant(mi, requested):
+    if requested != "auto":
+        mi.set_variant(requested)
+        return requested
+    if find_libllvm() is not None and "llvm_ad_rgb" in mi.variants():
+        try:
+            mi.set_variant("llvm_ad_rgb")
+            return "llvm_ad_rgb"
+        except Exception as e:  # noqa: BLE001
+            print(f"llvm_ad_rgb unavailable ({e}); falling back to scalar_rgb")
+    mi.set_variant("scalar_rgb")
+    return "scalar_rgb"
+
+
+def write_fixture(mi, variant):
+    """mi.cornell_box() -> XML with Mitsuba's own writer, verbatim."""
+    os.makedirs(os.path.dirname(FIXTURE_XML), exist_ok=True)
+    if hasattr(mi, "parser") and hasattr(mi.parser, "write_file"):
+        cfg = mi.parser.ParserConfig(variant)
+        state = mi.parser.parse_dict(cfg, mi.cornell_box())
+        mi.parser.write_file(state, FIXTURE_XML)
+    else:  # Mitsuba < 3.6
+        from mitsuba.xml import dict_to_xml
+        dict_to_xml(mi.cornell_box(), FIXTURE_XML)
+    # It must load back.
+    mi.load_file(FIXTURE_XML)
+    print(f"wrote {os.path.relpath(FIXTURE_XML, ROOT)} (loads OK)")
+
+
+def load_dict_equivalent(mi, res):
+    d = mi.cornell_box()
+    d["integrator"]["max_depth"] = -1
+    d["sensor"]["film"]["width"] = res
+    d["sensor"]["film"]["height"] = res
+    return mi.load_dict(d)
+
+
+def rel_rmse(a, b, np):
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.mean(b))
+
+
+def verify_xml_matches_dict(mi, np, res, spp):
+    sx = mi.load_file(SCENE_XML, res=res)
+    sd = load_dict_equivalent(mi, res)
+    a = np.array(mi.render(sd, spp=spp, seed=0))
+    b = np.array(mi.render(sx, spp=spp, seed=0))
+    c = np.array(mi.render(sx, spp=spp, seed=1))
+    same = rel_rmse(a, b, np)
+    noise = rel_rmse(a, c, np)
+    print(f"verify @ {spp} spp, {res}x{res}: dict vs scene.xml, same seed: rel. RMSE {same:.2e}; "
+          f"different seeds: {noise:.4f} (= noise level)")
+    return same, noise
+
+
+def render_reference(mi, np, res, spp, pass_spp):
+    passes = max(1, spp // (2 * pass_spp))  # passes per half
+    total = 2 * passes * pass_spp
+    scene = mi.load_file(SCENE_XML, res=res)
+    halves = []
+    t0 = time.time()
+    for h in range(2):
+        acc = np.zeros((res, res, 3), dtype=np.float64)
+        for p in range(passes):
+            seed = h * passes + p
+            acc += np.array(mi.render(scene, spp=pass_spp, seed=seed), dtype=np.float64)
+            print(f"  half {'AB'[h]} pass {p + 1}/{passes} (seed {seed}) "
+                  f"t={time.time() - t0:.0f}s", flush=True)
+        halves.append(acc / passes)
+    elapsed = time.time() - t0
+    a, b = halves
+    noise_half = rel_rmse(a, b, np) / np.sqrt(2.0)
+    noise_ref = noise_half / np.sqrt(2.0)
+    ref = (0.5 * (a + b)).astype(np.float32)
+    bmp = mi.Bitmap(ref, pixel_format=mi.Bitmap.PixelFormat.RGB)
+    bmp.write(REFERENCE_EXR)
+    # read back and check
+    back = mi.Bitmap(REFERENCE_EXR)
+    chans = [back.struct_()[i].name for i in range(back.channel_count())]
+    print(f"wrote {os.path.relpath(REFERENCE_EXR, ROOT)}: {res}x{res}, channels {chans}, "
+          f"{back.component_format()}, {os.path.getsize(REFERENCE_EXR)} bytes")
+    print(f"total spp {total} ({2 * passes} passes x {pass_spp}), render time {elapsed:.0f}s")
+    print(f"self-noise: per half ({total // 2} spp) rel. RMSE {100 * noise_half:.3f} %; "
+          f"reference ({total} spp) {100 * noise_ref:.3f} %")
+    print(f"mean RGB {ref.reshape(-1, 3).mean(axis=0).tolist()}, mean {float(ref.mean()):.6f}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--spp", type=int, default=98304, help="total samples per pixel (both halves)")
+    ap.add_argument("--pass-spp", type=int, default=1024, help="samples per pixel per render pass")
+    ap.add_argument("--res", type=int, default=128, help="image width = height")
+    ap.add_argument("--variant", default="auto", help="mitsuba variant (default: llvm_ad_rgb, else scalar_rgb)")
+    ap.add_argument("--verify-spp", type=int, default=256, help="spp of the XML-vs-dict check")
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument("--fixture-only", action="store_true")
+    g.add_argument("--verify-only", action="store_true")
+    g.add_argument("--reference-only", action="store_true")
+    args = ap.parse_args()
+
+    find_libllvm()
+    import mitsuba as mi
+    import numpy as np
+
+    variant = pick_variant(mi, args.variant)
+    print(f"mitsuba {mi.__version__}, variant {variant}, "
+          f"DRJIT_LIBLLVM_PATH={os.environ.get('DRJIT_LIBLLVM_PATH')}")
+
+    if not (args.verify_only or args.reference_only):
+        write_fixture(mi, variant)
+    if args.fixture_only:
+        return
+    if not args.reference_only:
+        verify_xml_matches_dict(mi, np, args.res, args.verify_spp)
+    if args.verify_only:
+        return
+    render_reference(mi, np, args.res, args.spp, args.pass_spp)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
