@@ -104,7 +104,11 @@ impl Occluder {
     /// into this slice. Degenerate (zero-area) triangles are kept but never hit.
     pub fn new(triangles: &[[DVec3; 3]]) -> Self {
         if triangles.is_empty() {
-            return Occluder { bvh: None, tris: Vec::new(), slack: 0.0 };
+            return Occluder {
+                bvh: None,
+                tris: Vec::new(),
+                slack: 0.0,
+            };
         }
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
@@ -114,7 +118,11 @@ impl Occluder {
                 hi = hi.max(*p);
             }
         }
-        let scale = lo.abs().max(hi.abs()).max_element().max((hi - lo).max_element());
+        let scale = lo
+            .abs()
+            .max(hi.abs())
+            .max_element()
+            .max((hi - lo).max_element());
         let pad = BOX_PAD * scale.max(f64::MIN_POSITIVE);
         let aabbs: Vec<Aabb> = triangles
             .iter()
@@ -134,7 +142,12 @@ impl Occluder {
             .iter()
             .map(|&i| {
                 let [a, b, c] = triangles[i as usize];
-                Tri { v0: a, e1: b - a, e2: c - a, id: i }
+                Tri {
+                    v0: a,
+                    e1: b - a,
+                    e2: c - a,
+                    id: i,
+                }
             })
             .collect();
         Occluder {
@@ -168,7 +181,9 @@ impl Occluder {
     pub fn occluded_except(&self, from: DVec3, to: DVec3, skip: impl Fn(u32) -> bool) -> bool {
         let Some(bvh) = &self.bvh else { return false };
         let dir = to - from;
-        let Some((ray, _)) = self.cull_ray(from, dir, 1.0) else { return false };
+        let Some((ray, _)) = self.cull_ray(from, dir, 1.0) else {
+            return false;
+        };
         let (t0, t1) = (SEGMENT_EPSILON, 1.0 - SEGMENT_EPSILON);
         !bvh.ray_traverse_miss(ray, |_, slot| {
             let tri = &self.tris[slot];
@@ -183,7 +198,7 @@ impl Occluder {
     /// interval; `tmax` may be `f64::INFINITY`).
     pub fn intersect(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        if !(tmin < tmax) {
+        if tmin.partial_cmp(&tmax) != Some(std::cmp::Ordering::Less) {
             return None;
         }
         let (ray, len) = self.cull_ray(origin, dir, tmax)?;
@@ -195,7 +210,12 @@ impl Occluder {
             match tri.intersect(origin, dir) {
                 Some((t, u, v)) if t > tmin && t < best_t => {
                     best_t = t;
-                    best = Some(Hit { t, primitive: tri.id, u, v });
+                    best = Some(Hit {
+                        t,
+                        primitive: tri.id,
+                        u,
+                        v,
+                    });
                     // Shrink the f32 ray conservatively (see `cull_ray`).
                     self.cull_tmax(t, len)
                 }
@@ -211,7 +231,7 @@ impl Occluder {
     #[inline(always)]
     fn cull_ray(&self, origin: DVec3, dir: DVec3, tmax: f64) -> Option<(Ray, f64)> {
         let len = dir.length();
-        if !(len > 0.0) || !len.is_finite() || !origin.is_finite() {
+        if len <= 0.0 || !len.is_finite() || !origin.is_finite() {
             return None;
         }
         let unit = dir / len;
@@ -312,7 +332,9 @@ mod tests {
         assert!(!occ.occluded(on0, on2));
         assert!(!occ.occluded(on2, on0));
         // Oblique, ending at an arbitrary point computed on the plane.
-        let p = DVec3::new(-1.0, -1.0, 0.0) + 0.3137 * DVec3::new(2.0, 0.0, 0.0) + 0.2291 * DVec3::new(0.0, 2.0, 0.0);
+        let p = DVec3::new(-1.0, -1.0, 0.0)
+            + 0.3137 * DVec3::new(2.0, 0.0, 0.0)
+            + 0.2291 * DVec3::new(0.0, 2.0, 0.0);
         assert!(!occ.occluded(DVec3::new(0.9, 0.8, 1.3), p));
         // ... but a segment crossing the plane is occluded.
         assert!(occ.occluded(DVec3::new(0.1, 0.1, 1.0), DVec3::new(0.1, 0.1, -1.0)));
@@ -334,7 +356,9 @@ mod tests {
         assert!((hit.u - 0.5).abs() < 1e-12, "{hit:?}");
         assert!((hit.v - 0.25).abs() < 1e-12, "{hit:?}");
         // tmin past the near quad gives the far one.
-        let far = occ.intersect(origin, dir, 0.6, f64::INFINITY).expect("far hit");
+        let far = occ
+            .intersect(origin, dir, 0.6, f64::INFINITY)
+            .expect("far hit");
         assert_eq!(far.primitive, 0);
         assert!((far.t - 1.5).abs() < 1e-12);
         // tmax before the near quad: nothing; tmax is exclusive.
@@ -365,7 +389,10 @@ mod tests {
         assert_eq!(occ.len(), 0);
         assert!(!occ.occluded(DVec3::ZERO, DVec3::ONE));
         assert!(!occ.occluded_except(DVec3::ZERO, DVec3::ONE, |_| false));
-        assert_eq!(occ.intersect(DVec3::ZERO, DVec3::X, 0.0, f64::INFINITY), None);
+        assert_eq!(
+            occ.intersect(DVec3::ZERO, DVec3::X, 0.0, f64::INFINITY),
+            None
+        );
     }
 
     #[test]
@@ -373,7 +400,10 @@ mod tests {
         let occ = Occluder::new(&quad(0.0));
         assert!(!occ.occluded(DVec3::ONE, DVec3::ONE));
         assert_eq!(occ.intersect(DVec3::ONE, DVec3::ZERO, 0.0, 1.0), None);
-        assert_eq!(occ.intersect(DVec3::new(0.0, 0.0, 1.0), -DVec3::Z, 2.0, 1.0), None);
+        assert_eq!(
+            occ.intersect(DVec3::new(0.0, 0.0, 1.0), -DVec3::Z, 2.0, 1.0),
+            None
+        );
     }
 
     #[test]
@@ -389,14 +419,23 @@ mod tests {
         let tris: Vec<[DVec3; 3]> = (0..200)
             .map(|_| {
                 let c = DVec3::new(next(), next(), next());
-                [c, c + 0.2 * DVec3::new(next(), next(), next()), c + 0.2 * DVec3::new(next(), next(), next())]
+                [
+                    c,
+                    c + 0.2 * DVec3::new(next(), next(), next()),
+                    c + 0.2 * DVec3::new(next(), next(), next()),
+                ]
             })
             .collect();
         let occ = Occluder::new(&tris);
         let brute: Vec<Tri> = tris
             .iter()
             .enumerate()
-            .map(|(i, [a, b, c])| Tri { v0: *a, e1: *b - *a, e2: *c - *a, id: i as u32 })
+            .map(|(i, [a, b, c])| Tri {
+                v0: *a,
+                e1: *b - *a,
+                e2: *c - *a,
+                id: i as u32,
+            })
             .collect();
         for _ in 0..2000 {
             let a = DVec3::new(next(), next(), next()) * 1.2;
@@ -408,9 +447,15 @@ mod tests {
             assert_eq!(occ.occluded(a, b), want_occ);
             let want_hit = brute
                 .iter()
-                .filter_map(|t| t.intersect(a, dir).filter(|h| h.0 > 0.0).map(|h| (h.0, t.id)))
+                .filter_map(|t| {
+                    t.intersect(a, dir)
+                        .filter(|h| h.0 > 0.0)
+                        .map(|h| (h.0, t.id))
+                })
                 .min_by(|x, y| x.0.total_cmp(&y.0));
-            let got = occ.intersect(a, dir, 0.0, f64::INFINITY).map(|h| (h.t, h.primitive));
+            let got = occ
+                .intersect(a, dir, 0.0, f64::INFINITY)
+                .map(|h| (h.t, h.primitive));
             assert_eq!(got, want_hit);
         }
     }
