@@ -14,7 +14,10 @@ use glam::{DVec2, DVec3};
 /// Gauss–Legendre nodes and weights on [0,1] for orders 1 to 4.
 fn gauss_legendre(n: usize) -> &'static [(f64, f64)] {
     const G1: [(f64, f64); 1] = [(0.5, 1.0)];
-    const G2: [(f64, f64); 2] = [(0.211_324_865_405_187_1, 0.5), (0.788_675_134_594_812_9, 0.5)];
+    const G2: [(f64, f64); 2] = [
+        (0.211_324_865_405_187_1, 0.5),
+        (0.788_675_134_594_812_9, 0.5),
+    ];
     const G3: [(f64, f64); 3] = [
         (0.112_701_665_379_258_3, 5.0 / 18.0),
         (0.5, 8.0 / 18.0),
@@ -90,7 +93,12 @@ impl Patch {
                     edge_s: hs,
                     edge_t: ht,
                 };
-                [child(0.0, 0.0), child(1.0, 0.0), child(0.0, 1.0), child(1.0, 1.0)]
+                [
+                    child(0.0, 0.0),
+                    child(1.0, 0.0),
+                    child(0.0, 1.0),
+                    child(1.0, 1.0),
+                ]
             }
             Patch::Triangle([a, b, c]) => {
                 let (ab, bc, ca) = (0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a));
@@ -191,7 +199,11 @@ mod tests {
     }
 
     fn triangle() -> Patch {
-        Patch::Triangle([DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.3, 1.5, 0.2)])
+        Patch::Triangle([
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.3, 1.5, 0.2),
+        ])
     }
 
     #[test]

@@ -128,7 +128,12 @@ mod tests {
                 }
             })
         };
-        let child = [child_avg(0, 0), child_avg(1, 0), child_avg(0, 1), child_avg(1, 1)];
+        let child = [
+            child_avg(0, 0),
+            child_avg(1, 0),
+            child_avg(0, 1),
+            child_avg(1, 1),
+        ];
         let d = details_2d(child, level);
         // ψ patterns at level 1 on element (1,0): ±2^level on the quarters.
         let psi = |sx: [f64; 4]| {
@@ -163,12 +168,17 @@ mod tests {
         let n = 1usize << level;
         let width = 1.0 / n as f64;
         let s = 2f64.powf(-(level as f64) / 2.0); // 1D coefficient per average
-        let kernel_avg = |a: usize, b: usize, c: usize| 0.3 + 0.1 * a as f64 - 0.05 * c as f64 + 0.02 * b as f64;
+        let kernel_avg =
+            |a: usize, b: usize, c: usize| 0.3 + 0.1 * a as f64 - 0.05 * c as f64 + 0.02 * b as f64;
         let radiance_avg = |c: usize, a: usize| 1.0 + c as f64 + 0.5 * a as f64;
         for a in 0..n {
             // Eq. (12): 2D kernel coefficient s²·avg, 1D radiance s·avg.
-            let coeff: f64 = (0..n).map(|c| kernel_avg(a, 0, c) * s * s * radiance_avg(c, 0) * s).sum();
-            let direct: f64 = (0..n).map(|c| width * kernel_avg(a, 0, c) * radiance_avg(c, 0)).sum();
+            let coeff: f64 = (0..n)
+                .map(|c| kernel_avg(a, 0, c) * s * s * radiance_avg(c, 0) * s)
+                .sum();
+            let direct: f64 = (0..n)
+                .map(|c| width * kernel_avg(a, 0, c) * radiance_avg(c, 0))
+                .sum();
             assert!((coeff / s - direct).abs() < 1e-12);
             // Eq. (8): 3D kernel coefficient s³·avg, 2D radiance s²·avg.
             for b in 0..n {
@@ -176,7 +186,9 @@ mod tests {
                     * (0..n)
                         .map(|c| kernel_avg(a, b, c) * s * s * s * radiance_avg(c, a) * s * s)
                         .sum::<f64>();
-                let direct: f64 = (0..n).map(|c| width * kernel_avg(a, b, c) * radiance_avg(c, a)).sum();
+                let direct: f64 = (0..n)
+                    .map(|c| width * kernel_avg(a, b, c) * radiance_avg(c, a))
+                    .sum();
                 assert!((coeff / (s * s) - direct).abs() < 1e-12);
             }
         }

@@ -179,6 +179,9 @@ mod tests {
         let uv = square().param_of(expected.centroid());
         assert_eq!(tree.locate(uv).0 as usize, idx);
         assert_eq!(tree.count_per_level(), vec![1, 4, 4, 4]);
-        assert_eq!(deep.parent().unwrap().parent().unwrap().parent(), Some(ElementId::ROOT));
+        assert_eq!(
+            deep.parent().unwrap().parent().unwrap().parent(),
+            Some(ElementId::ROOT)
+        );
     }
 }

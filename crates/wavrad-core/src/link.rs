@@ -63,8 +63,14 @@ impl PairRefiner<'_> {
         kernel::throughput(
             self.tracer,
             self.settings.quadrature,
-            KernelElement { patch: &a.patch, surface: a.surface },
-            KernelElement { patch: &c.patch, surface: c.surface },
+            KernelElement {
+                patch: &a.patch,
+                surface: a.surface,
+            },
+            KernelElement {
+                patch: &c.patch,
+                surface: c.surface,
+            },
         )
     }
 
@@ -96,13 +102,29 @@ impl PairRefiner<'_> {
             .subdivide()
             .into_iter()
             .enumerate()
-            .map(|(k, patch)| Side { surface: split.surface, id: split.id.child(k), patch })
+            .map(|(k, patch)| Side {
+                surface: split.surface,
+                id: split.id.child(k),
+                patch,
+            })
             .collect();
-        let t: Vec<f64> = children.iter().map(|child| self.throughput(child, other)).collect();
+        let t: Vec<f64> = children
+            .iter()
+            .map(|child| self.throughput(child, other))
+            .collect();
         let pair_area = children[0].patch.area() * other.patch.area();
-        let means = [t[0] / pair_area, t[1] / pair_area, t[2] / pair_area, t[3] / pair_area];
+        let means = [
+            t[0] / pair_area,
+            t[1] / pair_area,
+            t[2] / pair_area,
+            t[3] / pair_area,
+        ];
         // Hierarchical decomposition: keep the link here if the details pass.
-        if self.settings.oracle.accepts(means, split.id.level, other.id.level, self.scale) {
+        if self
+            .settings
+            .oracle
+            .accepts(means, split.id.level, other.id.level, self.scale)
+        {
             return self.push(&a, &c, t.iter().sum());
         }
         let other = *other;
@@ -137,9 +159,22 @@ pub fn refine_links(
             let (sp, sr) = (&scene.surfaces[p], &scene.surfaces[r]);
             let rho = |s: &Surface| s.reflectance.iter().fold(0.0f64, |m, &x| m.max(x));
             let scale = (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area());
-            let mut refiner = PairRefiner { tracer, settings, scale, links: Vec::new() };
-            let a = Side { surface: p as u32, id: ElementId::ROOT, patch: sp.patch };
-            let c = Side { surface: r as u32, id: ElementId::ROOT, patch: sr.patch };
+            let mut refiner = PairRefiner {
+                tracer,
+                settings,
+                scale,
+                links: Vec::new(),
+            };
+            let a = Side {
+                surface: p as u32,
+                id: ElementId::ROOT,
+                patch: sp.patch,
+            };
+            let c = Side {
+                surface: r as u32,
+                id: ElementId::ROOT,
+                patch: sr.patch,
+            };
             let t = refiner.throughput(&a, &c);
             refiner.refine(a, c, t);
             progress.advance(1);

@@ -36,7 +36,13 @@ impl KernelSmoothness {
     }
 
     /// True when the kernel is smooth enough to keep the link unrefined.
-    pub fn accepts(&self, child_kernel_means: [f64; 4], split_level: u32, other_level: u32, scale: f64) -> bool {
+    pub fn accepts(
+        &self,
+        child_kernel_means: [f64; 4],
+        split_level: u32,
+        other_level: u32,
+        scale: f64,
+    ) -> bool {
         Self::largest_detail(child_kernel_means, split_level, other_level, scale) <= self.threshold
     }
 }

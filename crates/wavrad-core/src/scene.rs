@@ -125,7 +125,12 @@ impl Patch {
                 origin,
                 edge_s,
                 edge_t,
-            } => vec![origin, origin + edge_s, origin + edge_s + edge_t, origin + edge_t],
+            } => vec![
+                origin,
+                origin + edge_s,
+                origin + edge_s + edge_t,
+                origin + edge_t,
+            ],
             Patch::Triangle(v) => v.to_vec(),
         }
     }

@@ -133,6 +133,14 @@ fn extension(path: &Path) -> Option<String> {
 }
 
 /// Encode into a temporary sibling of `path`, then rename it into place.
+/// Write `bytes` to `path` atomically (temporary file in the same folder,
+/// then rename), as [`write_image`] does; for statistics and other outputs.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomically(path, |file| {
+        file.write_all(bytes).map_err(|e| e.to_string())
+    })
+}
+
 fn write_atomically(
     path: &Path,
     encode: impl FnOnce(&mut fs::File) -> std::result::Result<(), String>,

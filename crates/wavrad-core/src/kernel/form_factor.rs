@@ -98,7 +98,12 @@ mod tests {
         let f = point_to_polygon(DVec3::ZERO, DVec3::Z, &unit_square_at(1.0), DVec3::Z);
         assert_eq!(f, 0.0);
         // Below the tangent plane.
-        let f = point_to_polygon(DVec3::new(0.5, 0.5, 2.0), DVec3::Z, &unit_square_at(1.0), DVec3::Z);
+        let f = point_to_polygon(
+            DVec3::new(0.5, 0.5, 2.0),
+            DVec3::Z,
+            &unit_square_at(1.0),
+            DVec3::Z,
+        );
         assert_eq!(f, 0.0);
     }
 }

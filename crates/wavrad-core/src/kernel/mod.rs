@@ -42,7 +42,9 @@ pub struct KernelElement<'a> {
 pub fn faces_away(a: &Patch, c: &Patch) -> bool {
     let behind = |p: &Patch, q: &Patch| {
         let (n, o) = (p.normal(), p.vertices()[0]);
-        q.vertices().iter().all(|v| n.dot(*v - o) <= 1e-12 * (1.0 + v.length()))
+        q.vertices()
+            .iter()
+            .all(|v| n.dot(*v - o) <= 1e-12 * (1.0 + v.length()))
     };
     behind(a, c) || behind(c, a)
 }
@@ -54,7 +56,11 @@ pub fn faces_away(a: &Patch, c: &Patch) -> bool {
 /// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
 /// from the point to a grid of points on it.
 pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
-    let (outer, inner) = if a.patch.area() <= c.patch.area() { (a, c) } else { (c, a) };
+    let (outer, inner) = if a.patch.area() <= c.patch.area() {
+        (a, c)
+    } else {
+        (c, a)
+    };
     let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
     let polygon = inner.patch.vertices();
     let targets = inner.patch.gauss_points(q.rays);
@@ -74,7 +80,10 @@ pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: Kern
                 continue;
             }
             total += 1;
-            if !tracer.occluder.occluded_except(x.position, y.position, skip) {
+            if !tracer
+                .occluder
+                .occluded_except(x.position, y.position, skip)
+            {
                 seen += 1;
             }
         }
@@ -124,8 +133,14 @@ mod tests {
             surface(blocker),
         ]));
         let q = Quadrature::default();
-        let b = KernelElement { patch: &bottom, surface: 0 };
-        let t = KernelElement { patch: &top, surface: 1 };
+        let b = KernelElement {
+            patch: &bottom,
+            surface: 0,
+        };
+        let t = KernelElement {
+            patch: &top,
+            surface: 1,
+        };
         assert!(throughput(&open, q, b, t) > 0.1);
         assert_eq!(throughput(&closed, q, b, t), 0.0);
     }

@@ -73,7 +73,9 @@ mod tests {
 
     #[test]
     fn film_corners_follow_mitsuba_orientation() {
-        let c = camera(Projection::Perspective { fov_x_degrees: 90.0 });
+        let c = camera(Projection::Perspective {
+            fov_x_degrees: 90.0,
+        });
         // Left edge of the film looks towards camera +x, top towards +y.
         let left = c.ray(DVec2::new(0.0, 0.5), 2.0).direction;
         assert!((left - DVec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-12);

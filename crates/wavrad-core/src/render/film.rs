@@ -60,7 +60,11 @@ pub fn pixel_offsets(samples_per_pixel: u32) -> Vec<[f64; 2]> {
 
 /// Render an image: `radiance(x, y)` gives the radiance of the film position
 /// (x,y) in pixels; samples are filtered with the film's filter.
-pub fn develop(film: &Film, samples_per_pixel: u32, radiance: impl Fn(f64, f64) -> [f64; 3] + Sync) -> Image {
+pub fn develop(
+    film: &Film,
+    samples_per_pixel: u32,
+    radiance: impl Fn(f64, f64) -> [f64; 3] + Sync,
+) -> Image {
     let (w, h) = (film.width as usize, film.height as usize);
     let offsets = pixel_offsets(samples_per_pixel);
     let per_pixel = offsets.len();
@@ -86,7 +90,8 @@ pub fn develop(film: &Film, samples_per_pixel: u32, radiance: impl Fn(f64, f64) 
                 for qx in (px - reach).max(0)..=(px + reach).min(w as i64 - 1) {
                     let base = (qy as usize * w + qx as usize) * per_pixel;
                     for (k, o) in offsets.iter().enumerate() {
-                        let wt = filter.eval(qx as f64 + o[0] - cx) * filter.eval(qy as f64 + o[1] - cy);
+                        let wt =
+                            filter.eval(qx as f64 + o[0] - cx) * filter.eval(qy as f64 + o[1] - cy);
                         if wt > 0.0 {
                             let s = samples[base + k];
                             for ch in 0..3 {

@@ -4,6 +4,7 @@
 
 pub mod camera;
 pub mod film;
+pub mod gather;
 pub mod reconstruct;
 
 use crate::scene::{Camera, Film};
@@ -20,13 +21,20 @@ pub struct RenderSettings {
     pub mode: Reconstruction,
     /// Camera rays per pixel (rounded up to a square).
     pub samples_per_pixel: u32,
+    /// Shadow rays per emitter and camera ray in [`Reconstruction::Gather`]:
+    /// a `gather_grid` × `gather_grid` jittered grid.
+    pub gather_grid: u32,
+    /// Indirect gather rays per camera ray in [`Reconstruction::Gather`].
+    pub gather_rays: u32,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             mode: Reconstruction::default(),
-            samples_per_pixel: 16,
+            samples_per_pixel: 64,
+            gather_grid: 2,
+            gather_rays: 4,
         }
     }
 }
@@ -42,9 +50,15 @@ impl Solution {
     pub fn render_view(&self, camera: &Camera, film: &Film, settings: &RenderSettings) -> Image {
         let (w, h) = (film.width as f64, film.height as f64);
         let aspect = w / h;
+        let emitters: Vec<u32> = (0..self.scene.surfaces.len() as u32)
+            .filter(|&s| self.scene.surfaces[s as usize].is_emitter())
+            .collect();
         develop(film, settings.samples_per_pixel, |x, y| {
             let ray = camera.ray(DVec2::new(x / w, y / h), aspect);
-            let Some(hit) = self.tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max) else {
+            let Some(hit) = self
+                .tracer
+                .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
+            else {
                 return [0.0; 3];
             };
             let s = hit.surface as usize;
@@ -54,7 +68,44 @@ impl Solution {
                 return [0.0; 3];
             }
             let uv = patch.clamp_param(patch.param_of(hit.position));
-            radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode)
+            if settings.mode != Reconstruction::Gather {
+                return radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
+            }
+            let emission = self.scene.surfaces[s].emission;
+            let seed = (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1);
+            let indirect = gather::indirect_radiance(
+                &self.scene,
+                &self.tracer,
+                hit.surface,
+                hit.position,
+                patch.normal(),
+                settings.gather_rays,
+                seed,
+                |q, point| {
+                    let q = q as usize;
+                    let patch = &self.scene.surfaces[q].patch;
+                    let uv = patch.clamp_param(patch.param_of(point));
+                    let l = radiance_at(
+                        &self.trees[q],
+                        &self.radiance[q],
+                        uv,
+                        Reconstruction::Smooth,
+                    );
+                    let e = self.scene.surfaces[q].emission;
+                    [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
+                },
+            );
+            let direct = gather::direct_radiance(
+                &self.scene,
+                &self.tracer,
+                &emitters,
+                hit.surface,
+                hit.position,
+                patch.normal(),
+                settings.gather_grid,
+                seed,
+            );
+            [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch])
         })
     }
 }

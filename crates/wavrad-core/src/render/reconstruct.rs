@@ -21,8 +21,12 @@ pub enum Reconstruction {
     /// Piecewise-constant Haar projection.
     Haar,
     /// Bilinear interpolation of leaf averages (dual linear-spline basis).
-    #[default]
     Smooth,
+    /// Final gather: light reflected straight from emitters evaluated exactly
+    /// at each visible point ([`crate::render::gather`]), the rest of the
+    /// solution reconstructed smoothly. The most accurate mode.
+    #[default]
+    Gather,
 }
 
 /// Radiance of `tree` at surface parameter `uv`.
@@ -30,7 +34,7 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
     let (leaf, _) = tree.locate(uv);
     match mode {
         Reconstruction::Haar => radiance[leaf as usize],
-        Reconstruction::Smooth => {
+        Reconstruction::Smooth | Reconstruction::Gather => {
             let root = &tree.nodes[0].patch;
             let h = 0.5f64.powi(tree.nodes[leaf as usize].id.level as i32);
             // Element centres around uv on this level's grid, and weights.
@@ -80,7 +84,11 @@ mod tests {
         }
         let tree = ElementTree::build(&root, &ids);
         // Radiance = element-average of f(s,t) = s (linear in s).
-        let radiance: Vec<Rgb> = tree.nodes.iter().map(|n| [n.patch.centroid().x; 3]).collect();
+        let radiance: Vec<Rgb> = tree
+            .nodes
+            .iter()
+            .map(|n| [n.patch.centroid().x; 3])
+            .collect();
         for &(s, t) in &[(0.3, 0.4), (0.5, 0.5), (0.61, 0.2)] {
             let uv = DVec2::new(s, t);
             let smooth = radiance_at(&tree, &radiance, uv, Reconstruction::Smooth)[0];

@@ -20,9 +20,17 @@ pub struct Transfer {
 
 /// Incoming transfers of every surface, ordered by receiving node (so the
 /// gather is deterministic).
-pub fn incoming_transfers(scene: &Scene, trees: &[ElementTree], links: &[Link]) -> Vec<Vec<Transfer>> {
+pub fn incoming_transfers(
+    scene: &Scene,
+    trees: &[ElementTree],
+    links: &[Link],
+) -> Vec<Vec<Transfer>> {
     let mut incoming = vec![Vec::new(); scene.surfaces.len()];
-    let node = |s: u32, id| trees[s as usize].index_of(id).expect("link element is in its tree");
+    let node = |s: u32, id| {
+        trees[s as usize]
+            .index_of(id)
+            .expect("link element is in its tree")
+    };
     for l in links {
         let (a, c) = (node(l.p, l.a), node(l.r, l.c));
         let area_a = trees[l.p as usize].nodes[a as usize].patch.area();
@@ -48,7 +56,12 @@ pub fn incoming_transfers(scene: &Scene, trees: &[ElementTree], links: &[Link]) 
 
 /// Radiance reflected at each node of the receiving surface from the current
 /// radiance of its sources: `ρ · Σ F · L_source` (before push–pull).
-pub fn gather(incoming: &[Transfer], reflectance: Rgb, nodes: usize, radiance: &[Vec<Rgb>]) -> Vec<Rgb> {
+pub fn gather(
+    incoming: &[Transfer],
+    reflectance: Rgb,
+    nodes: usize,
+    radiance: &[Vec<Rgb>],
+) -> Vec<Rgb> {
     let mut gathered = vec![[0.0; 3]; nodes];
     for t in incoming {
         let l = radiance[t.source_surface as usize][t.source as usize];

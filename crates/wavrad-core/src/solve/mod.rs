@@ -82,8 +82,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         ids[l.p as usize].insert(l.a);
         ids[l.r as usize].insert(l.c);
     }
-    let trees: Vec<ElementTree> =
-        scene.surfaces.iter().zip(&ids).map(|(s, ids)| ElementTree::build(&s.patch, ids)).collect();
+    let trees: Vec<ElementTree> = scene
+        .surfaces
+        .iter()
+        .zip(&ids)
+        .map(|(s, ids)| ElementTree::build(&s.patch, ids))
+        .collect();
     let incoming = incoming_transfers(scene, &trees, &links);
     times.hierarchy_s = clock.elapsed().as_secs_f64();
 
@@ -95,16 +99,27 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .zip(&trees)
         .map(|(s, t)| vec![s.emission; t.nodes.len()])
         .collect();
-    let brightest = scene.surfaces.iter().flat_map(|s| s.emission).fold(0.0f64, f64::max);
+    let brightest = scene
+        .surfaces
+        .iter()
+        .flat_map(|s| s.emission)
+        .fold(0.0f64, f64::max);
     let scale = if brightest > 0.0 { brightest } else { 1.0 };
     let (mut iterations, mut residual) = (0u32, f64::INFINITY);
     progress.start("solving", u64::from(settings.max_iterations));
     while iterations < settings.max_iterations && residual > settings.tolerance {
         residual = 0.0;
         for (p, surface) in scene.surfaces.iter().enumerate() {
-            let gathered = gather(&incoming[p], surface.reflectance, trees[p].nodes.len(), &radiance);
+            let gathered = gather(
+                &incoming[p],
+                surface.reflectance,
+                trees[p].nodes.len(),
+                &radiance,
+            );
             let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
-            let change = (0..3).map(|ch| (updated[0][ch] - radiance[p][0][ch]).abs()).fold(0.0, f64::max);
+            let change = (0..3)
+                .map(|ch| (updated[0][ch] - radiance[p][0][ch]).abs())
+                .fold(0.0, f64::max);
             residual = residual.max(change / scale);
             radiance[p] = updated;
         }
@@ -135,13 +150,21 @@ impl SolveSettings {
             )));
         }
         if r.max_level > 16 {
-            return Err(Error::InvalidSetting(format!("max level must be at most 16, got {}", r.max_level)));
+            return Err(Error::InvalidSetting(format!(
+                "max level must be at most 16, got {}",
+                r.max_level
+            )));
         }
         if r.quadrature.points == 0 || r.quadrature.rays == 0 {
-            return Err(Error::InvalidSetting("quadrature orders must be at least 1".into()));
+            return Err(Error::InvalidSetting(
+                "quadrature orders must be at least 1".into(),
+            ));
         }
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
-            return Err(Error::InvalidSetting(format!("tolerance must be > 0, got {}", self.tolerance)));
+            return Err(Error::InvalidSetting(format!(
+                "tolerance must be > 0, got {}",
+                self.tolerance
+            )));
         }
         Ok(())
     }
@@ -153,8 +176,8 @@ impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
             refine: RefineSettings {
-                oracle: crate::oracle::KernelSmoothness { threshold: 1e-4 },
-                max_level: 7,
+                oracle: crate::oracle::KernelSmoothness { threshold: 1e-3 },
+                max_level: 5,
                 quadrature: crate::kernel::Quadrature::default(),
             },
             tolerance: 1e-5,

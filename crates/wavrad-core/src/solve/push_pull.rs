@@ -14,7 +14,14 @@ pub fn push_pull(tree: &ElementTree, gathered: &[Rgb], emission: Rgb) -> Vec<Rgb
     radiance
 }
 
-fn visit(tree: &ElementTree, node: usize, above: Rgb, gathered: &[Rgb], emission: Rgb, out: &mut [Rgb]) -> Rgb {
+fn visit(
+    tree: &ElementTree,
+    node: usize,
+    above: Rgb,
+    gathered: &[Rgb],
+    emission: Rgb,
+    out: &mut [Rgb],
+) -> Rgb {
     let down = add(above, gathered[node]);
     let value = match tree.nodes[node].first_child {
         None => add(emission, down),
@@ -22,7 +29,10 @@ fn visit(tree: &ElementTree, node: usize, above: Rgb, gathered: &[Rgb], emission
             // Children have equal areas, so the area-weighted mean is the mean.
             let mut sum = [0.0; 3];
             for k in 0..4 {
-                sum = add(sum, visit(tree, first as usize + k, down, gathered, emission, out));
+                sum = add(
+                    sum,
+                    visit(tree, first as usize + k, down, gathered, emission, out),
+                );
             }
             sum.map(|x| 0.25 * x)
         }

@@ -1,0 +1,248 @@
+//! The `wavrad` command: parse arguments → load the scene → solve → write the
+//! image and statistics. Option strings become core enums here; everything
+//! else lives in `wavrad-core` and `wavrad-io`.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Mutex;
+use std::time::Instant;
+use wavrad_core::render::reconstruct::Reconstruction;
+use wavrad_core::render::RenderSettings;
+use wavrad_core::solve::{solve, Progress, Solution, SolveSettings};
+
+/// Haar-wavelet global illumination (Pattanaik & Bouatouch 1994) for Mitsuba 3
+/// XML scenes.
+#[derive(Parser, Debug)]
+#[command(name = "wavrad", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve the scene and render its sensor to an EXR (linear) or PNG (sRGB) image.
+    Render {
+        #[command(flatten)]
+        solve: SolveArgs,
+        /// Output image; the extension (.exr or .png) chooses the format.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// How radiance is reconstructed on surfaces (default: the most accurate).
+        #[arg(long, value_enum, default_value_t = Mode::Gather)]
+        mode: Mode,
+        /// Camera rays per pixel (default: the scene's sampler, at most 64, else 16).
+        #[arg(long)]
+        spp: Option<u32>,
+    },
+    /// Solve the scene (view-independent) and report statistics, without an image.
+    Solve {
+        #[command(flatten)]
+        solve: SolveArgs,
+    },
+    /// Print the relative RMSE, sqrt(mean((a-b)^2))/mean(b), of an EXR image
+    /// against an EXR reference of the same size.
+    Compare {
+        /// Image to judge.
+        image: PathBuf,
+        /// Reference (e.g. a path-traced render).
+        reference: PathBuf,
+    },
+}
+
+#[derive(Args, Debug)]
+struct SolveArgs {
+    /// Mitsuba 3 XML scene.
+    scene: PathBuf,
+    /// Oracle threshold on the kernel's Haar detail coefficients, in the paper's
+    /// orthonormal normalisation (the paper uses 1e-4).
+    #[arg(long)]
+    threshold: Option<f64>,
+    /// Maximum subdivision level of an element (the paper uses 8).
+    #[arg(long)]
+    max_level: Option<u32>,
+    /// Write statistics (counts per level, times, memory) as JSON to this file.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Set a scene parameter declared with <default>, as NAME=VALUE (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    define: Vec<String>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum Mode {
+    /// Piecewise-constant Haar projection, as solved.
+    Haar,
+    /// Smooth reconstruction (linear spline dual of the Haar basis).
+    Smooth,
+    /// Exact direct light per pixel (final gather) plus the smooth solution.
+    Gather,
+}
+
+/// Progress bars on a terminal, nothing otherwise.
+struct Bars {
+    enabled: bool,
+    bar: Mutex<Option<ProgressBar>>,
+}
+
+impl Progress for Bars {
+    fn start(&self, phase: &str, total: u64) {
+        if !self.enabled {
+            return;
+        }
+        let bar = ProgressBar::new(total);
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>9} [{bar:40}] {pos}/{len} {elapsed_precise}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_message(phase.to_string());
+        *self.bar.lock().expect("progress lock") = Some(bar);
+    }
+    fn advance(&self, steps: u64) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
+            bar.inc(steps);
+        }
+    }
+    fn finish(&self) {
+        if let Some(bar) = self.bar.lock().expect("progress lock").take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("wavrad: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    let progress = Bars {
+        enabled: std::io::stderr().is_terminal(),
+        bar: Mutex::new(None),
+    };
+    match cli.command {
+        Command::Compare { image, reference } => {
+            let (w, h, a) = wavrad_io::read_exr_rgb(&image).map_err(|e| e.to_string())?;
+            let (rw, rh, b) = wavrad_io::read_exr_rgb(&reference).map_err(|e| e.to_string())?;
+            if (w, h) != (rw, rh) {
+                return Err(format!(
+                    "{} is {w}x{h} but {} is {rw}x{rh}",
+                    image.display(),
+                    reference.display()
+                ));
+            }
+            println!("relative RMSE {:.5}", wavrad_io::relative_rmse(&a, &b));
+            Ok(())
+        }
+        Command::Solve { solve: args } => {
+            let solution = load_and_solve(&args, &progress)?;
+            report(&solution, None);
+            write_stats(&args, &solution)
+        }
+        Command::Render {
+            solve: args,
+            output,
+            mode,
+            spp,
+        } => {
+            check_output_extension(&output)?;
+            let mut solution = load_and_solve(&args, &progress)?;
+            let hinted = solution.scene.hints.samples_per_pixel.map(|n| n.min(64));
+            let settings = RenderSettings {
+                mode: match mode {
+                    Mode::Haar => Reconstruction::Haar,
+                    Mode::Smooth => Reconstruction::Smooth,
+                    Mode::Gather => Reconstruction::Gather,
+                },
+                samples_per_pixel: spp.or(hinted).unwrap_or(16).max(1),
+                ..RenderSettings::default()
+            };
+            let clock = Instant::now();
+            let image = solution
+                .render(&settings)
+                .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+            solution.stats.times.render_s = clock.elapsed().as_secs_f64();
+            solution.stats.peak_memory_bytes = wavrad_core::stats::peak_memory_bytes();
+            wavrad_io::write_image(&output, image.width, image.height, &image.rgb)
+                .map_err(|e| e.to_string())?;
+            report(&solution, Some(&output));
+            write_stats(&args, &solution)
+        }
+    }
+}
+
+fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String> {
+    let defines = args
+        .define
+        .iter()
+        .map(|d| {
+            d.split_once('=')
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .ok_or_else(|| format!("-D expects NAME=VALUE, got {d:?}"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let scene = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
+    let mut settings = SolveSettings::default();
+    if let Some(t) = args.threshold {
+        settings.refine.oracle.threshold = t;
+    }
+    if let Some(j) = args.max_level {
+        settings.refine.max_level = j;
+    }
+    solve(&scene, &settings, progress).map_err(|e| format!("{}: {e}", args.scene.display()))
+}
+
+fn check_output_extension(output: &Path) -> Result<(), String> {
+    match output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("exr" | "png") => Ok(()),
+        _ => Err(format!(
+            "{}: unsupported image format (supported extensions: .exr, .png)",
+            output.display()
+        )),
+    }
+}
+
+fn report(solution: &Solution, output: Option<&Path>) {
+    let s = &solution.stats;
+    let t = &s.times;
+    eprintln!(
+        "wavrad: {} surfaces, {} two-point nodes, {} two-point interactions; {} iterations (residual {:.2e}); \
+         kernels {:.2}s, solve {:.2}s, render {:.2}s",
+        s.surfaces,
+        s.two_point_nodes,
+        s.two_point_interactions,
+        s.iterations,
+        s.residual,
+        t.kernels_s,
+        t.solve_s,
+        t.render_s
+    );
+    if let Some(out) = output {
+        eprintln!("wavrad: wrote {}", out.display());
+    }
+}
+
+fn write_stats(args: &SolveArgs, solution: &Solution) -> Result<(), String> {
+    let Some(path) = &args.stats else {
+        return Ok(());
+    };
+    let mut json = serde_json::to_value(&solution.stats).map_err(|e| e.to_string())?;
+    json["scene"] = serde_json::Value::String(args.scene.display().to_string());
+    let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
+    wavrad_io::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
+}

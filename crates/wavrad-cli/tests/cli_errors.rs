@@ -1,0 +1,159 @@
+//! The command line on bad input: a clear message naming the file (and line),
+//! a non-zero exit, no panic, and no output file left behind.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn wavrad(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_wavrad"))
+        .args(args)
+        .output()
+        .expect("run wavrad")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+const SMALL: &str = r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="60"/>
+        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+    <shape type="rectangle">
+        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
+    </shape>
+</scene>
+"#;
+
+#[test]
+fn unsupported_plugin_names_file_line_and_plugin_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(
+        dir.path(),
+        "bad.xml",
+        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"/>\n</scene>\n",
+    );
+    let out = dir.path().join("out.png");
+    let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let msg = stderr(&o);
+    assert!(msg.contains("bad.xml:2") && msg.contains("sphere"), "{msg}");
+    assert!(!msg.contains("panicked"));
+    assert!(!out.exists());
+}
+
+#[test]
+fn missing_scene_file_is_named() {
+    let o = wavrad(&["solve", "/nonexistent/scene.xml"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("/nonexistent/scene.xml"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn unknown_output_format_fails_before_solving() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.xml", SMALL);
+    let out = dir.path().join("out.tiff");
+    let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("out.tiff") && stderr(&o).contains(".exr"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn invalid_settings_and_defines_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.xml", SMALL);
+    let o = wavrad(&["solve", &scene, "--threshold=-1"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("threshold"), "{}", stderr(&o));
+    let o = wavrad(&["solve", &scene, "-D", "novalue"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("NAME=VALUE"), "{}", stderr(&o));
+    let o = wavrad(&["solve", &scene, "--max-level", "99"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("max level"), "{}", stderr(&o));
+    // Malformed numbers are clap's usage errors (exit 2).
+    let o = wavrad(&["solve", &scene, "--threshold", "abc"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn scene_without_sensor_cannot_render_but_can_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL.replace(
+        &SMALL[SMALL.find("<sensor").unwrap()..SMALL.find("</sensor>").unwrap() + 9],
+        "",
+    );
+    let scene = write(dir.path(), "nosensor.xml", &text);
+    let out = dir.path().join("out.exr");
+    let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("no sensor"), "{}", stderr(&o));
+    assert!(!out.exists());
+    let stats = dir.path().join("stats.json");
+    let o = wavrad(&["solve", &scene, "--stats", stats.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert!(json["two_point_interactions"].as_u64().unwrap() > 0);
+    assert_eq!(json["surfaces"], 2);
+}
+
+#[test]
+fn render_writes_image_and_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.xml", SMALL);
+    let out = dir.path().join("out.exr");
+    let stats = dir.path().join("stats.json");
+    for mode in ["haar", "smooth", "gather"] {
+        let o = wavrad(&[
+            "render",
+            &scene,
+            "-o",
+            out.to_str().unwrap(),
+            "--mode",
+            mode,
+            "--spp",
+            "4",
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (w, h, rgb) = wavrad_io::read_exr_rgb(&out).unwrap();
+        assert_eq!((w, h), (8, 6));
+        assert!(rgb.iter().all(|v| v.is_finite() && *v >= 0.0));
+        // The emitter faces the camera: the image is not black.
+        assert!(rgb.iter().any(|&v| v > 0.5));
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    for key in [
+        "two_point_nodes",
+        "two_point_interactions",
+        "nodes_per_level",
+        "iterations",
+        "times",
+        "peak_memory_bytes",
+    ] {
+        assert!(!json[key].is_null(), "{key} missing");
+    }
+    assert!(json["times"]["render_s"].as_f64().unwrap() > 0.0);
+}

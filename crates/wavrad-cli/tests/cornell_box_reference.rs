@@ -1,0 +1,73 @@
+//! The bundled Cornell box against Mitsuba 3's path tracer
+//! (`scenes/cornell-box/reference.exr`, made by `scenes/make_references.py`).
+//!
+//! relRMSE = sqrt(mean((a − b)²)) / mean(b) over all pixels and channels.
+//! Most of what remains sits on the outline of the light (radiance 18, ~14×
+//! the walls), so the error away from it is checked separately.
+
+use std::path::PathBuf;
+use wavrad_core::render::reconstruct::Reconstruction;
+use wavrad_core::render::RenderSettings;
+use wavrad_core::solve::{solve, Silent, SolveSettings};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// relRMSE over all pixels, and over pixels farther than 3 px from the light.
+fn errors(image: &[f32], reference: &[f32], width: usize) -> (f64, f64) {
+    let all = wavrad_io::relative_rmse(image, reference);
+    let height = reference.len() / 3 / width;
+    let bright = |x: usize, y: usize| {
+        reference[3 * (y * width + x)..][..3]
+            .iter()
+            .any(|&v| v > 2.0)
+    };
+    let near_light = |x: usize, y: usize| {
+        let (x0, x1) = (x.saturating_sub(3), (x + 3).min(width - 1));
+        let (y0, y1) = (y.saturating_sub(3), (y + 3).min(height - 1));
+        (y0..=y1).any(|yy| (x0..=x1).any(|xx| bright(xx, yy)))
+    };
+    let (mut sq, mut n) = (0.0f64, 0usize);
+    for y in 0..height {
+        for x in 0..width {
+            if near_light(x, y) {
+                continue;
+            }
+            for ch in 0..3 {
+                let i = 3 * (y * width + x) + ch;
+                sq += f64::from(image[i] - reference[i]).powi(2);
+                n += 1;
+            }
+        }
+    }
+    let mean = reference.iter().map(|&v| f64::from(v)).sum::<f64>() / reference.len() as f64;
+    (all, (sq / n as f64).sqrt() / mean)
+}
+
+#[test]
+fn cornell_box_matches_mitsuba_path_tracer() {
+    let scene = wavrad_io::load_scene(&repo().join("scenes/cornell-box/scene.xml")).unwrap();
+    let (w, h, reference) =
+        wavrad_io::read_exr_rgb(&repo().join("scenes/cornell-box/reference.exr")).unwrap();
+    assert_eq!((w, h), (scene.film.width, scene.film.height));
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    assert!(solution.stats.converged);
+
+    let gather = solution.render(&RenderSettings::default()).unwrap();
+    let (all, away) = errors(&gather.rgb, &reference, w as usize);
+    eprintln!("gather: relRMSE {all:.4}, away from the light {away:.4}");
+    assert!(all < 0.075, "gather relRMSE {all}");
+    assert!(away < 0.03, "gather relRMSE away from the light {away}");
+
+    let smooth = solution
+        .render(&RenderSettings {
+            mode: Reconstruction::Smooth,
+            ..RenderSettings::default()
+        })
+        .unwrap();
+    let (all, away) = errors(&smooth.rgb, &reference, w as usize);
+    eprintln!("smooth: relRMSE {all:.4}, away from the light {away:.4}");
+    assert!(all < 0.09, "smooth relRMSE {all}");
+    assert!(away < 0.06, "smooth relRMSE away from the light {away}");
+}
