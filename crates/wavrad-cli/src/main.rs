@@ -34,9 +34,13 @@ enum Command {
         /// How radiance is reconstructed on surfaces (default: the most accurate).
         #[arg(long, value_enum, default_value_t = Mode::Gather)]
         mode: Mode,
-        /// Camera rays per pixel (default: the scene's sampler, at most 64, else 16).
+        /// Camera rays per pixel [default: 512].
         #[arg(long)]
         spp: Option<u32>,
+        /// Of those, camera rays per pixel that also final-gather, each with 4
+        /// shadow rays per emitter and 4 indirect rays (gather mode) [default: 128].
+        #[arg(long)]
+        gather_spp: Option<u32>,
     },
     /// Solve the scene (view-independent) and report statistics, without an image.
     Solve {
@@ -154,18 +158,22 @@ fn run(cli: Cli) -> Result<(), String> {
             output,
             mode,
             spp,
+            gather_spp,
         } => {
             check_output_extension(&output)?;
             let mut solution = load_and_solve(&args, &progress)?;
-            let hinted = solution.scene.hints.samples_per_pixel.map(|n| n.min(64));
+            let defaults = RenderSettings::default();
             let settings = RenderSettings {
                 mode: match mode {
                     Mode::Haar => Reconstruction::Haar,
                     Mode::Smooth => Reconstruction::Smooth,
                     Mode::Gather => Reconstruction::Gather,
                 },
-                samples_per_pixel: spp.or(hinted).unwrap_or(16).max(1),
-                ..RenderSettings::default()
+                samples_per_pixel: spp.unwrap_or(defaults.samples_per_pixel).max(1),
+                gather_samples_per_pixel: gather_spp
+                    .unwrap_or(defaults.gather_samples_per_pixel)
+                    .max(1),
+                ..defaults
             };
             let clock = Instant::now();
             let image = solution

@@ -57,7 +57,7 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     let gather = solution.render(&RenderSettings::default()).unwrap();
     let (all, away) = errors(&gather.rgb, &reference, w as usize);
     eprintln!("gather: relRMSE {all:.4}, away from the light {away:.4}");
-    assert!(all < 0.075, "gather relRMSE {all}");
+    assert!(all < 0.03, "gather relRMSE {all}");
     assert!(away < 0.03, "gather relRMSE away from the light {away}");
 
     let smooth = solution
@@ -68,6 +68,6 @@ fn cornell_box_matches_mitsuba_path_tracer() {
         .unwrap();
     let (all, away) = errors(&smooth.rgb, &reference, w as usize);
     eprintln!("smooth: relRMSE {all:.4}, away from the light {away:.4}");
-    assert!(all < 0.09, "smooth relRMSE {all}");
-    assert!(away < 0.06, "smooth relRMSE away from the light {away}");
+    assert!(all < 0.06, "smooth relRMSE {all}");
+    assert!(away < 0.055, "smooth relRMSE away from the light {away}");
 }

@@ -1,1 +1,221 @@
+//! Python bindings of wavrad: `wavrad._native`, re-exported by the `wavrad`
+//! package (`python/wavrad`).
+//!
+//! This crate only converts and calls: Python arguments become core settings
+//! and enums, numpy arrays become pixel buffers and back, and errors become
+//! the exception tree of [`error`]. Every computation lives in `wavrad-core`
+//! and every file format in `wavrad-io`.
 
+mod error;
+
+use std::path::PathBuf;
+
+use numpy::ndarray::Array3;
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike3, PyArrayLikeDyn, PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use wavrad_core::render::reconstruct::Reconstruction;
+use wavrad_core::render::RenderSettings;
+use wavrad_core::solve::{Silent, SolveSettings};
+
+use error::{Error, Result, SceneError, SolveError, WavradError};
+
+/// A scene loaded from a Mitsuba 3 XML file.
+#[pyclass(module = "wavrad", frozen)]
+struct Scene(wavrad_core::scene::Scene);
+
+#[pymethods]
+impl Scene {
+    /// Number of surfaces (two-sided materials count twice).
+    #[getter]
+    fn surface_count(&self) -> usize {
+        self.0.surfaces.len()
+    }
+
+    /// Film width in pixels.
+    #[getter]
+    fn width(&self) -> u32 {
+        self.0.film.width
+    }
+
+    /// Film height in pixels.
+    #[getter]
+    fn height(&self) -> u32 {
+        self.0.film.height
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene(surfaces={}, film={}x{})",
+            self.0.surfaces.len(),
+            self.0.film.width,
+            self.0.film.height
+        )
+    }
+}
+
+/// A view-independent radiance solution.
+#[pyclass(module = "wavrad", frozen)]
+struct Solution(wavrad_core::solve::Solution);
+
+#[pymethods]
+impl Solution {
+    /// Render the scene's sensor; returns an (height, width, 3) float32 array
+    /// of linear RGB radiance.
+    #[pyo3(signature = (mode=None, spp=None))]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        mode: Option<&str>,
+        spp: Option<u32>,
+    ) -> Result<Bound<'py, PyArray3<f32>>> {
+        let mut settings = RenderSettings::default();
+        if let Some(mode) = mode {
+            settings.mode = reconstruction(mode)?;
+        }
+        if let Some(spp) = spp {
+            settings.samples_per_pixel = spp;
+        }
+        let image = py.allow_threads(|| self.0.render(&settings))?;
+        Ok(pixels(py, image.width, image.height, image.rgb))
+    }
+
+    /// Statistics of the solve (the paper's §5 quantities, times, memory).
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> Result<Bound<'py, PyAny>> {
+        let json = serde_json::to_string(&self.0.stats).expect("Stats serialise to JSON");
+        Ok(py.import("json")?.call_method1("loads", (json,))?)
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.0.stats;
+        format!(
+            "Solution(two_point_nodes={}, two_point_interactions={}, iterations={})",
+            s.two_point_nodes, s.two_point_interactions, s.iterations
+        )
+    }
+}
+
+/// The core reconstruction named by a Python `mode` string.
+fn reconstruction(mode: &str) -> Result<Reconstruction> {
+    match mode {
+        "gather" => Ok(Reconstruction::Gather),
+        "smooth" => Ok(Reconstruction::Smooth),
+        "haar" => Ok(Reconstruction::Haar),
+        other => Err(Error::Argument(format!(
+            "unknown render mode {other:?} (expected \"gather\", \"smooth\" or \"haar\")"
+        ))),
+    }
+}
+
+/// A row-major RGB buffer as an (height, width, 3) array.
+fn pixels(py: Python<'_>, width: u32, height: u32, rgb: Vec<f32>) -> Bound<'_, PyArray3<f32>> {
+    let shape = (height as usize, width as usize, 3);
+    Array3::from_shape_vec(shape, rgb)
+        .expect("images hold width * height * 3 values")
+        .into_pyarray(py)
+}
+
+/// Load a Mitsuba 3 XML scene; keyword arguments override its `<default>`s.
+#[pyfunction]
+#[pyo3(signature = (path, **defines))]
+fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>) -> Result<Scene> {
+    let mut overrides = Vec::new();
+    for (name, value) in defines.into_iter().flatten() {
+        overrides.push((name.extract::<String>()?, value.str()?.to_string()));
+    }
+    let scene = py.allow_threads(|| wavrad_io::load_scene_with(&path, &overrides))?;
+    Ok(Scene(scene))
+}
+
+/// Solve `scene`; unset settings keep the core defaults.
+#[pyfunction]
+#[pyo3(signature = (scene, *, threshold=None, max_level=None, tolerance=None, max_iterations=None))]
+fn solve(
+    py: Python<'_>,
+    scene: &Scene,
+    threshold: Option<f64>,
+    max_level: Option<u32>,
+    tolerance: Option<f64>,
+    max_iterations: Option<u32>,
+) -> Result<Solution> {
+    let mut settings = SolveSettings::default();
+    if let Some(threshold) = threshold {
+        settings.refine.oracle.threshold = threshold;
+    }
+    if let Some(max_level) = max_level {
+        settings.refine.max_level = max_level;
+    }
+    if let Some(tolerance) = tolerance {
+        settings.tolerance = tolerance;
+    }
+    if let Some(max_iterations) = max_iterations {
+        settings.max_iterations = max_iterations;
+    }
+    let solution = py.allow_threads(|| wavrad_core::solve::solve(&scene.0, &settings, &Silent))?;
+    Ok(Solution(solution))
+}
+
+/// Relative RMSE of `a` against the reference `b` (any shape, same size).
+#[pyfunction]
+fn relative_rmse(
+    a: PyArrayLikeDyn<'_, f32, AllowTypeChange>,
+    b: PyArrayLikeDyn<'_, f32, AllowTypeChange>,
+) -> Result<f64> {
+    if a.shape() != b.shape() {
+        return Err(Error::Argument(format!(
+            "relative_rmse needs arrays of one shape, got {:?} and {:?}",
+            a.shape(),
+            b.shape()
+        )));
+    }
+    let a: Vec<f32> = a.as_array().iter().copied().collect();
+    let b: Vec<f32> = b.as_array().iter().copied().collect();
+    Ok(wavrad_io::relative_rmse(&a, &b))
+}
+
+/// Read the RGB channels of an OpenEXR file as an (height, width, 3) array.
+#[pyfunction]
+fn read_exr(py: Python<'_>, path: PathBuf) -> Result<Bound<'_, PyArray3<f32>>> {
+    let (width, height, rgb) = py.allow_threads(|| wavrad_io::read_exr_rgb(&path))?;
+    Ok(pixels(py, width, height, rgb))
+}
+
+/// Write an (height, width, 3) linear RGB array as `.exr` or `.png`.
+#[pyfunction]
+fn write_image(
+    py: Python<'_>,
+    path: PathBuf,
+    image: PyArrayLike3<'_, f32, AllowTypeChange>,
+) -> Result<()> {
+    let [height, width, channels] = *image.shape() else {
+        unreachable!("PyArrayLike3 is three-dimensional")
+    };
+    let (Ok(width), Ok(height), 3) = (u32::try_from(width), u32::try_from(height), channels) else {
+        return Err(Error::Argument(format!(
+            "write_image needs an (height, width, 3) array, got shape {:?}",
+            image.shape()
+        )));
+    };
+    let rgb: Vec<f32> = image.as_array().iter().copied().collect();
+    py.allow_threads(|| wavrad_io::write_image(&path, width, height, &rgb))?;
+    Ok(())
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("WavradError", py.get_type::<WavradError>())?;
+    m.add("SceneError", py.get_type::<SceneError>())?;
+    m.add("SolveError", py.get_type::<SolveError>())?;
+    m.add_class::<Scene>()?;
+    m.add_class::<Solution>()?;
+    m.add_function(wrap_pyfunction!(load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(relative_rmse, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(write_image, m)?)?;
+    Ok(())
+}

@@ -10,6 +10,7 @@
 //!   (already counted as direct).
 
 use crate::kernel::form_factor::point_to_polygon;
+use crate::render::sampling::hash2;
 use crate::scene::{Rgb, Scene};
 use crate::tracing::SceneTracer;
 use glam::{DVec2, DVec3};
@@ -140,19 +141,6 @@ fn square_to_patch(patch: &crate::scene::Patch, uv: DVec2) -> DVec2 {
             }
         }
     }
-}
-
-/// Two reproducible uniform numbers in [0,1) from a seed and an index
-/// (SplitMix64 finaliser).
-fn hash2(seed: u64, index: u64) -> DVec2 {
-    let mix = |mut z: u64| {
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
-    let h = mix(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ mix(index));
-    let to_unit = |bits: u64| (bits >> 11) as f64 / (1u64 << 53) as f64;
-    DVec2::new(to_unit(h), to_unit(mix(h)))
 }
 
 #[cfg(test)]

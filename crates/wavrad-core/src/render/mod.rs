@@ -6,6 +6,7 @@ pub mod camera;
 pub mod film;
 pub mod gather;
 pub mod reconstruct;
+pub mod sampling;
 
 use crate::scene::{Camera, Film};
 use crate::solve::Solution;
@@ -21,10 +22,15 @@ pub struct RenderSettings {
     pub mode: Reconstruction,
     /// Camera rays per pixel (rounded up to a square).
     pub samples_per_pixel: u32,
-    /// Shadow rays per emitter and camera ray in [`Reconstruction::Gather`]:
-    /// a `gather_grid` × `gather_grid` jittered grid.
+    /// In [`Reconstruction::Gather`], how many of the camera rays of a pixel
+    /// also gather (the others use the smooth solution, and the gathering
+    /// ones carry the correction for them: a control variate, so that edges
+    /// get many camera rays and the costly gather only a few).
+    pub gather_samples_per_pixel: u32,
+    /// Shadow rays per emitter and gathering camera ray: a `gather_grid` ×
+    /// `gather_grid` jittered grid.
     pub gather_grid: u32,
-    /// Indirect gather rays per camera ray in [`Reconstruction::Gather`].
+    /// Indirect gather rays per gathering camera ray.
     pub gather_rays: u32,
 }
 
@@ -32,7 +38,8 @@ impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {
             mode: Reconstruction::default(),
-            samples_per_pixel: 64,
+            samples_per_pixel: 512,
+            gather_samples_per_pixel: 128,
             gather_grid: 2,
             gather_rays: 4,
         }
@@ -53,7 +60,10 @@ impl Solution {
         let emitters: Vec<u32> = (0..self.scene.surfaces.len() as u32)
             .filter(|&s| self.scene.surfaces[s as usize].is_emitter())
             .collect();
-        develop(film, settings.samples_per_pixel, |x, y| {
+        // Every `stride`-th camera ray gathers, weighted by `stride`.
+        let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
+        let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
+        develop(film, settings.samples_per_pixel, |x, y, k| {
             let ray = camera.ray(DVec2::new(x / w, y / h), aspect);
             let Some(hit) = self
                 .tracer
@@ -68,8 +78,9 @@ impl Solution {
                 return [0.0; 3];
             }
             let uv = patch.clamp_param(patch.param_of(hit.position));
-            if settings.mode != Reconstruction::Gather {
-                return radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
+            let reconstructed = radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
+            if settings.mode != Reconstruction::Gather || k % stride != 0 {
+                return reconstructed;
             }
             let emission = self.scene.surfaces[s].emission;
             let seed = (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1);
@@ -105,7 +116,9 @@ impl Solution {
                 settings.gather_grid,
                 seed,
             );
-            [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch])
+            let gathered = [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch]);
+            [0, 1, 2]
+                .map(|ch| reconstructed[ch] + stride as f64 * (gathered[ch] - reconstructed[ch]))
         })
     }
 }

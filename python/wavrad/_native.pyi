@@ -1,0 +1,105 @@
+"""Type stubs of the native module ``wavrad._native`` (PyO3)."""
+
+from os import PathLike
+from typing import Any, Literal, final
+
+import numpy as np
+import numpy.typing as npt
+from typing_extensions import TypeAlias
+
+__all__ = [
+    "Scene",
+    "SceneError",
+    "Solution",
+    "SolveError",
+    "WavradError",
+    "load_scene",
+    "read_exr",
+    "relative_rmse",
+    "solve",
+    "write_image",
+]
+
+_Path: TypeAlias = str | PathLike[str]
+_Image: TypeAlias = npt.NDArray[np.float32]
+
+class WavradError(Exception):
+    """Base class of every wavrad error."""
+
+class SceneError(WavradError):
+    """A scene, mesh or image file could not be read or written; the message
+    names the file and line."""
+
+class SolveError(WavradError):
+    """The solver or renderer refused its input (invalid settings, empty scene,
+    no sensor)."""
+
+@final
+class Scene:
+    """A scene loaded from a Mitsuba 3 XML file."""
+
+    @property
+    def surface_count(self) -> int:
+        """Number of surfaces (two-sided materials count twice)."""
+    @property
+    def width(self) -> int:
+        """Film width in pixels."""
+    @property
+    def height(self) -> int:
+        """Film height in pixels."""
+
+@final
+class Solution:
+    """A view-independent radiance solution."""
+
+    def render(
+        self,
+        mode: Literal["gather", "smooth", "haar"] | None = None,
+        spp: int | None = None,
+    ) -> _Image:
+        """Render the scene's sensor as an (height, width, 3) float32 array of
+        linear RGB radiance.
+
+        ``mode``: ``"gather"`` (final gather, the default and most accurate),
+        ``"smooth"`` (bilinear reconstruction of the Haar solution) or
+        ``"haar"`` (the piecewise-constant projection). ``spp``: camera rays
+        per pixel (default 512, of which 128 final-gather). Raises ``ValueError`` for an unknown mode and
+        ``SolveError`` when the scene has no sensor.
+        """
+    @property
+    def stats(self) -> dict[str, Any]:
+        """Statistics of the solve: ``two_point_nodes``,
+        ``two_point_interactions``, ``nodes_per_level``, ``iterations``,
+        ``residual``, ``converged``, ``times`` (seconds per phase),
+        ``peak_memory_bytes`` and the settings used."""
+
+def load_scene(path: _Path, **defines: object) -> Scene:
+    """Load a Mitsuba 3 XML scene; keyword arguments override its
+    ``<default>`` values (converted with ``str()``), like Mitsuba's ``-D``.
+    Raises ``SceneError`` naming the file and line."""
+
+def solve(
+    scene: Scene,
+    *,
+    threshold: float | None = None,
+    max_level: int | None = None,
+    tolerance: float | None = None,
+    max_iterations: int | None = None,
+) -> Solution:
+    """Solve ``scene``. ``threshold``: the kernel oracle's threshold (default
+    1e-3; the paper uses 1e-4); ``max_level``: deepest element level
+    (default 5; the paper uses 8); ``tolerance``:
+    convergence of the Gauss-Seidel sweeps (default 1e-5); ``max_iterations``:
+    most sweeps (default 200). Raises ``SolveError`` for invalid settings."""
+
+def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
+    """Relative RMSE of ``a`` against the reference ``b``:
+    ``sqrt(mean((a - b)**2)) / mean(b)``."""
+
+def read_exr(path: _Path) -> _Image:
+    """Read the RGB channels of an OpenEXR file as an (height, width, 3)
+    float32 array. Raises ``SceneError`` naming the file."""
+
+def write_image(path: _Path, image: npt.ArrayLike) -> None:
+    """Write an (height, width, 3) linear RGB array as ``.exr`` (float) or
+    ``.png`` (8-bit sRGB), chosen by extension."""
