@@ -1,0 +1,121 @@
+//! Invariants of whole solutions: energy balance in an open scene, and
+//! results that do not depend on the number of threads.
+
+use glam::DVec3;
+use wavrad_core::render::RenderSettings;
+use wavrad_core::scene::{Camera, Film, Patch, PixelFilter, Projection, Scene, Surface};
+use wavrad_core::solve::{solve, Silent, SolveSettings};
+
+fn square(z: f64, up: bool) -> Patch {
+    let (s, t) = if up {
+        (DVec3::X, DVec3::Y)
+    } else {
+        (DVec3::Y, DVec3::X)
+    };
+    Patch::Parallelogram {
+        origin: DVec3::new(0.0, 0.0, z),
+        edge_s: s,
+        edge_t: t,
+    }
+}
+
+/// An emitter facing a receiver, open to the void: the receiver's average
+/// radiance is exactly ρ · F(receiver → emitter) · Le (one bounce; the
+/// emitter reflects nothing), with F from Howell's closed form (0.19982 for
+/// parallel unit squares at distance 1).
+#[test]
+fn open_scene_energy_balance_single_bounce() {
+    let scene = Scene::from_surfaces(vec![
+        Surface {
+            name: "receiver".into(),
+            patch: square(0.0, true),
+            reflectance: [0.6, 0.3, 0.1],
+            emission: [0.0; 3],
+        },
+        Surface {
+            name: "emitter".into(),
+            patch: square(1.0, false),
+            reflectance: [0.0; 3],
+            emission: [5.0, 5.0, 5.0],
+        },
+    ]);
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    let f = 0.199_825_3;
+    for (ch, rho) in [0.6, 0.3, 0.1].into_iter().enumerate() {
+        let l = solution.radiance[0][0][ch];
+        assert!(
+            (l - rho * f * 5.0).abs() < 1e-3 * 5.0 * rho,
+            "channel {ch}: {l}"
+        );
+    }
+    // The emitter's radiance is its emission only.
+    assert_eq!(solution.radiance[1][0], [5.0; 3]);
+}
+
+/// Refinement, solve and rendering give bit-identical results on 1 and 2
+/// threads.
+#[test]
+fn results_do_not_depend_on_thread_count() {
+    let mut surfaces: Vec<Surface> =
+        wavrad_core::testing::inward_box(DVec3::splat(-1.0), DVec3::ONE)
+            .into_iter()
+            .map(|patch| Surface {
+                name: "wall".into(),
+                patch,
+                reflectance: [0.7, 0.5, 0.3],
+                emission: [0.0; 3],
+            })
+            .collect();
+    surfaces[1].emission = [3.0; 3];
+    surfaces.push(Surface {
+        name: "blocker".into(),
+        patch: Patch::Triangle([
+            DVec3::new(-0.5, -0.5, 0.0),
+            DVec3::new(0.5, -0.5, 0.0),
+            DVec3::new(0.0, 0.5, 0.2),
+        ]),
+        reflectance: [0.5; 3],
+        emission: [0.0; 3],
+    });
+    let mut scene = Scene::from_surfaces(surfaces);
+    scene.camera = Some(Camera {
+        world_from_camera: glam::DMat4::look_at_rh(
+            DVec3::new(0.0, 0.0, -0.9),
+            DVec3::ZERO,
+            DVec3::Y,
+        )
+        .inverse(),
+        projection: Projection::Perspective {
+            fov_x_degrees: 80.0,
+        },
+        near_clip: 0.01,
+        far_clip: 100.0,
+    });
+    scene.film = Film {
+        width: 12,
+        height: 9,
+        filter: PixelFilter::Gaussian { stddev: 0.5 },
+    };
+    let settings = SolveSettings::default();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let s = solve(&scene, &settings, &Silent).unwrap();
+            let render = RenderSettings {
+                samples_per_pixel: 16,
+                gather_samples_per_pixel: 4,
+                ..RenderSettings::default()
+            };
+            let image = s.render(&render).unwrap();
+            (s.radiance, s.stats.two_point_interactions, image.rgb)
+        })
+    };
+    let (r1, n1, i1) = run(1);
+    let (r2, n2, i2) = run(2);
+    assert_eq!(n1, n2);
+    assert_eq!(r1, r2);
+    assert_eq!(i1, i2);
+}
