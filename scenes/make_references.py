@@ -154,7 +154,9 @@ def main():
     ap.add_argument("--spp", type=int, default=98304, help="total samples per pixel (both halves)")
     ap.add_argument("--pass-spp", type=int, default=1024, help="samples per pixel per render pass")
     ap.add_argument("--res", type=int, default=128, help="image width = height")
-    ap.add_argument("--variant", default="auto", help="mitsuba variant (default: llvm_ad_rgb, else scalar_rgb)")
+    ap.add_argument(
+        "--variant", default="auto", help="mitsuba variant (default: llvm_ad_rgb, else scalar_rgb)"
+    )
     ap.add_argument("--verify-spp", type=int, default=256, help="spp of the XML-vs-dict check")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--fixture-only", action="store_true")

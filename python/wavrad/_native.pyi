@@ -63,8 +63,9 @@ class Solution:
         ``mode``: ``"gather"`` (final gather, the default and most accurate),
         ``"smooth"`` (bilinear reconstruction of the Haar solution) or
         ``"haar"`` (the piecewise-constant projection). ``spp``: camera rays
-        per pixel (default 512, of which 128 final-gather). Raises ``ValueError`` for an unknown mode and
-        ``SolveError`` when the scene has no sensor.
+        per pixel (default 512, of which 128 final-gather). Raises
+        ``ValueError`` for an unknown mode and ``SolveError`` when the scene
+        has no sensor.
         """
     @property
     def stats(self) -> dict[str, Any]:

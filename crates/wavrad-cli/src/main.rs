@@ -71,7 +71,7 @@ struct SolveArgs {
     /// Write statistics (counts per level, times, memory) as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
-    /// Set a scene parameter declared with <default>, as NAME=VALUE (repeatable).
+    /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     define: Vec<String>,
 }

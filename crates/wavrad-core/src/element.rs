@@ -47,7 +47,7 @@ pub struct AreaSample {
 }
 
 impl Patch {
-    /// Point at parameter `uv`: (s,t) ∈ [0,1]² for a parallelogram,
+    /// Point at parameter `uv`: (s,t) ∈ \[0,1\]² for a parallelogram,
     /// barycentric (u,v) towards (v1,v2) with u+v ≤ 1 for a triangle.
     pub fn point_at(&self, uv: DVec2) -> DVec3 {
         match *self {

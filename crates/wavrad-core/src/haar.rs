@@ -99,14 +99,14 @@ mod tests {
             let (k, l) = (1usize.min((1 << level) - 1), 0);
             let n = (1u32 << level) as f64;
             // Average of f over the element by the same grid.
-            let avg = inner(&f, |x, y| {
+            let avg = inner(f, |x, y| {
                 if (x * n) as usize == k && (y * n) as usize == l {
                     n * n
                 } else {
                     0.0
                 }
             });
-            let c = inner(&f, phi(level, k, l));
+            let c = inner(f, phi(level, k, l));
             assert!((coefficient_from_average_2d(avg, level) - c).abs() < 1e-9);
             assert!((average_from_coefficient_2d(c, level) - avg).abs() < 1e-9);
         }
@@ -120,7 +120,7 @@ mod tests {
         // Children averages of the element (k,l) at level 1.
         let n = 4.0;
         let child_avg = |i: usize, j: usize| {
-            inner(&f, |x, y| {
+            inner(f, |x, y| {
                 if (x * n) as usize == 2 * k + i && (y * n) as usize == 2 * l + j {
                     n * n
                 } else {
@@ -148,9 +148,9 @@ mod tests {
             }
         };
         let expect = [
-            inner(&f, psi([1.0, -1.0, 1.0, -1.0])),
-            inner(&f, psi([1.0, 1.0, -1.0, -1.0])),
-            inner(&f, psi([1.0, -1.0, -1.0, 1.0])),
+            inner(f, psi([1.0, -1.0, 1.0, -1.0])),
+            inner(f, psi([1.0, 1.0, -1.0, -1.0])),
+            inner(f, psi([1.0, -1.0, -1.0, 1.0])),
         ];
         for (a, b) in d.iter().zip(expect) {
             assert!((a - b).abs() < 1e-9, "{a} vs {b}");

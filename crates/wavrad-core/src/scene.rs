@@ -15,7 +15,7 @@ pub type Rgb = [f64; 3];
 /// "each u,v pair taking the value in a unit square will span the full area").
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Patch {
-    /// `origin + s·edge_s + t·edge_t`, (s,t) ∈ [0,1]². Normal is
+    /// `origin + s·edge_s + t·edge_t`, (s,t) ∈ \[0,1\]². Normal is
     /// `edge_s × edge_t` normalised.
     Parallelogram {
         /// Corner at (s,t) = (0,0).

@@ -2,7 +2,7 @@
 //! ray lands on the same pixel as in Mitsuba.
 //!
 //! Camera space looks along +z with +y up and +x to the *left*; film
-//! coordinates (u,v) ∈ [0,1]² run right and down from the top-left corner.
+//! coordinates (u,v) ∈ \[0,1\]² run right and down from the top-left corner.
 //! For a perspective sensor the camera-space direction is
 //! `((1−2u)·tan(fov_x/2), (1−2v)·tan(fov_x/2)/aspect, 1)`.
 

@@ -15,19 +15,34 @@ use crate::scene::{Rgb, Scene};
 use crate::tracing::SceneTracer;
 use glam::{DVec2, DVec3};
 
-/// Direct radiance reflected at `x` (normal `normal`) of surface `surface`
-/// towards any direction. `seed` decorrelates the shadow-ray jitter between
-/// pixel samples; `grid` × `grid` rays go to each emitter.
+/// A visible point where light is gathered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GatherPoint {
+    /// Surface the point is on.
+    pub surface: u32,
+    /// The point.
+    pub position: DVec3,
+    /// Front normal of the surface.
+    pub normal: DVec3,
+    /// Decorrelates the ray jitter between camera samples.
+    pub seed: u64,
+}
+
+/// Direct radiance reflected at `point` towards any direction, from every
+/// surface in `emitters`; `grid` × `grid` shadow rays go to each emitter.
 pub fn direct_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
     emitters: &[u32],
-    surface: u32,
-    x: DVec3,
-    normal: DVec3,
+    point: &GatherPoint,
     grid: u32,
-    seed: u64,
 ) -> Rgb {
+    let GatherPoint {
+        surface,
+        position: x,
+        normal,
+        seed,
+    } = *point;
     let rho = scene.surfaces[surface as usize].reflectance;
     let mut out = [0.0; 3];
     for &e in emitters {
@@ -71,20 +86,22 @@ pub fn direct_radiance(
     out
 }
 
-/// Indirect radiance reflected at `x`: `rays` cosine-distributed gather rays
+/// Indirect radiance reflected at `point`: `rays` cosine-distributed gather rays
 /// (stratified), each looking up `outgoing(surface, point)`, the solution's
 /// radiance leaving the point hit minus its emission.
-#[allow(clippy::too_many_arguments)]
 pub fn indirect_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    surface: u32,
-    x: DVec3,
-    normal: DVec3,
+    point: &GatherPoint,
     rays: u32,
-    seed: u64,
     outgoing: impl Fn(u32, DVec3) -> Rgb,
 ) -> Rgb {
+    let GatherPoint {
+        surface,
+        position: x,
+        normal,
+        seed,
+    } = *point;
     let rho = scene.surfaces[surface as usize].reflectance;
     let (t, b) = orthonormal_basis(normal);
     let mut sum = [0.0; 3];
@@ -178,7 +195,13 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let x = scene.surfaces[0].patch.point_at(DVec2::new(0.3, 0.6));
         let n = scene.surfaces[0].patch.normal();
-        let l = indirect_radiance(&scene, &tracer, 0, x, n, 64, 3, |_, _| [2.0; 3]);
+        let point = GatherPoint {
+            surface: 0,
+            position: x,
+            normal: n,
+            seed: 3,
+        };
+        let l = indirect_radiance(&scene, &tracer, &point, 64, |_, _| [2.0; 3]);
         assert!((l[0] - 1.0).abs() < 1e-12, "{}", l[0]);
     }
 
@@ -211,7 +234,13 @@ mod tests {
             },
         ]);
         let tracer = SceneTracer::new(&scene);
-        let l = direct_radiance(&scene, &tracer, &[1], 0, DVec3::ZERO, DVec3::Z, 4, 7);
+        let point = GatherPoint {
+            surface: 0,
+            position: DVec3::ZERO,
+            normal: DVec3::Z,
+            seed: 7,
+        };
+        let l = direct_radiance(&scene, &tracer, &[1], &point, 4);
         let s = 2f64.sqrt();
         let expect = 0.5 * (2.0 / s * (1.0 / s).atan()) / (2.0 * std::f64::consts::PI);
         assert!((l[0] - expect).abs() < 1e-12, "{} vs {expect}", l[0]);

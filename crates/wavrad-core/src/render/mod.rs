@@ -12,6 +12,7 @@ use crate::scene::{Camera, Film};
 use crate::solve::Solution;
 use crate::{Error, Result};
 use film::{develop, Image};
+use gather::GatherPoint;
 use glam::DVec2;
 use reconstruct::{radiance_at, Reconstruction};
 
@@ -83,15 +84,17 @@ impl Solution {
                 return reconstructed;
             }
             let emission = self.scene.surfaces[s].emission;
-            let seed = (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1);
+            let point = GatherPoint {
+                surface: hit.surface,
+                position: hit.position,
+                normal: patch.normal(),
+                seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1),
+            };
             let indirect = gather::indirect_radiance(
                 &self.scene,
                 &self.tracer,
-                hit.surface,
-                hit.position,
-                patch.normal(),
+                &point,
                 settings.gather_rays,
-                seed,
                 |q, point| {
                     let q = q as usize;
                     let patch = &self.scene.surfaces[q].patch;
@@ -110,11 +113,8 @@ impl Solution {
                 &self.scene,
                 &self.tracer,
                 &emitters,
-                hit.surface,
-                hit.position,
-                patch.normal(),
+                &point,
                 settings.gather_grid,
-                seed,
             );
             let gathered = [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch]);
             [0, 1, 2]
