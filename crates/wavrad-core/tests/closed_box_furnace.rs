@@ -43,14 +43,14 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings) -> (f64, f64) {
 
 #[test]
 fn closed_box_furnace_radiance_is_le_over_one_minus_rho() {
-    // Energy is conserved surface by surface; single elements next to the
-    // box's edges carry the error of the virtual-resolution oracle, which
-    // tests the kernel's detail over the split element only.
+    // Energy is conserved surface by surface; single elements in the box's
+    // corners carry the error of projecting a kernel that is singular there
+    // at the default threshold (the area-weighted error is ~4 %).
     let settings = SolveSettings::default();
     let (surfaces, elements) = furnace(0.5, 1.0, &settings);
     assert!(surfaces < 0.01, "worst surface error {surfaces}");
-    assert!(elements < 0.2, "worst element error {elements}");
+    assert!(elements < 0.16, "worst element error {elements}");
     let (surfaces, elements) = furnace(0.8, 2.0, &settings);
     assert!(surfaces < 0.03, "worst surface error {surfaces}");
-    assert!(elements < 0.4, "worst element error {elements}");
+    assert!(elements < 0.28, "worst element error {elements}");
 }

@@ -49,18 +49,37 @@ pub fn faces_away(a: &Patch, c: &Patch) -> bool {
     behind(a, c) || behind(c, a)
 }
 
-/// Geometric throughput T(a,c) with visibility.
+/// The outer integral of a throughput, point by point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OuterSamples {
+    /// Whether the outer (point-sampled) element was `a`, else `c`.
+    pub outer_is_a: bool,
+    /// For each point of `outer.gauss_points(q.points)`, in that order, its
+    /// weight times the visible point-to-polygon factor.
+    pub contributions: Vec<f64>,
+}
+
+impl OuterSamples {
+    /// The throughput: the sum of the contributions.
+    pub fn total(&self) -> f64 {
+        self.contributions.iter().sum()
+    }
+}
+
+/// Geometric throughput T(a,c) with visibility, point by point.
 ///
 /// The outer integral runs over the smaller element with Gauss–Legendre
 /// points; the inner one is Lambert's closed form over the larger element
 /// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
 /// from the point to a grid of points on it.
-pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
-    let (outer, inner) = if a.patch.area() <= c.patch.area() {
-        (a, c)
-    } else {
-        (c, a)
-    };
+pub fn throughput_samples(
+    tracer: &SceneTracer,
+    q: Quadrature,
+    a: KernelElement,
+    c: KernelElement,
+) -> OuterSamples {
+    let outer_is_a = a.patch.area() <= c.patch.area();
+    let (outer, inner) = if outer_is_a { (a, c) } else { (c, a) };
     let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
     let polygon = inner.patch.vertices();
     let targets = inner.patch.gauss_points(q.rays);
@@ -68,30 +87,44 @@ pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: Kern
         let s = tracer.surface_of(prim);
         s == a.surface || s == c.surface
     };
-    let mut sum = 0.0;
-    for x in outer.patch.gauss_points(q.points) {
-        let unoccluded_ff = form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
-        if unoccluded_ff <= 0.0 {
-            continue;
-        }
-        let (mut seen, mut total) = (0usize, 0usize);
-        for y in &targets {
-            if n_outer.dot(y.position - x.position) <= 0.0 {
-                continue;
+    let contributions = outer
+        .patch
+        .gauss_points(q.points)
+        .into_iter()
+        .map(|x| {
+            let unoccluded_ff =
+                form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
+            if unoccluded_ff <= 0.0 {
+                return 0.0;
             }
-            total += 1;
-            if !tracer
-                .occluder
-                .occluded_except(x.position, y.position, skip)
-            {
-                seen += 1;
+            let (mut seen, mut total) = (0usize, 0usize);
+            for y in &targets {
+                if n_outer.dot(y.position - x.position) <= 0.0 {
+                    continue;
+                }
+                total += 1;
+                if !tracer
+                    .occluder
+                    .occluded_except(x.position, y.position, skip)
+                {
+                    seen += 1;
+                }
             }
-        }
-        if total > 0 {
-            sum += x.weight * unoccluded_ff * seen as f64 / total as f64;
-        }
+            if total == 0 {
+                return 0.0;
+            }
+            x.weight * unoccluded_ff * seen as f64 / total as f64
+        })
+        .collect();
+    OuterSamples {
+        outer_is_a,
+        contributions,
     }
-    sum
+}
+
+/// Geometric throughput T(a,c) with visibility ([`throughput_samples`] summed).
+pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
+    throughput_samples(tracer, q, a, c).total()
 }
 
 #[cfg(test)]
