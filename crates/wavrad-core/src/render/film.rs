@@ -1,7 +1,7 @@
 //! Film: pixel sample positions and the reconstruction filter (Mitsuba 3's
 //! `box` and `gaussian` rfilters), so images compare pixel for pixel.
 
-use crate::render::sampling::pixel_offsets;
+use crate::render::sampling::{pixel_offsets, pixel_offsets_len};
 use crate::scene::{Film, PixelFilter};
 use glam::DVec2;
 use rayon::prelude::*;
@@ -40,56 +40,143 @@ impl PixelFilter {
     }
 }
 
+/// A filter's 1D weights tabulated finely over its radius (linear
+/// interpolation; relative error below 1e-6 for the Gaussian), so that
+/// weighting costs no exponential per sample and pixel.
+struct FilterTable {
+    values: Vec<f64>,
+    scale: f64,
+    radius: f64,
+    boxed: bool,
+}
+
+impl FilterTable {
+    const STEPS: usize = 4096;
+
+    fn new(filter: PixelFilter) -> FilterTable {
+        let radius = filter.radius();
+        let scale = Self::STEPS as f64 / radius;
+        let values = (0..=Self::STEPS + 1)
+            .map(|i| filter.eval(i as f64 / scale))
+            .collect();
+        FilterTable {
+            values,
+            scale,
+            radius,
+            boxed: filter == PixelFilter::Box,
+        }
+    }
+
+    fn eval(&self, x: f64) -> f64 {
+        let x = x.abs();
+        if self.boxed {
+            return f64::from(u8::from(x < self.radius));
+        }
+        let t = x * self.scale;
+        let i = t as usize;
+        if i >= Self::STEPS {
+            return 0.0;
+        }
+        let f = t - i as f64;
+        self.values[i] * (1.0 - f) + self.values[i + 1] * f
+    }
+}
+
+/// Samples held in memory at once (about 20 bytes each).
+const WINDOW_SAMPLES: usize = 1 << 21;
+
 /// Render an image: `radiance(x, y, k)` gives the radiance of the film
 /// position (x,y) in pixels for the `k`-th sample of its pixel; samples are
 /// filtered with the film's filter.
+///
+/// Rows are developed in bands; the samples of a band and of the rows its
+/// filter reaches are kept in a sliding window, so memory stays bounded
+/// whatever the image size and sample count.
 pub fn develop(
     film: &Film,
     samples_per_pixel: u32,
     radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
 ) -> Image {
+    develop_in_window(film, samples_per_pixel, radiance, WINDOW_SAMPLES)
+}
+
+fn develop_in_window(
+    film: &Film,
+    samples_per_pixel: u32,
+    radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
+    window_samples: usize,
+) -> Image {
     let (w, h) = (film.width as usize, film.height as usize);
-    let per_pixel = pixel_offsets(0, samples_per_pixel).len();
-    // Position (in the pixel) and radiance of every sample, computed once.
-    let samples: Vec<(DVec2, [f64; 3])> = (0..w * h)
-        .into_par_iter()
-        .flat_map_iter(|pixel| {
-            let corner = DVec2::new((pixel % w) as f64, (pixel / w) as f64);
-            pixel_offsets(pixel as u64, samples_per_pixel)
-                .into_iter()
-                .enumerate()
-                .map(move |(k, o)| (k, o, corner + o))
-        })
-        .map(|(k, o, p)| (o, radiance(p.x, p.y, k)))
-        .collect();
-    // Weighted average of the samples within the filter's radius.
-    let filter = film.filter;
-    let reach = (filter.radius() - 0.5).ceil().max(0.0) as i64;
-    let rgb: Vec<f32> = (0..w * h)
-        .into_par_iter()
-        .flat_map_iter(|pixel| {
-            let (px, py) = ((pixel % w) as i64, (pixel / w) as i64);
-            let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
-            let (mut sum, mut weight) = ([0.0f64; 3], 0.0f64);
-            for qy in (py - reach).max(0)..=(py + reach).min(h as i64 - 1) {
-                for qx in (px - reach).max(0)..=(px + reach).min(w as i64 - 1) {
-                    let base = (qy as usize * w + qx as usize) * per_pixel;
-                    for (o, s) in &samples[base..base + per_pixel] {
-                        let wt =
-                            filter.eval(qx as f64 + o.x - cx) * filter.eval(qy as f64 + o.y - cy);
-                        if wt > 0.0 {
+    let per_pixel = pixel_offsets_len(samples_per_pixel) as usize;
+    let table = FilterTable::new(film.filter);
+    let reach = (film.filter.radius() - 0.5).ceil().max(0.0) as usize;
+    let band = (window_samples / (w * per_pixel).max(1))
+        .saturating_sub(2 * reach)
+        .max(1);
+    // Position in its pixel and radiance of each sample of one row.
+    let sample_row = |y: usize| -> Vec<([f32; 2], [f32; 3])> {
+        (0..w)
+            .into_par_iter()
+            .flat_map_iter(|x| {
+                let pixel = (y * w + x) as u64;
+                let corner = DVec2::new(x as f64, y as f64);
+                pixel_offsets(pixel, samples_per_pixel)
+                    .into_iter()
+                    .enumerate()
+                    .map(move |(k, o)| (k, o, corner + o))
+            })
+            .map(|(k, o, p)| {
+                (
+                    [o.x as f32, o.y as f32],
+                    radiance(p.x, p.y, k).map(|v| v as f32),
+                )
+            })
+            .collect()
+    };
+    let mut rgb = Vec::with_capacity(3 * w * h);
+    // window[i] holds the samples of row first_row + i.
+    let (mut window, mut first_row): (Vec<Vec<([f32; 2], [f32; 3])>>, usize) = (Vec::new(), 0);
+    for b0 in (0..h).step_by(band) {
+        let b1 = (b0 + band).min(h);
+        let (lo, hi) = (b0.saturating_sub(reach), (b1 + reach).min(h));
+        let drop = lo.saturating_sub(first_row).min(window.len());
+        window.drain(..drop);
+        first_row += drop;
+        if window.is_empty() {
+            first_row = lo;
+        }
+        while first_row + window.len() < hi {
+            window.push(sample_row(first_row + window.len()));
+        }
+        // Weighted average of the samples within the filter's radius.
+        let band_rgb: Vec<f32> = (b0 * w..b1 * w)
+            .into_par_iter()
+            .flat_map_iter(|pixel| {
+                let (px, py) = (pixel % w, pixel / w);
+                let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
+                let (mut sum, mut weight) = ([0.0f64; 3], 0.0f64);
+                for qy in py.saturating_sub(reach)..=(py + reach).min(h - 1) {
+                    let row = &window[qy - first_row];
+                    for qx in px.saturating_sub(reach)..=(px + reach).min(w - 1) {
+                        for (o, s) in &row[qx * per_pixel..(qx + 1) * per_pixel] {
+                            let wy = table.eval(qy as f64 + f64::from(o[1]) - cy);
+                            if wy == 0.0 {
+                                continue;
+                            }
+                            let wt = wy * table.eval(qx as f64 + f64::from(o[0]) - cx);
                             for ch in 0..3 {
-                                sum[ch] += wt * s[ch];
+                                sum[ch] += wt * f64::from(s[ch]);
                             }
                             weight += wt;
                         }
                     }
                 }
-            }
-            let inv = if weight > 0.0 { 1.0 / weight } else { 0.0 };
-            sum.map(|x| (x * inv) as f32)
-        })
-        .collect();
+                let inv = if weight > 0.0 { 1.0 / weight } else { 0.0 };
+                sum.map(|x| (x * inv) as f32)
+            })
+            .collect();
+        rgb.extend(band_rgb);
+    }
     Image {
         width: film.width,
         height: film.height,
@@ -109,6 +196,52 @@ mod tests {
         assert!(g.eval(0.0) > g.eval(0.7));
         assert_eq!(PixelFilter::Box.eval(0.49), 1.0);
         assert_eq!(PixelFilter::Box.eval(0.51), 0.0);
+    }
+
+    #[test]
+    fn table_matches_the_filter() {
+        for filter in [
+            PixelFilter::Box,
+            PixelFilter::Gaussian { stddev: 0.5 },
+            PixelFilter::Gaussian { stddev: 0.3 },
+        ] {
+            let t = FilterTable::new(filter);
+            for i in 0..1000 {
+                let x = i as f64 * 0.0031 - 1.2;
+                assert!(
+                    (t.eval(x) - filter.eval(x)).abs() < 1e-6,
+                    "{filter:?} at {x}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn bands_do_not_change_the_image() {
+        // A film wide enough for several bands and an image-dependent signal.
+        let film = Film {
+            width: 300,
+            height: 40,
+            filter: PixelFilter::Gaussian { stddev: 0.5 },
+        };
+        let f = |x: f64, y: f64, _k: usize| [x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0];
+        let img = develop_in_window(&film, 64, f, 300 * 64 * 7); // bands of 3 rows
+        assert_eq!(img, develop(&film, 64, f));
+        // Pixel (150, 20) recomputed directly from its neighbourhood.
+        let (px, py) = (150usize, 20usize);
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for qy in py - 2..=py + 2 {
+            for qx in px - 2..=px + 2 {
+                for o in pixel_offsets((qy * 300 + qx) as u64, 64) {
+                    let (x, y) = (qx as f64 + o.x, qy as f64 + o.y);
+                    let wt = film.filter.eval(x - px as f64 - 0.5)
+                        * film.filter.eval(y - py as f64 - 0.5);
+                    sum += wt * f64::from(f(x, y, 0)[0] as f32);
+                    weight += wt;
+                }
+            }
+        }
+        assert!((f64::from(img.rgb[3 * (py * 300 + px)]) - sum / weight).abs() < 1e-5);
     }
 
     #[test]
