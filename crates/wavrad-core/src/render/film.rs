@@ -82,6 +82,9 @@ impl FilterTable {
     }
 }
 
+/// One developed sample: position in its pixel and radiance.
+type Sample = ([f32; 2], [f32; 3]);
+
 /// Samples held in memory at once (about 20 bytes each).
 const WINDOW_SAMPLES: usize = 1 << 21;
 
@@ -114,7 +117,7 @@ fn develop_in_window(
         .saturating_sub(2 * reach)
         .max(1);
     // Position in its pixel and radiance of each sample of one row.
-    let sample_row = |y: usize| -> Vec<([f32; 2], [f32; 3])> {
+    let sample_row = |y: usize| -> Vec<Sample> {
         (0..w)
             .into_par_iter()
             .flat_map_iter(|x| {
@@ -135,7 +138,7 @@ fn develop_in_window(
     };
     let mut rgb = Vec::with_capacity(3 * w * h);
     // window[i] holds the samples of row first_row + i.
-    let (mut window, mut first_row): (Vec<Vec<([f32; 2], [f32; 3])>>, usize) = (Vec::new(), 0);
+    let (mut window, mut first_row): (Vec<Vec<Sample>>, usize) = (Vec::new(), 0);
     for b0 in (0..h).step_by(band) {
         let b1 = (b0 + band).min(h);
         let (lo, hi) = (b0.saturating_sub(reach), (b1 + reach).min(h));
