@@ -222,4 +222,4 @@ def test_default_settings_match_the_path_traced_reference(reference: np.ndarray)
     solution = wavrad.solve(wavrad.load_scene(CORNELL_BOX))
     image = solution.render()
     assert image.shape == reference.shape
-    assert wavrad.relative_rmse(image, reference) < 0.15
+    assert wavrad.relative_rmse(image, reference) < 0.03
