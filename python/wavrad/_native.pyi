@@ -63,7 +63,8 @@ class Solution:
         ``mode``: ``"gather"`` (final gather, the default and most accurate),
         ``"smooth"`` (bilinear reconstruction of the Haar solution) or
         ``"haar"`` (the piecewise-constant projection). ``spp``: camera rays
-        per pixel (default 512, of which 128 final-gather). Raises
+        per pixel (default 512, or the scene sampler's sample_count if
+        larger; a quarter of them final-gather). Raises
         ``ValueError`` for an unknown mode and ``SolveError`` when the scene
         has no sensor.
         """

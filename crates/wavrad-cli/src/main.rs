@@ -34,11 +34,13 @@ enum Command {
         /// How radiance is reconstructed on surfaces (default: the most accurate).
         #[arg(long, value_enum, default_value_t = Mode::Gather)]
         mode: Mode,
-        /// Camera rays per pixel [default: 512].
+        /// Camera rays per pixel [default: 512, or the scene sampler's
+        /// sample_count if larger].
         #[arg(long)]
         spp: Option<u32>,
         /// Of those, camera rays per pixel that also final-gather, each with 4
-        /// shadow rays per emitter and 4 indirect rays (gather mode) [default: 128].
+        /// shadow rays per emitter and 4 indirect rays (gather mode) [default:
+        /// a quarter].
         #[arg(long)]
         gather_spp: Option<u32>,
     },
@@ -162,18 +164,17 @@ fn run(cli: Cli) -> Result<(), String> {
         } => {
             check_output_extension(&output)?;
             let mut solution = load_and_solve(&args, &progress)?;
-            let defaults = RenderSettings::default();
-            let settings = RenderSettings {
-                mode: match mode {
-                    Mode::Haar => Reconstruction::Haar,
-                    Mode::Smooth => Reconstruction::Smooth,
-                    Mode::Gather => Reconstruction::Gather,
-                },
-                samples_per_pixel: spp.unwrap_or(defaults.samples_per_pixel).max(1),
-                gather_samples_per_pixel: gather_spp
-                    .unwrap_or(defaults.gather_samples_per_pixel)
-                    .max(1),
-                ..defaults
+            let mut settings = RenderSettings::for_scene(&solution.scene);
+            if let Some(n) = spp {
+                settings = settings.with_samples_per_pixel(n);
+            }
+            if let Some(n) = gather_spp {
+                settings.gather_samples_per_pixel = n.max(1);
+            }
+            settings.mode = match mode {
+                Mode::Haar => Reconstruction::Haar,
+                Mode::Smooth => Reconstruction::Smooth,
+                Mode::Gather => Reconstruction::Gather,
             };
             let clock = Instant::now();
             let image = solution

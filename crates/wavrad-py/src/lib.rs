@@ -71,12 +71,12 @@ impl Solution {
         mode: Option<&str>,
         spp: Option<u32>,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
-        let mut settings = RenderSettings::default();
+        let mut settings = RenderSettings::for_scene(&self.0.scene);
         if let Some(mode) = mode {
             settings.mode = reconstruction(mode)?;
         }
         if let Some(spp) = spp {
-            settings.samples_per_pixel = spp;
+            settings = settings.with_samples_per_pixel(spp);
         }
         let image = py.allow_threads(|| self.0.render(&settings))?;
         Ok(pixels(py, image.width, image.height, image.rgb))

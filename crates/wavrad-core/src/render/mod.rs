@@ -8,7 +8,7 @@ pub mod gather;
 pub mod reconstruct;
 pub mod sampling;
 
-use crate::scene::{Camera, Film};
+use crate::scene::{Camera, Film, Scene};
 use crate::solve::Solution;
 use crate::{Error, Result};
 use film::{develop, Image};
@@ -43,6 +43,31 @@ impl Default for RenderSettings {
             gather_samples_per_pixel: 128,
             gather_grid: 2,
             gather_rays: 4,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// The defaults for `scene`: its sampler's `sample_count`, if larger,
+    /// raises the camera rays per pixel (a Mitsuba scene asking for many
+    /// samples expects a clean image; fewer than the default would only add
+    /// aliasing on edges).
+    pub fn for_scene(scene: &Scene) -> RenderSettings {
+        let default = RenderSettings::default();
+        match scene.hints.samples_per_pixel {
+            Some(n) if n > default.samples_per_pixel => default.with_samples_per_pixel(n),
+            _ => default,
+        }
+    }
+
+    /// The same settings with `n` camera rays per pixel, a quarter of which
+    /// gather (the default proportion).
+    pub fn with_samples_per_pixel(self, n: u32) -> RenderSettings {
+        let n = n.max(1);
+        RenderSettings {
+            samples_per_pixel: n,
+            gather_samples_per_pixel: (n / 4).max(1),
+            ..self
         }
     }
 }
@@ -120,5 +145,22 @@ impl Solution {
             [0, 1, 2]
                 .map(|ch| reconstructed[ch] + stride as f64 * (gathered[ch] - reconstructed[ch]))
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scene_sample_count_only_raises_the_camera_rays() {
+        let mut scene = Scene::from_surfaces(Vec::new());
+        let default = RenderSettings::default();
+        scene.hints.samples_per_pixel = Some(64);
+        assert_eq!(RenderSettings::for_scene(&scene), default);
+        scene.hints.samples_per_pixel = Some(4096);
+        let s = RenderSettings::for_scene(&scene);
+        assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (4096, 1024));
+        assert_eq!(s.mode, default.mode);
     }
 }
