@@ -160,7 +160,10 @@ mod tests {
         assert_eq!(RenderSettings::for_scene(&scene), default);
         scene.hints.samples_per_pixel = Some(4096);
         let s = RenderSettings::for_scene(&scene);
-        assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (4096, 1024));
+        assert_eq!(
+            (s.samples_per_pixel, s.gather_samples_per_pixel),
+            (4096, 1024)
+        );
         assert_eq!(s.mode, default.mode);
     }
 }
