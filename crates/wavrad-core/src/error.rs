@@ -10,6 +10,20 @@ pub enum Error {
     /// The scene has no surfaces.
     #[error("the scene has no surfaces")]
     EmptyScene,
+    /// Every pair of surfaces gets a link hierarchy, so the work grows with
+    /// the square of the surface count; past the limit a solve would run for
+    /// hours, so it is refused up front.
+    #[error(
+        "the scene has {surfaces} surfaces (two-sided ones count twice); without clustering \
+         wavrad links every pair, so it accepts at most {limit}: merge small triangles into \
+         larger planar patches"
+    )]
+    TooManySurfaces {
+        /// Surfaces in the scene.
+        surfaces: usize,
+        /// The most wavrad accepts.
+        limit: usize,
+    },
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,

@@ -119,3 +119,19 @@ fn results_do_not_depend_on_thread_count() {
     assert_eq!(r1, r2);
     assert_eq!(i1, i2);
 }
+
+/// A mesh too fine for pairwise linking is refused at once, not solved for hours.
+#[test]
+fn too_many_surfaces_is_a_clear_error() {
+    let tiny = Surface {
+        name: "t".into(),
+        patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
+        reflectance: [0.5; 3],
+        emission: [0.0; 3],
+    };
+    let scene = Scene::from_surfaces(vec![tiny; wavrad_core::solve::MAX_SURFACES + 1]);
+    let err = solve(&scene, &SolveSettings::default(), &Silent)
+        .err()
+        .unwrap();
+    assert!(err.to_string().contains("4097 surfaces"), "{err}");
+}

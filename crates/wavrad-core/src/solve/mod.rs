@@ -16,6 +16,10 @@ use gather::{gather, incoming_transfers};
 use std::collections::BTreeSet;
 use std::time::Instant;
 
+/// Most surfaces a scene may have: all pairs are linked (no clustering yet),
+/// and 4096 surfaces already make 8.4 million surface pairs.
+pub const MAX_SURFACES: usize = 4096;
+
 /// Settings of a solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveSettings {
@@ -62,6 +66,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     settings.validate()?;
     if scene.surfaces.is_empty() {
         return Err(Error::EmptyScene);
+    }
+    if scene.surfaces.len() > MAX_SURFACES {
+        return Err(Error::TooManySurfaces {
+            surfaces: scene.surfaces.len(),
+            limit: MAX_SURFACES,
+        });
     }
     let mut times = PhaseTimes::default();
 
