@@ -1,7 +1,17 @@
 //! Scene fixtures shared by tests, examples and benchmarks.
 
-use crate::scene::Patch;
+use crate::scene::{Patch, Surface};
 use glam::DVec3;
+
+/// A non-emitting surface reflecting 50 % in every channel.
+pub fn grey(patch: Patch) -> Surface {
+    Surface {
+        name: String::new(),
+        patch,
+        reflectance: [0.5; 3],
+        emission: [0.0; 3],
+    }
+}
 
 /// The six faces of the axis-aligned box [min, max], normals pointing inward
 /// (a closed enclosure, as in a furnace test).

@@ -3,22 +3,14 @@
 
 use glam::DVec3;
 use wavrad_core::link::refine_links;
-use wavrad_core::scene::{Patch, Scene, Surface};
+use wavrad_core::scene::{Patch, Scene};
 use wavrad_core::solve::{Silent, SolveSettings};
+use wavrad_core::testing::grey;
 use wavrad_core::tracing::SceneTracer;
-
-fn surface(patch: Patch) -> Surface {
-    Surface {
-        name: String::new(),
-        patch,
-        reflectance: [0.5; 3],
-        emission: [0.0; 3],
-    }
-}
 
 /// Form factor from surface 0 to surface 1, summed over the adaptive links.
 fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
-    let scene = Scene::from_surfaces(vec![surface(a), surface(c)]);
+    let scene = Scene::from_surfaces(vec![grey(a), grey(c)]);
     let tracer = SceneTracer::new(&scene);
     let links = refine_links(&scene, &tracer, SolveSettings::default().refine, &Silent);
     let t: f64 = links.iter().map(|l| l.throughput).sum();

@@ -130,17 +130,9 @@ pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: Kern
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Scene, Surface};
+    use crate::scene::Scene;
+    use crate::testing::grey;
     use glam::DVec3;
-
-    fn surface(patch: Patch) -> Surface {
-        Surface {
-            name: String::new(),
-            patch,
-            reflectance: [0.5; 3],
-            emission: [0.0; 3],
-        }
-    }
 
     #[test]
     fn occluder_between_parallel_squares_blocks_light() {
@@ -159,11 +151,11 @@ mod tests {
             edge_s: DVec3::X * 3.0,
             edge_t: DVec3::Y * 3.0,
         };
-        let open = SceneTracer::new(&Scene::from_surfaces(vec![surface(bottom), surface(top)]));
+        let open = SceneTracer::new(&Scene::from_surfaces(vec![grey(bottom), grey(top)]));
         let closed = SceneTracer::new(&Scene::from_surfaces(vec![
-            surface(bottom),
-            surface(top),
-            surface(blocker),
+            grey(bottom),
+            grey(top),
+            grey(blocker),
         ]));
         let q = Quadrature::default();
         let b = KernelElement {
