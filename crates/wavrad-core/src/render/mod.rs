@@ -89,7 +89,7 @@ impl Solution {
         // Every `stride`-th camera ray gathers, weighted by `stride`.
         let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
         let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
-        develop(film, settings.samples_per_pixel, |x, y, k| {
+        let mut image = develop(film, settings.samples_per_pixel, |x, y, k| {
             let ray = camera.ray(DVec2::new(x / w, y / h), aspect);
             let Some(hit) = self
                 .tracer
@@ -144,7 +144,14 @@ impl Solution {
             let gathered = [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch]);
             [0, 1, 2]
                 .map(|ch| reconstructed[ch] + stride as f64 * (gathered[ch] - reconstructed[ch]))
-        })
+        });
+        // The control variate is unbiased but, with few gathering rays in a
+        // pixel, can undershoot below zero; radiance cannot, so such pixels
+        // are clamped (a bias confined to those pixels, vanishing with spp).
+        for v in &mut image.rgb {
+            *v = v.max(0.0);
+        }
+        image
     }
 }
 
