@@ -17,7 +17,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, reflectance: [0.5; 3], emission: [1.0; 3] })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
 //!     .collect();
 //! let solution = solve(&Scene::from_surfaces(surfaces), &SolveSettings::default(), &Silent).unwrap();
 //! // The furnace: radiance is Le / (1 − ρ) = 2 everywhere.
@@ -25,6 +25,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod brdf;
 pub mod element;
 mod error;
 pub mod haar;

@@ -248,7 +248,11 @@ pub fn refine_links(
         .par_iter()
         .map(|&(p, r)| {
             let (sp, sr) = (&scene.surfaces[p], &scene.surfaces[r]);
-            let rho = |s: &Surface| s.reflectance.iter().fold(0.0f64, |m, &x| m.max(x));
+            let rho = |s: &Surface| {
+                s.brdf
+                    .diffuse_reflectance()
+                    .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
+            };
             let scale = (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area());
             let mut refiner = PairRefiner {
                 tracer,
@@ -297,7 +301,7 @@ mod tests {
                 edge_s: if flip { DVec3::Y } else { DVec3::X },
                 edge_t: if flip { DVec3::X } else { DVec3::Y },
             },
-            reflectance: [0.8; 3],
+            brdf: crate::brdf::Brdf::diffuse([0.8; 3]),
             emission: [0.0; 3],
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);

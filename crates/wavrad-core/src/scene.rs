@@ -6,6 +6,7 @@
 //! normal points to, as Mitsuba's `diffuse` BSDF and `area` emitter do. A
 //! `twosided` material becomes two surfaces, one per side.
 
+use crate::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
 /// Linear RGB triple (reflectance, radiance).
@@ -30,15 +31,15 @@ pub enum Patch {
     Triangle([DVec3; 3]),
 }
 
-/// One planar, one-sided surface with diffuse reflectance and emission.
+/// One planar, one-sided surface: its reflection model and emission.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Surface {
     /// Where it came from, for messages and statistics (shape id or index).
     pub name: String,
     /// Geometry.
     pub patch: Patch,
-    /// Diffuse reflectance ρ per channel, each in [0, 1].
-    pub reflectance: Rgb,
+    /// How it reflects (diffuse exactly when the BRDF is Lambertian).
+    pub brdf: Brdf,
     /// Emitted radiance Le per channel (zero for non-emitters).
     pub emission: Rgb,
 }
@@ -152,6 +153,15 @@ impl Patch {
         }
     }
 
+    /// Unit direction of the first parameter (s for a parallelogram, v1−v0
+    /// for a triangle).
+    pub fn tangent(&self) -> DVec3 {
+        match *self {
+            Patch::Parallelogram { edge_s, .. } => edge_s.normalize_or_zero(),
+            Patch::Triangle([a, b, _]) => (b - a).normalize_or_zero(),
+        }
+    }
+
     /// Unit normal of the front side.
     pub fn normal(&self) -> DVec3 {
         self.cross().normalize_or_zero()
@@ -226,6 +236,17 @@ impl Surface {
     /// True when the surface emits light.
     pub fn is_emitter(&self) -> bool {
         self.emission.iter().any(|&e| e > 0.0)
+    }
+
+    /// True when the surface reflects the same radiance in every direction.
+    pub fn is_diffuse(&self) -> bool {
+        self.brdf.diffuse_reflectance().is_some()
+    }
+
+    /// The shading frame of the BRDF: the front normal and, as tangent, the
+    /// first parameter direction (Mitsuba's dp/du).
+    pub fn frame(&self) -> Frame {
+        Frame::new(self.patch.normal(), self.patch.tangent())
     }
 }
 

@@ -8,7 +8,7 @@ pub fn grey(patch: Patch) -> Surface {
     Surface {
         name: String::new(),
         patch,
-        reflectance: [0.5; 3],
+        brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     }
 }

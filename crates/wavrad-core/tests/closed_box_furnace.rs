@@ -30,7 +30,7 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings, triangles: bool) -> (f64
         .map(|patch| Surface {
             name: "wall".into(),
             patch,
-            reflectance: [rho; 3],
+            brdf: wavrad_core::brdf::Brdf::diffuse([rho; 3]),
             emission: [le; 3],
         })
         .collect();

@@ -29,13 +29,13 @@ fn open_scene_energy_balance_single_bounce() {
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
-            reflectance: [0.6, 0.3, 0.1],
+            brdf: wavrad_core::brdf::Brdf::diffuse([0.6, 0.3, 0.1]),
             emission: [0.0; 3],
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
-            reflectance: [0.0; 3],
+            brdf: wavrad_core::brdf::Brdf::diffuse([0.0; 3]),
             emission: [5.0, 5.0, 5.0],
         },
     ]);
@@ -62,7 +62,7 @@ fn results_do_not_depend_on_thread_count() {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                reflectance: [0.7, 0.5, 0.3],
+                brdf: wavrad_core::brdf::Brdf::diffuse([0.7, 0.5, 0.3]),
                 emission: [0.0; 3],
             })
             .collect();
@@ -74,7 +74,7 @@ fn results_do_not_depend_on_thread_count() {
             DVec3::new(0.5, -0.5, 0.0),
             DVec3::new(0.0, 0.5, 0.2),
         ]),
-        reflectance: [0.5; 3],
+        brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     });
     let mut scene = Scene::from_surfaces(surfaces);
@@ -126,7 +126,7 @@ fn too_many_surfaces_is_a_clear_error() {
     let tiny = Surface {
         name: "t".into(),
         patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
-        reflectance: [0.5; 3],
+        brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     };
     let scene = Scene::from_surfaces(vec![tiny; wavrad_core::solve::MAX_SURFACES + 1]);

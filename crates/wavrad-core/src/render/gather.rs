@@ -43,7 +43,7 @@ pub fn direct_radiance(
         normal,
         seed,
     } = *point;
-    let rho = scene.surfaces[surface as usize].reflectance;
+    let rho = diffuse_reflectance(scene, surface);
     let mut out = [0.0; 3];
     for &e in emitters {
         if e == surface {
@@ -102,7 +102,7 @@ pub fn indirect_radiance(
         normal,
         seed,
     } = *point;
-    let rho = scene.surfaces[surface as usize].reflectance;
+    let rho = diffuse_reflectance(scene, surface);
     let (t, b) = orthonormal_basis(normal);
     let mut sum = [0.0; 3];
     for k in 0..rays {
@@ -132,6 +132,15 @@ pub fn indirect_radiance(
         }
     }
     [0, 1, 2].map(|ch| rho[ch] * sum[ch] / f64::from(rays.max(1)))
+}
+
+/// ρ of a diffuse surface (black for any other: glossy surfaces are gathered
+/// through their BRDF, not here).
+fn diffuse_reflectance(scene: &Scene, surface: u32) -> Rgb {
+    scene.surfaces[surface as usize]
+        .brdf
+        .diffuse_reflectance()
+        .unwrap_or([0.0; 3])
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis (Duff et al. 2017).
@@ -187,7 +196,7 @@ mod tests {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                reflectance: [0.5; 3],
+                brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
                 emission: [0.0; 3],
             })
             .collect();
@@ -223,13 +232,13 @@ mod tests {
             Surface {
                 name: "floor".into(),
                 patch: floor,
-                reflectance: [0.5; 3],
+                brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
                 emission: [0.0; 3],
             },
             Surface {
                 name: "light".into(),
                 patch: light,
-                reflectance: [0.0; 3],
+                brdf: crate::brdf::Brdf::diffuse([0.0; 3]),
                 emission: [1.0; 3],
             },
         ]);

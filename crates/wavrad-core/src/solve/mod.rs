@@ -122,7 +122,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         for (p, surface) in scene.surfaces.iter().enumerate() {
             let gathered = gather(
                 &incoming[p],
-                surface.reflectance,
+                surface.brdf.diffuse_reflectance().unwrap_or([0.0; 3]),
                 trees[p].nodes.len(),
                 &radiance,
             );

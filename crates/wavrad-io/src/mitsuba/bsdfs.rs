@@ -16,23 +16,23 @@
 //! Without `twosided` a surface reflects on its front side only, as in
 //! Mitsuba. Textures and every other plugin are rejected.
 
-use wavrad_core::scene::Rgb;
+use wavrad_core::brdf::Brdf;
 
 use super::params::{Ids, Nested, Object};
 use crate::error::Result;
 
-/// Diffuse reflectance of the front side and, for `twosided`, of the back.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The BRDF of the front side and, for `twosided`, of the back.
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Material {
-    pub front: Rgb,
-    pub back: Option<Rgb>,
+    pub front: Brdf,
+    pub back: Option<Brdf>,
 }
 
 impl Default for Material {
     /// Mitsuba's default for shapes without a BSDF: one-sided diffuse 0.5.
     fn default() -> Self {
         Material {
-            front: [0.5; 3],
+            front: Brdf::diffuse([0.5; 3]),
             back: None,
         }
     }
@@ -67,7 +67,7 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
             }
             obj.finish()?;
             Ok(Material {
-                front: reflectance,
+                front: Brdf::diffuse(reflectance),
                 back: None,
             })
         }
@@ -88,12 +88,12 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
             }
             match sides.as_slice() {
                 [both] => Ok(Material {
-                    front: *both,
-                    back: Some(*both),
+                    front: both.clone(),
+                    back: Some(both.clone()),
                 }),
                 [front, back] => Ok(Material {
-                    front: *front,
-                    back: Some(*back),
+                    front: front.clone(),
+                    back: Some(back.clone()),
                 }),
                 _ => Err(obj.at().error(format!(
                     "bsdf \"twosided\" needs one or two nested BSDFs, found {}",

@@ -154,14 +154,14 @@ pub(crate) fn build_shape(
         out.push(Surface {
             name: name.clone(),
             patch,
-            reflectance: material.front,
+            brdf: material.front.clone(),
             emission,
         });
-        if let Some(back) = material.back {
+        if let Some(back) = &material.back {
             out.push(Surface {
                 name: name.clone(),
                 patch: patch.flipped(),
-                reflectance: back,
+                brdf: back.clone(),
                 emission: [0.0; 3],
             });
         }

@@ -1,0 +1,126 @@
+//! BRDFs: how a surface reflects light (the f_p of the paper's eq. 1).
+//!
+//! Every model implements [`BrdfModel`] in a local shading frame ([`Frame`]:
+//! z is the surface normal, x the tangent along the surface's first parameter
+//! direction, Mitsuba's dp/du). Directions point *away* from the surface and
+//! are unit vectors; every model is one-sided: zero when either direction is
+//! below the surface. [`Brdf`] is the closed set of models wavrad knows, with
+//! the dispatch written once.
+
+pub mod diffuse;
+
+pub use diffuse::Diffuse;
+
+use crate::scene::Rgb;
+use glam::{DVec2, DVec3};
+
+/// An orthonormal shading frame: tangent `s`, bitangent `t`, normal `n`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Tangent (local x), along the first parameter direction.
+    pub s: DVec3,
+    /// Bitangent (local y), `n × s`.
+    pub t: DVec3,
+    /// Normal (local z).
+    pub n: DVec3,
+}
+
+impl Frame {
+    /// The frame with normal `n` whose tangent is `tangent` made orthogonal
+    /// to `n` (any tangent if `tangent` is parallel to `n`).
+    pub fn new(n: DVec3, tangent: DVec3) -> Frame {
+        let n = n.normalize();
+        let s = (tangent - n * n.dot(tangent)).normalize_or_zero();
+        let s = if s == DVec3::ZERO {
+            n.any_orthonormal_vector()
+        } else {
+            s
+        };
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
+    }
+
+    /// A world direction in local coordinates.
+    pub fn to_local(&self, v: DVec3) -> DVec3 {
+        DVec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// A local direction in world coordinates.
+    pub fn to_world(&self, v: DVec3) -> DVec3 {
+        v.x * self.s + v.y * self.t + v.z * self.n
+    }
+}
+
+/// A direction drawn by [`BrdfModel::sample`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BrdfSample {
+    /// The sampled direction (local frame, away from the surface).
+    pub direction: DVec3,
+    /// Its density per unit solid angle.
+    pub pdf: f64,
+    /// `f · cosθ / pdf` for the sampled direction.
+    pub weight: Rgb,
+}
+
+/// What every reflection model provides (directions in the local frame).
+pub trait BrdfModel {
+    /// f(wi → wo) per unit solid angle, without the cosine: light arriving
+    /// from `wi` and leaving towards `wo`.
+    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb;
+    /// Density per unit solid angle with which [`BrdfModel::sample`] given
+    /// `wo` draws `wi`.
+    fn pdf(&self, wo: DVec3, wi: DVec3) -> f64;
+    /// Draw a direction `wi` given `wo` from two uniform numbers `u` and a
+    /// third, `lobe`, that picks among lobes; `None` when none is drawn.
+    fn sample(&self, wo: DVec3, u: DVec2, lobe: f64) -> Option<BrdfSample>;
+}
+
+/// Every reflection model wavrad supports.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Brdf {
+    /// Lambertian (Mitsuba's `diffuse`).
+    Diffuse(Diffuse),
+}
+
+impl Brdf {
+    /// A Lambertian BRDF of reflectance ρ.
+    pub fn diffuse(reflectance: Rgb) -> Brdf {
+        Brdf::Diffuse(Diffuse { reflectance })
+    }
+
+    /// The reflectance ρ of a Lambertian BRDF; `None` for any other (a
+    /// surface is diffuse exactly when its BRDF is).
+    pub fn diffuse_reflectance(&self) -> Option<Rgb> {
+        match self {
+            Brdf::Diffuse(d) => Some(d.reflectance),
+        }
+    }
+
+    fn model(&self) -> &dyn BrdfModel {
+        match self {
+            Brdf::Diffuse(d) => d,
+        }
+    }
+}
+
+impl BrdfModel for Brdf {
+    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
+        self.model().eval(wi, wo)
+    }
+    fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
+        self.model().pdf(wo, wi)
+    }
+    fn sample(&self, wo: DVec3, u: DVec2, lobe: f64) -> Option<BrdfSample> {
+        self.model().sample(wo, u, lobe)
+    }
+}
+
+/// A cosine-distributed direction about +z from two uniform numbers
+/// (Malley's method: a uniform disk point lifted to the hemisphere).
+pub fn cosine_hemisphere(u: DVec2) -> DVec3 {
+    let (r, phi) = (u.x.sqrt(), 2.0 * std::f64::consts::PI * u.y);
+    DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
+}
