@@ -40,6 +40,23 @@ impl ElementId {
         })
     }
 
+    /// True when `other` is this element or lies inside it.
+    pub fn contains(self, other: ElementId) -> bool {
+        other.level >= self.level && other.path >> (2 * (other.level - self.level)) == self.path
+    }
+
+    /// The fraction of `other`'s area that lies in this element: 1 if
+    /// `other` is inside it, 4^{-Δlevel} if it is inside `other`, else 0.
+    pub fn overlap_fraction(self, other: ElementId) -> f64 {
+        if self.contains(other) {
+            1.0
+        } else if other.contains(self) {
+            0.25f64.powi((self.level - other.level) as i32)
+        } else {
+            0.0
+        }
+    }
+
     /// Geometry of this element of the surface `root`.
     pub fn patch(self, root: &Patch) -> Patch {
         let mut p = *root;
@@ -47,6 +64,25 @@ impl ElementId {
             p = p.subdivide()[((self.path >> (2 * i)) & 3) as usize];
         }
         p
+    }
+}
+
+/// A tree whose inner nodes have four consecutive children: element trees,
+/// and the element-pair trees of directional radiance
+/// ([`crate::directional::PairTree`]); push–pull works on either.
+pub trait Hierarchy {
+    /// Number of nodes (node 0 is the root).
+    fn node_count(&self) -> usize;
+    /// Index of the first of the node's four children, if it has any.
+    fn first_child(&self, node: usize) -> Option<usize>;
+}
+
+impl Hierarchy for ElementTree {
+    fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+    fn first_child(&self, node: usize) -> Option<usize> {
+        self.nodes[node].first_child.map(|c| c as usize)
     }
 }
 
@@ -183,5 +219,16 @@ mod tests {
             deep.parent().unwrap().parent().unwrap().parent(),
             Some(ElementId::ROOT)
         );
+    }
+
+    #[test]
+    fn containment_and_overlap_follow_the_paths() {
+        let a = ElementId::ROOT.child(2);
+        let deep = a.child(1).child(3);
+        assert!(ElementId::ROOT.contains(deep) && a.contains(deep) && a.contains(a));
+        assert!(!deep.contains(a) && !ElementId::ROOT.child(1).contains(deep));
+        assert_eq!(a.overlap_fraction(deep), 1.0);
+        assert_eq!(deep.overlap_fraction(a), 1.0 / 16.0);
+        assert_eq!(ElementId::ROOT.child(0).overlap_fraction(a), 0.0);
     }
 }

@@ -26,6 +26,7 @@
 #![deny(missing_docs)]
 
 pub mod brdf;
+pub mod directional;
 pub mod element;
 mod error;
 pub mod haar;
@@ -38,6 +39,7 @@ pub mod scene;
 pub mod solve;
 pub mod stats;
 pub mod testing;
+pub mod three_point;
 pub mod tracing;
 pub mod visibility;
 

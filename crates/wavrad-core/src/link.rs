@@ -229,8 +229,8 @@ impl PairRefiner<'_> {
     }
 }
 
-/// All two-point links of a scene (compute_kernel of §4.2 for diffuse
-/// surfaces), refined in parallel over surface pairs; the result does not
+/// All two-point links of a scene (compute_kernel of §4.2 for pairs with a
+/// diffuse surface), refined in parallel over surface pairs; the result does not
 /// depend on the number of threads.
 pub fn refine_links(
     scene: &Scene,
@@ -242,6 +242,8 @@ pub fn refine_links(
     let pairs: Vec<(usize, usize)> = (0..n)
         .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
         .filter(|&(p, r)| !kernel::faces_away(&scene.surfaces[p].patch, &scene.surfaces[r].patch))
+        // Glossy receivers gather through three-point links instead.
+        .filter(|&(p, r)| scene.surfaces[p].is_diffuse() || scene.surfaces[r].is_diffuse())
         .collect();
     progress.start("kernels", pairs.len() as u64);
     let per_pair: Vec<Vec<Link>> = pairs

@@ -5,6 +5,7 @@
 use crate::hierarchy::ElementTree;
 use crate::link::Link;
 use crate::scene::Scene;
+use crate::solve::gather::Directional;
 use crate::solve::SolveSettings;
 use serde::Serialize;
 
@@ -32,6 +33,11 @@ pub struct Stats {
     pub two_point_nodes: usize,
     /// Links: the paper's "two point interactions".
     pub two_point_interactions: usize,
+    /// Element pairs in all directional structures of glossy surfaces: the
+    /// paper's "three point directional nodes".
+    pub three_point_nodes: usize,
+    /// Three-point links: the paper's "three point interactions".
+    pub three_point_interactions: usize,
     /// Elements per level (index = level).
     pub nodes_per_level: Vec<usize>,
     /// Links per level of their finer element (index = level).
@@ -59,6 +65,7 @@ impl Stats {
         settings: &SolveSettings,
         trees: &[ElementTree],
         links: &[Link],
+        (directional, three_point_interactions): (&[Directional], usize),
         iterations: u32,
         residual: f64,
         times: PhaseTimes,
@@ -84,6 +91,8 @@ impl Stats {
             surfaces: scene.surfaces.len(),
             two_point_nodes: trees.iter().map(|t| t.nodes.len()).sum(),
             two_point_interactions: links.len(),
+            three_point_nodes: directional.iter().map(|d| d.tree.nodes.len()).sum(),
+            three_point_interactions,
             nodes_per_level,
             interactions_per_level,
             threshold: settings.refine.oracle.threshold,

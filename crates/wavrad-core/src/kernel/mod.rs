@@ -7,9 +7,12 @@
 //! (reciprocity holds by construction).
 
 pub mod form_factor;
+pub mod three_point;
 
+use crate::element::AreaSample;
 use crate::scene::Patch;
 use crate::tracing::SceneTracer;
+use glam::DVec3;
 
 /// Quadrature settings for kernel coefficients.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -97,28 +100,38 @@ pub fn throughput_samples(
             if unoccluded_ff <= 0.0 {
                 return 0.0;
             }
-            let (mut seen, mut total) = (0usize, 0usize);
-            for y in &targets {
-                if n_outer.dot(y.position - x.position) <= 0.0 {
-                    continue;
-                }
-                total += 1;
-                if !tracer
-                    .occluder
-                    .occluded_except(x.position, y.position, skip)
-                {
-                    seen += 1;
-                }
-            }
-            if total == 0 {
-                return 0.0;
-            }
-            x.weight * unoccluded_ff * seen as f64 / total as f64
+            x.weight * unoccluded_ff * visible_fraction(tracer, x.position, n_outer, &targets, skip)
         })
         .collect();
     OuterSamples {
         outer_is_a,
         contributions,
+    }
+}
+
+/// Fraction of the `targets` in front of (`x`, `n_x`) that `x` sees, the
+/// primitives `skip` accepts never occluding; 0 when none is in front.
+pub fn visible_fraction(
+    tracer: &SceneTracer,
+    x: DVec3,
+    n_x: DVec3,
+    targets: &[AreaSample],
+    skip: impl Fn(u32) -> bool + Copy,
+) -> f64 {
+    let (mut seen, mut total) = (0usize, 0usize);
+    for y in targets {
+        if n_x.dot(y.position - x) <= 0.0 {
+            continue;
+        }
+        total += 1;
+        if !tracer.occluder.occluded_except(x, y.position, skip) {
+            seen += 1;
+        }
+    }
+    if total == 0 {
+        0.0
+    } else {
+        seen as f64 / total as f64
     }
 }
 

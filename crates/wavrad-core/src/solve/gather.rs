@@ -1,74 +1,233 @@
-//! Gathering (paper §4.2, compute_radiance_solution, eq. 12 for a diffuse
-//! receiver): each element collects ρ·F·L over its incoming links.
+//! Gathering (paper §4.2, compute_radiance_solution): each diffuse element
+//! collects ρ·F·L_{c→a} over its incoming two-point links (eq. 12), each
+//! glossy element pair collects R·L_{c→a} over its three-point links
+//! (eq. 13). L_{c→a} is the source element's radiance when the source is
+//! diffuse, and its directional radiance towards the receiver when glossy.
 
+use crate::directional::PairTree;
 use crate::hierarchy::ElementTree;
 use crate::link::Link;
 use crate::scene::{Rgb, Scene};
+use crate::three_point::ThreePointLink;
+use std::collections::BTreeMap;
+use std::ops::Range;
 
-/// One direction of a link, as seen by its receiving surface.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Directional radiance L_{p→q} of a glossy surface p towards surface q.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Directional {
+    /// The glossy surface.
+    pub p: u32,
+    /// The receiving surface.
+    pub q: u32,
+    /// Element pairs (a on p, b on q).
+    pub tree: PairTree,
+}
+
+/// Where a transfer reads the radiance L_{c→a} it carries.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// A diffuse source element: `radiance[surface][node]`.
+    Element {
+        /// Source surface.
+        surface: u32,
+        /// Node in its element tree.
+        node: u32,
+    },
+    /// A glossy source: the area-weighted mean of `directional[structure]`
+    /// over `nodes` (node, weight) covering the pair (c, a).
+    Directional {
+        /// Index of the directional structure L_{r→p}.
+        structure: u32,
+        /// Range in [`Interactions::covers`].
+        nodes: Range<u32>,
+    },
+}
+
+/// A two-point link in the direction of a diffuse receiver.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Transfer {
     /// Receiving node in the receiver's tree.
     pub receiver: u32,
-    /// Source surface.
-    pub source_surface: u32,
-    /// Source node in the source's tree.
-    pub source: u32,
+    /// Source radiance.
+    pub source: Source,
     /// Form factor F(receiver element, source element).
     pub form_factor: f64,
 }
 
-/// Incoming transfers of every surface, ordered by receiving node (so the
-/// gather is deterministic).
-pub fn incoming_transfers(
-    scene: &Scene,
-    trees: &[ElementTree],
-    links: &[Link],
-) -> Vec<Vec<Transfer>> {
-    let mut incoming = vec![Vec::new(); scene.surfaces.len()];
-    let node = |s: u32, id| {
-        trees[s as usize]
-            .index_of(id)
-            .expect("link element is in its tree")
-    };
-    for l in links {
-        let (a, c) = (node(l.p, l.a), node(l.r, l.c));
-        let area_a = trees[l.p as usize].nodes[a as usize].patch.area();
-        let area_c = trees[l.r as usize].nodes[c as usize].patch.area();
-        incoming[l.p as usize].push(Transfer {
-            receiver: a,
-            source_surface: l.r,
-            source: c,
-            form_factor: l.throughput / area_a,
-        });
-        incoming[l.r as usize].push(Transfer {
-            receiver: c,
-            source_surface: l.p,
-            source: a,
-            form_factor: l.throughput / area_c,
-        });
-    }
-    for list in &mut incoming {
-        list.sort_by_key(|t| (t.receiver, t.source_surface, t.source));
-    }
-    incoming
+/// A three-point link as seen by its receiving directional structure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ThreePointTransfer {
+    /// Nodes of the receiving pair tree that tile the pair (a, b), a range in
+    /// [`Interactions::covers`].
+    pub receivers: Range<u32>,
+    /// Source radiance L_{c→a}.
+    pub source: Source,
+    /// R(c, a, b) per channel.
+    pub coefficient: Rgb,
 }
 
-/// Radiance reflected at each node of the receiving surface from the current
-/// radiance of its sources: `ρ · Σ F · L_source` (before push–pull).
-pub fn gather(
-    incoming: &[Transfer],
-    reflectance: Rgb,
-    nodes: usize,
-    radiance: &[Vec<Rgb>],
-) -> Vec<Rgb> {
-    let mut gathered = vec![[0.0; 3]; nodes];
-    for t in incoming {
-        let l = radiance[t.source_surface as usize][t.source as usize];
-        let g = &mut gathered[t.receiver as usize];
-        for ch in 0..3 {
-            g[ch] += reflectance[ch] * t.form_factor * l[ch];
+/// Every link of a scene, arranged for gathering.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Interactions {
+    /// Incoming two-point transfers of every surface (empty for glossy ones),
+    /// ordered by receiving node so the gather is deterministic.
+    pub incoming: Vec<Vec<Transfer>>,
+    /// The directional structures, ordered by (p, q).
+    pub directional: Vec<Directional>,
+    /// Index of the structure of each (p, q).
+    pub structure_of: BTreeMap<(u32, u32), u32>,
+    /// Incoming three-point transfers of every directional structure.
+    pub incoming_three_point: Vec<Vec<ThreePointTransfer>>,
+    /// (node, weight) lists that sources and receivers refer to.
+    pub covers: Vec<(u32, f64)>,
+}
+
+impl Interactions {
+    /// Arrange `links` and `three_point` for gathering over the element
+    /// `trees`; `directional` lists every (glossy p, q) pair that gets a
+    /// structure.
+    pub fn new(
+        scene: &Scene,
+        trees: &[ElementTree],
+        links: &[Link],
+        three_point: &[ThreePointLink],
+        directional: Vec<Directional>,
+    ) -> Interactions {
+        let structure_of = directional
+            .iter()
+            .enumerate()
+            .map(|(i, d)| ((d.p, d.q), i as u32))
+            .collect();
+        let mut out = Interactions {
+            incoming: vec![Vec::new(); scene.surfaces.len()],
+            incoming_three_point: vec![Vec::new(); directional.len()],
+            directional,
+            structure_of,
+            covers: Vec::new(),
+        };
+        let node = |s: u32, id| {
+            trees[s as usize]
+                .index_of(id)
+                .expect("link element is in its tree")
+        };
+        for l in links {
+            for (p, a, r, c) in [(l.p, l.a, l.r, l.c), (l.r, l.c, l.p, l.a)] {
+                if !scene.surfaces[p as usize].is_diffuse() {
+                    continue; // glossy receivers gather through three-point links
+                }
+                let receiver = node(p, a);
+                let area = trees[p as usize].nodes[receiver as usize].patch.area();
+                let source = out.source(scene, trees, r, c, p, a);
+                out.incoming[p as usize].push(Transfer {
+                    receiver,
+                    source,
+                    form_factor: l.throughput / area,
+                });
+            }
+        }
+        for l in three_point {
+            let s = out.structure_of[&(l.p, l.q)];
+            let cover = out.directional[s as usize].tree.overlaps(l.a, l.b);
+            let receivers = out.push_cover(cover);
+            let source = out.source(scene, trees, l.r, l.c, l.p, l.a);
+            out.incoming_three_point[s as usize].push(ThreePointTransfer {
+                receivers,
+                source,
+                coefficient: l.coefficient,
+            });
+        }
+        for list in &mut out.incoming {
+            list.sort_by(|x, y| x.receiver.cmp(&y.receiver));
+        }
+        out
+    }
+
+    fn push_cover(&mut self, cover: Vec<(u32, f64)>) -> Range<u32> {
+        let start = self.covers.len() as u32;
+        self.covers.extend(cover);
+        start..self.covers.len() as u32
+    }
+
+    /// Where L_{c→a} (c on r, a on p) is read.
+    fn source(
+        &mut self,
+        scene: &Scene,
+        trees: &[ElementTree],
+        r: u32,
+        c: crate::hierarchy::ElementId,
+        p: u32,
+        a: crate::hierarchy::ElementId,
+    ) -> Source {
+        if scene.surfaces[r as usize].is_diffuse() {
+            return Source::Element {
+                surface: r,
+                node: trees[r as usize]
+                    .index_of(c)
+                    .expect("source element is in its tree"),
+            };
+        }
+        let structure = self.structure_of[&(r, p)];
+        let cover = self.directional[structure as usize].tree.overlaps(c, a);
+        Source::Directional {
+            structure,
+            nodes: self.push_cover(cover),
         }
     }
-    gathered
+
+    /// L_{c→a} now: `radiance[surface][node]` for diffuse sources,
+    /// `directional[structure][node]` for glossy ones.
+    pub fn read(&self, source: &Source, radiance: &[Vec<Rgb>], directional: &[Vec<Rgb>]) -> Rgb {
+        match source {
+            Source::Element { surface, node } => radiance[*surface as usize][*node as usize],
+            Source::Directional { structure, nodes } => {
+                let values = &directional[*structure as usize];
+                let mut l = [0.0; 3];
+                for &(n, w) in &self.covers[nodes.start as usize..nodes.end as usize] {
+                    (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
+                }
+                l
+            }
+        }
+    }
+
+    /// Radiance reflected at each node of diffuse surface `p` from the
+    /// current solution: `ρ · Σ F · L_{c→a}` (eq. 12, before push–pull).
+    pub fn gather(
+        &self,
+        p: usize,
+        reflectance: Rgb,
+        nodes: usize,
+        radiance: &[Vec<Rgb>],
+        directional: &[Vec<Rgb>],
+    ) -> Vec<Rgb> {
+        let mut gathered = vec![[0.0; 3]; nodes];
+        for t in &self.incoming[p] {
+            let l = self.read(&t.source, radiance, directional);
+            let g = &mut gathered[t.receiver as usize];
+            for ch in 0..3 {
+                g[ch] += reflectance[ch] * t.form_factor * l[ch];
+            }
+        }
+        gathered
+    }
+
+    /// Radiance reflected at each node of directional structure `s`:
+    /// `Σ R · L_{c→a}` (eq. 13, before push–pull).
+    pub fn gather_three_point(
+        &self,
+        s: usize,
+        radiance: &[Vec<Rgb>],
+        directional: &[Vec<Rgb>],
+    ) -> Vec<Rgb> {
+        let mut gathered = vec![[0.0; 3]; self.directional[s].tree.nodes.len()];
+        for t in &self.incoming_three_point[s] {
+            let l = self.read(&t.source, radiance, directional);
+            let add = [0, 1, 2].map(|ch| t.coefficient[ch] * l[ch]);
+            for &(n, _) in &self.covers[t.receivers.start as usize..t.receivers.end as usize] {
+                let g = &mut gathered[n as usize];
+                (0..3).for_each(|ch| g[ch] += add[ch]);
+            }
+        }
+        gathered
+    }
 }

@@ -6,13 +6,15 @@
 pub mod gather;
 pub mod push_pull;
 
+use crate::directional::PairTree;
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::link::{refine_links, RefineSettings};
 use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
+use crate::three_point::{refine_three_point_links, surface_triples};
 use crate::tracing::SceneTracer;
 use crate::{Error, Result};
-use gather::{gather, incoming_transfers};
+use gather::{Directional, Interactions};
 use std::collections::BTreeSet;
 use std::time::Instant;
 
@@ -47,7 +49,7 @@ pub trait Progress: Sync {
 pub struct Silent;
 impl Progress for Silent {}
 
-/// A view-independent radiance solution of a diffuse scene.
+/// A view-independent radiance solution.
 pub struct Solution {
     /// The scene solved.
     pub scene: Scene,
@@ -55,13 +57,23 @@ pub struct Solution {
     pub tracer: SceneTracer,
     /// One element hierarchy per surface.
     pub trees: Vec<ElementTree>,
-    /// Average radiance of every node of every tree, `radiance[surface][node]`.
+    /// Average radiance of every node of every tree, `radiance[surface][node]`
+    /// (diffuse surfaces; a glossy surface's entries hold its emission).
     pub radiance: Vec<Vec<Rgb>>,
+    /// The links arranged for gathering, with the directional structures of
+    /// glossy surfaces (`interactions.directional`).
+    pub interactions: Interactions,
+    /// Average radiance L_{a→b} of every node of every directional structure.
+    pub directional: Vec<Vec<Rgb>>,
+    /// The refinement settings of the solve (rendering reuses them for the
+    /// eye receiver).
+    pub settings: SolveSettings,
     /// What it took (paper §5 quantities, times, memory).
     pub stats: Stats,
 }
 
-/// Solve `scene` (all surfaces diffuse).
+/// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
+/// ones through three-point links and directional radiance (eq. 13).
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     settings.validate()?;
     if scene.surfaces.is_empty() {
@@ -80,16 +92,29 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     let tracer = SceneTracer::new(scene);
     times.visibility_build_s = clock.elapsed().as_secs_f64();
 
-    // compute_kernel(): adaptive two-point links.
+    // compute_kernel(): adaptive two-point and three-point links.
     let clock = Instant::now();
     let links = refine_links(scene, &tracer, settings.refine, progress);
+    let triples = surface_triples(scene);
+    let three_point = refine_three_point_links(
+        scene,
+        &tracer,
+        settings.refine,
+        &triples,
+        |q| scene.surfaces[q as usize].patch,
+        progress,
+    );
     times.kernels_s = clock.elapsed().as_secs_f64();
 
-    // Element hierarchies holding every linked element.
+    // Element hierarchies holding every linked element, and the directional
+    // structures holding every linked element pair.
     let clock = Instant::now();
     let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
     for l in &links {
         ids[l.p as usize].insert(l.a);
+        ids[l.r as usize].insert(l.c);
+    }
+    for l in &three_point {
         ids[l.r as usize].insert(l.c);
     }
     let trees: Vec<ElementTree> = scene
@@ -98,7 +123,26 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .zip(&ids)
         .map(|(s, ids)| ElementTree::build(&s.patch, ids))
         .collect();
-    let incoming = incoming_transfers(scene, &trees, &links);
+    let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
+    // A glossy surface lit by nothing may still emit towards what it sees.
+    pairs.extend(triples.iter().map(|&(r, p, _)| (p, r)));
+    let mut directional: Vec<Directional> = pairs
+        .into_iter()
+        .map(|(p, q)| Directional {
+            p,
+            q,
+            tree: PairTree::default(),
+        })
+        .collect();
+    let index: std::collections::BTreeMap<(u32, u32), usize> = directional
+        .iter()
+        .enumerate()
+        .map(|(i, d)| ((d.p, d.q), i))
+        .collect();
+    for l in &three_point {
+        directional[index[&(l.p, l.q)]].tree.insert(l.a, l.b);
+    }
+    let interactions = Interactions::new(scene, &trees, &links, &three_point, directional);
     times.hierarchy_s = clock.elapsed().as_secs_f64();
 
     // compute_radiance_solution(): Gauss–Seidel gathering with push–pull.
@@ -109,29 +153,46 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .zip(&trees)
         .map(|(s, t)| vec![s.emission; t.nodes.len()])
         .collect();
+    let mut directional: Vec<Vec<Rgb>> = interactions
+        .directional
+        .iter()
+        .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
+        .collect();
+    let mut structures_of = vec![Vec::new(); scene.surfaces.len()];
+    for (i, d) in interactions.directional.iter().enumerate() {
+        structures_of[d.p as usize].push(i);
+    }
     let brightest = scene
         .surfaces
         .iter()
         .flat_map(|s| s.emission)
         .fold(0.0f64, f64::max);
     let scale = if brightest > 0.0 { brightest } else { 1.0 };
+    let change = |new: Rgb, old: Rgb| {
+        (0..3)
+            .map(|ch| (new[ch] - old[ch]).abs())
+            .fold(0.0, f64::max)
+    };
     let (mut iterations, mut residual) = (0u32, f64::INFINITY);
     progress.start("solving", u64::from(settings.max_iterations));
     while iterations < settings.max_iterations && residual > settings.tolerance {
         residual = 0.0;
         for (p, surface) in scene.surfaces.iter().enumerate() {
-            let gathered = gather(
-                &incoming[p],
-                surface.brdf.diffuse_reflectance().unwrap_or([0.0; 3]),
-                trees[p].nodes.len(),
-                &radiance,
-            );
-            let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
-            let change = (0..3)
-                .map(|ch| (updated[0][ch] - radiance[p][0][ch]).abs())
-                .fold(0.0, f64::max);
-            residual = residual.max(change / scale);
-            radiance[p] = updated;
+            if let Some(rho) = surface.brdf.diffuse_reflectance() {
+                let gathered =
+                    interactions.gather(p, rho, trees[p].nodes.len(), &radiance, &directional);
+                let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
+                residual = residual.max(change(updated[0], radiance[p][0]) / scale);
+                radiance[p] = updated;
+                continue;
+            }
+            for &s in &structures_of[p] {
+                let gathered = interactions.gather_three_point(s, &radiance, &directional);
+                let tree = &interactions.directional[s].tree;
+                let updated = push_pull::push_pull(tree, &gathered, surface.emission);
+                residual = residual.max(change(updated[0], directional[s][0]) / scale);
+                directional[s] = updated;
+            }
         }
         iterations += 1;
         progress.advance(1);
@@ -139,12 +200,24 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     progress.finish();
     times.solve_s = clock.elapsed().as_secs_f64();
 
-    let stats = Stats::new(scene, settings, &trees, &links, iterations, residual, times);
+    let stats = Stats::new(
+        scene,
+        settings,
+        &trees,
+        &links,
+        (&interactions.directional, three_point.len()),
+        iterations,
+        residual,
+        times,
+    );
     Ok(Solution {
         scene: scene.clone(),
         tracer,
         trees,
         radiance,
+        interactions,
+        directional,
+        settings: *settings,
         stats,
     })
 }

@@ -1,21 +1,22 @@
 //! Hierarchical push–pull (paper §4.2, "2d_reconstruct_decompose"): radiance
 //! gathered at any level is pushed down to the leaves, where emission is
 //! added, and area-weighted averages are pulled back up, so every node holds
-//! the average radiance over its element.
+//! the average radiance over its element. The same holds for the element-pair
+//! trees of directional radiance (the paper's 3d_reconstruct_decompose).
 
-use crate::hierarchy::ElementTree;
+use crate::hierarchy::Hierarchy;
 use crate::scene::Rgb;
 
 /// Given the radiance `gathered` at each node of `tree` and the surface's
 /// emitted radiance, return the new radiance average of every node.
-pub fn push_pull(tree: &ElementTree, gathered: &[Rgb], emission: Rgb) -> Vec<Rgb> {
-    let mut radiance = vec![[0.0; 3]; tree.nodes.len()];
+pub fn push_pull(tree: &impl Hierarchy, gathered: &[Rgb], emission: Rgb) -> Vec<Rgb> {
+    let mut radiance = vec![[0.0; 3]; tree.node_count()];
     visit(tree, 0, [0.0; 3], gathered, emission, &mut radiance);
     radiance
 }
 
 fn visit(
-    tree: &ElementTree,
+    tree: &impl Hierarchy,
     node: usize,
     above: Rgb,
     gathered: &[Rgb],
@@ -23,16 +24,13 @@ fn visit(
     out: &mut [Rgb],
 ) -> Rgb {
     let down = add(above, gathered[node]);
-    let value = match tree.nodes[node].first_child {
+    let value = match tree.first_child(node) {
         None => add(emission, down),
         Some(first) => {
             // Children have equal areas, so the area-weighted mean is the mean.
             let mut sum = [0.0; 3];
             for k in 0..4 {
-                sum = add(
-                    sum,
-                    visit(tree, first as usize + k, down, gathered, emission, out),
-                );
+                sum = add(sum, visit(tree, first + k, down, gathered, emission, out));
             }
             sum.map(|x| 0.25 * x)
         }
@@ -48,7 +46,7 @@ fn add(a: Rgb, b: Rgb) -> Rgb {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hierarchy::ElementId;
+    use crate::hierarchy::{ElementId, ElementTree};
     use crate::scene::Patch;
     use glam::DVec3;
     use std::collections::BTreeSet;

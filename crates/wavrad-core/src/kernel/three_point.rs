@@ -1,0 +1,152 @@
+//! Three-point kernel quadrature: the coefficient of the transfer r → p → q
+//! through a glossy surface p over an element triple (paper eq. 8/13 in the
+//! element-average form of DESIGN.md §1):
+//!
+//! `R(c,a,b) = 1/(|a||b|) ∫_a ∫_b ∫_c f_p(x→x'→x'') G(x,x') V(x,x') dA_x dA_x'' dA_x'`
+//!
+//! so that `L_{a→b} += R(c,a,b) · L_{c→a}`. Visibility enters only between
+//! the source c and the glossy element a: L_{a→b} is the radiance *leaving*
+//! a towards b, whether or not b sees it (b's own gather applies that).
+//!
+//! For each Gauss point x' on a, the inner integral over c is Lambert's
+//! closed-form factor F(x', c) times the visible fraction of rays to c — the
+//! same robust treatment of adjacent surfaces as the two-point kernel — and
+//! the BRDF is averaged over c with the weights G(x_i, x') of Gauss points
+//! x_i on c: `∫_c f G V dA ≈ π F V̄ · Σ_i w_i G_i f_i / Σ_i w_i G_i`, exact
+//! for a BRDF constant over c.
+
+use super::{form_factor, visible_fraction, KernelElement, Quadrature};
+use crate::brdf::{Brdf, BrdfModel, Frame};
+use crate::scene::{Patch, Rgb};
+use crate::tracing::SceneTracer;
+use std::f64::consts::PI;
+
+/// The glossy element of a three-point kernel with its reflection model.
+#[derive(Debug, Clone, Copy)]
+pub struct GlossyElement<'a> {
+    /// Element geometry and surface.
+    pub element: KernelElement<'a>,
+    /// The surface's BRDF.
+    pub brdf: &'a Brdf,
+    /// The surface's shading frame.
+    pub frame: Frame,
+}
+
+/// R(c, a, b) per channel: light from source element `c` reflected by glossy
+/// element `a` towards receiver element `b` (which may be a hypothetical
+/// receiver outside the scene: it is never traced against).
+pub fn coefficient(
+    tracer: &SceneTracer,
+    q: Quadrature,
+    c: KernelElement,
+    a: GlossyElement,
+    b: &Patch,
+) -> Rgb {
+    let (n_a, n_c) = (a.element.patch.normal(), c.patch.normal());
+    let polygon = c.patch.vertices();
+    let targets = c.patch.gauss_points(q.rays);
+    let sources = c.patch.gauss_points(q.points);
+    let receivers = b.gauss_points(q.points);
+    let skip = |prim: u32| {
+        let s = tracer.surface_of(prim);
+        s == a.element.surface || s == c.surface
+    };
+    let mut sum = [0.0; 3];
+    for xp in a.element.patch.gauss_points(q.points) {
+        let ff = form_factor::point_to_polygon(xp.position, n_a, &polygon, n_c);
+        if ff <= 0.0 {
+            continue;
+        }
+        let v = visible_fraction(tracer, xp.position, n_a, &targets, skip);
+        if v == 0.0 {
+            continue;
+        }
+        // Incident directions and their geometric weights over c.
+        let incident: Vec<_> = sources
+            .iter()
+            .filter_map(|x| {
+                let d = x.position - xp.position;
+                let r2 = d.length_squared();
+                let w = d.normalize();
+                let g = x.weight * n_a.dot(w) * -n_c.dot(w) / r2;
+                (g > 0.0).then(|| (a.frame.to_local(w), g))
+            })
+            .collect();
+        let g_total: f64 = incident.iter().map(|(_, g)| g).sum();
+        if g_total <= 0.0 {
+            continue;
+        }
+        let scale = xp.weight * PI * ff * v / g_total;
+        for xpp in &receivers {
+            let wo = a.frame.to_local((xpp.position - xp.position).normalize());
+            if wo.z <= 0.0 {
+                continue;
+            }
+            let mut f = [0.0; 3];
+            for (wi, g) in &incident {
+                let fi = a.brdf.eval(*wi, wo);
+                (0..3).for_each(|ch| f[ch] += g * fi[ch]);
+            }
+            (0..3).for_each(|ch| sum[ch] += scale * xpp.weight * f[ch]);
+        }
+    }
+    let norm = a.element.patch.area() * b.area();
+    sum.map(|s| s / norm)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::throughput;
+    use crate::scene::Scene;
+    use crate::testing::grey;
+    use glam::DVec3;
+
+    /// Through a Lambertian p, R(c,a,b) for a receiver b in front of a is
+    /// ρ/π · T(a,c)/|a| · π/π = ρ F(a,c): every direction carries the same
+    /// reflected radiance.
+    #[test]
+    fn lambertian_three_point_kernel_is_rho_times_the_form_factor() {
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(0.2, 0.0, 0.7),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(1.0, 0.0, 0.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::Z,
+        };
+        let scene = Scene::from_surfaces(vec![grey(floor), grey(light), grey(wall)]);
+        let tracer = SceneTracer::new(&scene);
+        let q = Quadrature::default();
+        let brdf = Brdf::diffuse([0.5, 0.25, 0.125]);
+        let a = GlossyElement {
+            element: KernelElement {
+                patch: &floor,
+                surface: 0,
+            },
+            brdf: &brdf,
+            frame: Frame::new(floor.normal(), floor.tangent()),
+        };
+        let c = KernelElement {
+            patch: &light,
+            surface: 1,
+        };
+        let r = coefficient(&tracer, q, c, a, &wall.flipped());
+        let f = throughput(&tracer, q, a.element, c) / floor.area();
+        for (ch, rho) in [0.5, 0.25, 0.125].into_iter().enumerate() {
+            assert!(
+                (r[ch] - rho * f).abs() < 1e-12 * f,
+                "{} vs {}",
+                r[ch],
+                rho * f
+            );
+        }
+    }
+}
