@@ -17,7 +17,7 @@ CORNELL_BOX = SCENES / "cornell-box" / "scene.xml"
 CORNELL_BOX_REFERENCE = SCENES / "cornell-box" / "reference.exr"
 THRESHOLD, MAX_LEVEL = 1e-2, 3
 
-Mode = Optional[Literal["gather", "smooth", "haar"]]
+Mode = Optional[Literal["gather", "direct", "smooth", "haar"]]
 
 
 @pytest.fixture(scope="module")
@@ -120,7 +120,7 @@ def test_empty_scene_is_a_solve_error(tmp_path: Path) -> None:
 # Rendering
 
 
-@pytest.mark.parametrize("mode", ["gather", "smooth", "haar", None])
+@pytest.mark.parametrize("mode", ["gather", "direct", "smooth", "haar", None])
 def test_render_is_a_finite_positive_image(solution: wavrad.Solution, mode: Mode) -> None:
     image = solution.render(mode, spp=4)
     assert image.shape == (32, 32, 3)

@@ -54,15 +54,17 @@ class Solution:
 
     def render(
         self,
-        mode: Literal["gather", "smooth", "haar"] | None = None,
+        mode: Literal["gather", "direct", "smooth", "haar"] | None = None,
         spp: int | None = None,
     ) -> _Image:
         """Render the scene's sensor as an (height, width, 3) float32 array of
         linear RGB radiance.
 
         ``mode``: ``"gather"`` (final gather, the default and most accurate),
-        ``"smooth"`` (bilinear reconstruction of the Haar solution) or
-        ``"haar"`` (the piecewise-constant projection). ``spp``: camera rays
+        ``"direct"`` (the solution looked up along view rays: glossy surfaces
+        from their directional radiance towards the eye), ``"smooth"``
+        (bilinear reconstruction of the Haar solution) or ``"haar"`` (the
+        piecewise-constant projection). ``spp``: camera rays
         per pixel (default 512, or the scene sampler's sample_count if
         larger; a quarter of them final-gather). Raises
         ``ValueError`` for an unknown mode and ``SolveError`` when the scene
@@ -71,7 +73,8 @@ class Solution:
     @property
     def stats(self) -> dict[str, Any]:
         """Statistics of the solve: ``two_point_nodes``,
-        ``two_point_interactions``, ``nodes_per_level``, ``iterations``,
+        ``two_point_interactions``, ``three_point_nodes``,
+        ``three_point_interactions``, ``nodes_per_level``, ``iterations``,
         ``residual``, ``converged``, ``times`` (seconds per phase),
         ``peak_memory_bytes`` and the settings used."""
 

@@ -82,9 +82,15 @@ struct SolveArgs {
 enum Mode {
     /// Piecewise-constant Haar projection, as solved.
     Haar,
-    /// Smooth reconstruction (linear spline dual of the Haar basis).
+    /// Smooth reconstruction (linear spline dual of the Haar basis); glossy
+    /// surfaces smoothly from their radiance towards the eye.
     Smooth,
-    /// Exact direct light per pixel (final gather) plus the smooth solution.
+    /// The solution looked up along view rays: smooth on diffuse surfaces,
+    /// glossy ones from their directional radiance towards the eye.
+    Direct,
+    /// Final gather per pixel over the solution (the most accurate): exact
+    /// direct light plus the smooth solution on diffuse surfaces, light and
+    /// BRDF sampling over the solution on glossy ones.
     Gather,
 }
 
@@ -174,6 +180,7 @@ fn run(cli: Cli) -> Result<(), String> {
             settings.mode = match mode {
                 Mode::Haar => Reconstruction::Haar,
                 Mode::Smooth => Reconstruction::Smooth,
+                Mode::Direct => Reconstruction::Direct,
                 Mode::Gather => Reconstruction::Gather,
             };
             let clock = Instant::now();

@@ -57,6 +57,19 @@ impl ElementId {
         }
     }
 
+    /// The elements of surface `root` containing its parameter `uv`, from
+    /// the root (index 0) down to level `depth`.
+    pub fn path_to(root: &Patch, uv: DVec2, depth: u32) -> Vec<ElementId> {
+        let mut path = vec![ElementId::ROOT];
+        let mut local = uv;
+        for _ in 0..depth {
+            let (k, child_uv) = root.locate_child(local);
+            path.push(path[path.len() - 1].child(k));
+            local = child_uv;
+        }
+        path
+    }
+
     /// Geometry of this element of the surface `root`.
     pub fn patch(self, root: &Patch) -> Patch {
         let mut p = *root;
@@ -155,6 +168,19 @@ impl ElementTree {
             node = self.nodes[node as usize].first_child? + k as u32;
         }
         Some(node)
+    }
+
+    /// The deepest node whose element contains `id` (`id` itself if it is
+    /// in the tree, else the leaf it lies in).
+    pub fn node_containing(&self, id: ElementId) -> u32 {
+        let mut node = 0u32;
+        for i in (0..id.level).rev() {
+            let Some(first) = self.nodes[node as usize].first_child else {
+                break;
+            };
+            node = first + ((id.path >> (2 * i)) & 3) as u32;
+        }
+        node
     }
 
     /// Leaf containing parameter `uv` of the surface, and `uv` in that leaf.

@@ -66,8 +66,7 @@ impl Stats {
         trees: &[ElementTree],
         links: &[Link],
         (directional, three_point_interactions): (&[Directional], usize),
-        iterations: u32,
-        residual: f64,
+        (iterations, residual): (u32, f64),
         times: PhaseTimes,
     ) -> Stats {
         let mut nodes_per_level = Vec::new();

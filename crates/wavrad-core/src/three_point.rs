@@ -105,51 +105,66 @@ impl TripleRefiner<'_> {
 
     /// Compute_3point_Kernel for the triple (c, a, b) whose coefficient is
     /// known.
+    ///
+    /// Virtual resolution splits one element at a time, largest first. The
+    /// details over the children of one element are blind to variation
+    /// along the others (a Lambertian p's kernel does not depend on b at
+    /// all), so when the largest element's details pass, the next one's are
+    /// tested too; the first element whose details fail is subdivided. The
+    /// link is kept only when every refinable element passes.
     fn refine(&mut self, c: Part, a: Part, b: Part, known: Rgb) {
         let max = self.settings.max_level;
-        // Virtual resolution: only the largest refinable element is split.
+        // A hypothetical receiver (the eye) is a point: never split.
+        let point_receiver = self.q as usize >= self.scene.surfaces.len();
         let parts = [c, a, b];
-        let Some(split) = (0..3)
-            .filter(|&i| parts[i].id.level < max)
-            .max_by(|&i, &j| parts[i].patch.area().total_cmp(&parts[j].patch.area()))
-        else {
-            return self.push(&c, &a, &b, known);
-        };
-        let children = parts[split].children();
-        let coefficients = children.map(|child| {
-            let mut t = parts;
-            t[split] = child;
-            self.coefficient(&t[0], &t[1], &t[2])
-        });
-        // Mean of the kernel f·G·V·A_r (paper's parametrisation) over each
-        // child triple: R is an integral over c and an average over a and b.
+        let mut order: Vec<usize> = (0..3)
+            .filter(|&i| parts[i].id.level < max && !(i == 2 && point_receiver))
+            .collect();
+        order.sort_by(|&i, &j| parts[j].patch.area().total_cmp(&parts[i].patch.area()));
+        let mut kept = None;
+        for split in order {
+            let children = parts[split].children();
+            let coefficients = children.map(|child| {
+                let mut t = parts;
+                t[split] = child;
+                self.coefficient(&t[0], &t[1], &t[2])
+            });
+            if !self.smooth(&parts, split, &children, &coefficients) {
+                for (child, k) in children.into_iter().zip(coefficients) {
+                    let mut t = parts;
+                    t[split] = child;
+                    self.refine(t[0], t[1], t[2], k);
+                }
+                return;
+            }
+            // Hierarchical decomposition: the coefficient from the children
+            // (R integrates over c and averages over a and b).
+            let weight = if split == 0 { 1.0 } else { 0.25 };
+            kept.get_or_insert_with(|| {
+                [0, 1, 2].map(|ch| weight * coefficients.iter().map(|k| k[ch]).sum::<f64>())
+            });
+        }
+        self.push(&c, &a, &b, kept.unwrap_or(known));
+    }
+
+    /// The paper's oracle on the children of `parts[split]`: the kernel in
+    /// its parametrisation, K = f·G·V·A_r, averaged over each child triple,
+    /// has Haar details at most the threshold.
+    fn smooth(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> bool {
         let area_c = if split == 0 {
             children[0].patch.area()
         } else {
-            c.patch.area()
+            parts[0].patch.area()
         };
-        let means = coefficients.map(|k| k.iter().fold(0.0f64, |m, &x| m.max(x)) / area_c);
+        let means = k.map(|k| k.iter().fold(0.0f64, |m, &x| m.max(x)) / area_c);
         let other_levels: u32 = (0..3)
             .filter(|&i| i != split)
             .map(|i| parts[i].id.level)
             .sum();
         let r_area = self.scene.surfaces[self.r as usize].patch.area();
-        let smooth =
-            self.settings
-                .oracle
-                .accepts(means, parts[split].id.level, other_levels, r_area);
-        if smooth {
-            // Hierarchical decomposition: the coefficient from the children.
-            let weight = if split == 0 { 1.0 } else { 0.25 };
-            let total =
-                [0, 1, 2].map(|ch| weight * coefficients.iter().map(|k| k[ch]).sum::<f64>());
-            return self.push(&c, &a, &b, total);
-        }
-        for (child, k) in children.into_iter().zip(coefficients) {
-            let mut t = parts;
-            t[split] = child;
-            self.refine(t[0], t[1], t[2], k);
-        }
+        self.settings
+            .oracle
+            .accepts(means, parts[split].id.level, other_levels, r_area)
     }
 }
 

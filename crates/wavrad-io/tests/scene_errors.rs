@@ -46,13 +46,7 @@ fn unsupported_shape() {
 
 #[test]
 fn unsupported_bsdfs() {
-    for plugin in [
-        "conductor",
-        "roughconductor",
-        "roughplastic",
-        "ward",
-        "dielectric",
-    ] {
+    for plugin in ["conductor", "dielectric"] {
         assert_error(
             &format!(
                 "<scene version=\"3.0.0\">\n<shape type=\"rectangle\">\n<bsdf type=\"{plugin}\"/>\n</shape></scene>"
@@ -450,4 +444,131 @@ fn truncated_meshes_never_panic() {
             &[],
         );
     }
+}
+
+fn bsdf_error(bsdf_body: &str, plugin: &str, line: u32, needles: &[&str]) {
+    assert_error(
+        &format!(
+            "<scene version=\"3.0.0\">\n<bsdf type=\"{plugin}\" id=\"b\">\n{bsdf_body}\n</bsdf></scene>"
+        ),
+        line,
+        needles,
+    );
+}
+
+#[test]
+fn glossy_bsdf_parameter_errors() {
+    // Unknown names, listing the known ones.
+    bsdf_error(
+        "<string name=\"distribution\" value=\"phong\"/>",
+        "roughconductor",
+        3,
+        &["unknown distribution \"phong\"", "beckmann, ggx"],
+    );
+    bsdf_error(
+        "<string name=\"material\" value=\"Unobtainium\"/>",
+        "roughconductor",
+        3,
+        &["unknown conductor material \"Unobtainium\"", "Au", "Cu"],
+    );
+    bsdf_error(
+        "<string name=\"variant\" value=\"phong\"/>",
+        "ward",
+        3,
+        &["unknown variant \"phong\"", "ward-duer"],
+    );
+    bsdf_error(
+        "<string name=\"int_ior\" value=\"jelly\"/>",
+        "roughplastic",
+        3,
+        &["unknown int_ior \"jelly\"", "polypropylene", "bk7"],
+    );
+    // Negative roughness, and ward's must be positive.
+    bsdf_error(
+        "<float name=\"alpha\" value=\"-0.1\"/>",
+        "roughconductor",
+        3,
+        &["alpha = -0.1", "non-negative"],
+    );
+    bsdf_error(
+        "\n<float name=\"alphaU\" value=\"0\"/>",
+        "ward",
+        4,
+        &["alphaU = 0", "positive"],
+    );
+    // Reflectances out of range, and ward's ρ_s + ρ_d > 1.
+    bsdf_error(
+        "<rgb name=\"specular_reflectance\" value=\"1.2\"/>",
+        "roughconductor",
+        3,
+        &["specular_reflectance", "outside [0, 1]"],
+    );
+    bsdf_error(
+        "<rgb name=\"diffuse_reflectance\" value=\"0.5, 0.5, 1.5\"/>",
+        "roughplastic",
+        3,
+        &["diffuse_reflectance", "1.5"],
+    );
+    bsdf_error(
+        "<float name=\"specularReflectance\" value=\"0.4\"/>\n<rgb name=\"diffuseReflectance\" value=\"0.7\"/>",
+        "ward",
+        4,
+        &["exceed 1", "specularReflectance + diffuseReflectance"],
+    );
+    // Conflicting or incomplete parameters.
+    bsdf_error(
+        "<string name=\"material\" value=\"Au\"/>\n<rgb name=\"eta\" value=\"0.2\"/>",
+        "roughconductor",
+        4,
+        &["either \"material\" or \"eta\"/\"k\""],
+    );
+    bsdf_error(
+        "<float name=\"alpha_u\" value=\"0.2\"/>",
+        "roughconductor",
+        3,
+        &["both \"alpha_u\" and \"alpha_v\""],
+    );
+    bsdf_error(
+        "<float name=\"alpha_u\" value=\"0.2\"/><float name=\"alpha_v\" value=\"0.3\"/>",
+        "roughplastic",
+        3,
+        &["isotropic only"],
+    );
+    bsdf_error(
+        "<float name=\"alpha\" value=\"0.2\"/><float name=\"alphaU\" value=\"0.2\"/><float name=\"alpha_u\" value=\"0.3\"/>",
+        "ward",
+        3,
+        &["\"alpha_u\" or \"alphaU\", not both"],
+    );
+    bsdf_error(
+        "<float name=\"int_ior\" value=\"1.5\"/><float name=\"ext_ior\" value=\"1.5\"/>",
+        "roughplastic",
+        3,
+        &["must differ"],
+    );
+    bsdf_error(
+        "<boolean name=\"sample_visible\" value=\"false\"/>",
+        "roughplastic",
+        3,
+        &["sample_visible", "not supported"],
+    );
+    // Wrong types and textures.
+    bsdf_error(
+        "<rgb name=\"alpha\" value=\"0.1\"/>",
+        "roughconductor",
+        3,
+        &["\"alpha\"", "must be a <float>"],
+    );
+    bsdf_error(
+        "<texture type=\"bitmap\" name=\"diffuse_reflectance\"/>",
+        "roughplastic",
+        3,
+        &["<texture type=\"bitmap\">", "not supported"],
+    );
+    bsdf_error(
+        "<float name=\"exponent\" value=\"3\"/>",
+        "ward",
+        3,
+        &["unknown parameter \"exponent\"", "bsdf \"ward\""],
+    );
 }

@@ -371,3 +371,120 @@ fn film_filter_sampler_and_orthographic() {
     assert_eq!(s.film.filter, PixelFilter::Gaussian { stddev: 0.3 });
     assert_eq!(s.hints.samples_per_pixel, Some(4));
 }
+
+fn bsdf_of(bsdf: &str) -> wavrad_core::brdf::Brdf {
+    let s = scene(&format!("<shape type=\"rectangle\">{bsdf}</shape>"));
+    s.surfaces[0].brdf.clone()
+}
+
+#[test]
+fn glossy_bsdfs_and_their_defaults() {
+    use wavrad_core::brdf::fresnel::conductor_ior;
+    use wavrad_core::brdf::{
+        Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
+        WardVariant,
+    };
+    // Mitsuba's defaults.
+    assert_eq!(
+        bsdf_of("<bsdf type=\"ward\"/>"),
+        Brdf::Ward(Ward::default())
+    );
+    assert_eq!(
+        bsdf_of("<bsdf type=\"roughconductor\"/>"),
+        Brdf::RoughConductor(RoughConductor::default())
+    );
+    let Brdf::RoughPlastic(p) = bsdf_of("<bsdf type=\"roughplastic\"/>") else {
+        panic!()
+    };
+    assert_eq!(*p.params(), RoughPlasticParams::default());
+    // Glossy models are not diffuse.
+    assert!(bsdf_of("<bsdf type=\"ward\"/>")
+        .diffuse_reflectance()
+        .is_none());
+
+    // Ward with Mitsuba 0.6 camelCase names.
+    let w = bsdf_of(
+        r#"<bsdf type="ward"><string name="variant" value="ward-duer"/>
+           <float name="alphaU" value="0.05"/><float name="alpha_v" value="0.3"/>
+           <rgb name="specularReflectance" value="0.1, 0.2, 0.3"/>
+           <spectrum name="diffuse_reflectance" value="0.4"/></bsdf>"#,
+    );
+    assert_eq!(
+        w,
+        Brdf::Ward(Ward {
+            variant: WardVariant::WardDuer,
+            alpha_u: 0.05,
+            alpha_v: 0.3,
+            specular_reflectance: [0.1, 0.2, 0.3],
+            diffuse_reflectance: [0.4; 3],
+        })
+    );
+    // `alpha` sets both directions.
+    let Brdf::Ward(w) = bsdf_of(r#"<bsdf type="ward"><float name="alpha" value="0.2"/></bsdf>"#)
+    else {
+        panic!()
+    };
+    assert_eq!((w.alpha_u, w.alpha_v), (0.2, 0.2));
+
+    // Conductors: anisotropic GGX with a named metal, or explicit eta/k.
+    let au = conductor_ior("Au").unwrap();
+    assert_eq!(
+        bsdf_of(
+            r#"<bsdf type="roughconductor"><string name="distribution" value="GGX"/>
+               <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.4"/>
+               <string name="material" value="Au"/></bsdf>"#
+        ),
+        Brdf::RoughConductor(RoughConductor {
+            distribution: Microfacet::new(MicrofacetType::Ggx, 0.1, 0.4),
+            eta: au.eta,
+            k: au.k,
+            specular_reflectance: [1.0; 3],
+        })
+    );
+    let Brdf::RoughConductor(c) = bsdf_of(
+        r#"<bsdf type="roughconductor"><rgb name="eta" value="0.2, 0.9, 1.1"/>
+           <float name="k" value="3"/><rgb name="specular_reflectance" value="0.9"/>
+           <boolean name="sample_visible" value="true"/></bsdf>"#,
+    ) else {
+        panic!()
+    };
+    assert_eq!(
+        (c.eta, c.k, c.specular_reflectance),
+        ([0.2, 0.9, 1.1], [3.0; 3], [0.9; 3])
+    );
+
+    // Plastic with named indices.
+    let Brdf::RoughPlastic(p) = bsdf_of(
+        r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/>
+           <float name="alpha" value="0.3"/><string name="int_ior" value="bk7"/>
+           <string name="ext_ior" value="water"/><boolean name="nonlinear" value="true"/>
+           <rgb name="diffuse_reflectance" value="0.2, 0.6, 0.3"/></bsdf>"#,
+    ) else {
+        panic!()
+    };
+    assert_eq!(
+        *p.params(),
+        RoughPlasticParams {
+            distribution: MicrofacetType::Ggx,
+            alpha: 0.3,
+            int_ior: 1.5046,
+            ext_ior: 1.3330,
+            specular_reflectance: [1.0; 3],
+            diffuse_reflectance: [0.2, 0.6, 0.3],
+            nonlinear: true,
+        }
+    );
+    assert!(p == RoughPlastic::new(*p.params()));
+
+    // twosided wraps glossy models too.
+    let s = scene(
+        r#"<shape type="rectangle"><bsdf type="twosided">
+           <bsdf type="roughconductor"/><bsdf type="ward"/></bsdf></shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 2);
+    assert!(s
+        .surfaces
+        .iter()
+        .any(|x| matches!(x.brdf, Brdf::RoughConductor(_))));
+    assert!(s.surfaces.iter().any(|x| matches!(x.brdf, Brdf::Ward(_))));
+}

@@ -100,14 +100,7 @@ impl Solution {
 
 /// The core reconstruction named by a Python `mode` string.
 fn reconstruction(mode: &str) -> Result<Reconstruction> {
-    match mode {
-        "gather" => Ok(Reconstruction::Gather),
-        "smooth" => Ok(Reconstruction::Smooth),
-        "haar" => Ok(Reconstruction::Haar),
-        other => Err(Error::Argument(format!(
-            "unknown render mode {other:?} (expected \"gather\", \"smooth\" or \"haar\")"
-        ))),
-    }
+    mode.parse().map_err(Error::Argument)
 }
 
 /// A row-major RGB buffer as an (height, width, 3) array.

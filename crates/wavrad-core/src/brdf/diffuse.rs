@@ -2,7 +2,7 @@
 //!
 //! | parameter     | meaning                       | default |
 //! |---------------|-------------------------------|---------|
-//! | `reflectance` | albedo ρ per channel, in [0,1] | 0.5     |
+//! | `reflectance` | albedo ρ per channel, in \[0,1\] | 0.5     |
 
 use super::{cosine_hemisphere, BrdfModel, BrdfSample};
 use crate::scene::Rgb;

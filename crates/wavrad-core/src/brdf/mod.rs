@@ -6,10 +6,29 @@
 //! are unit vectors; every model is one-sided: zero when either direction is
 //! below the surface. [`Brdf`] is the closed set of models wavrad knows, with
 //! the dispatch written once.
+//!
+//! | model (file)       | Mitsuba plugin                  | lobes                          |
+//! |--------------------|---------------------------------|--------------------------------|
+//! | [`Diffuse`]        | `diffuse`                       | Lambertian                     |
+//! | [`Ward`]           | `ward` (Mitsuba 0.6)            | anisotropic Ward + Lambertian  |
+//! | [`RoughConductor`] | `roughconductor` (Mitsuba 3)    | microfacet, conductor Fresnel  |
+//! | [`RoughPlastic`]   | `roughplastic` (Mitsuba 3)      | rough dielectric coating over Lambertian |
+//!
+//! [`microfacet`] holds the Beckmann/GGX distributions and [`fresnel`] the
+//! Fresnel terms and named indices of refraction they share.
 
+pub mod conductor;
 pub mod diffuse;
+pub mod fresnel;
+pub mod microfacet;
+pub mod plastic;
+pub mod ward;
 
+pub use conductor::RoughConductor;
 pub use diffuse::Diffuse;
+pub use microfacet::{Microfacet, MicrofacetType};
+pub use plastic::{RoughPlastic, RoughPlasticParams};
+pub use ward::{Ward, WardVariant};
 
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
@@ -83,6 +102,12 @@ pub trait BrdfModel {
 pub enum Brdf {
     /// Lambertian (Mitsuba's `diffuse`).
     Diffuse(Diffuse),
+    /// Anisotropic Ward (Mitsuba 0.6's `ward`).
+    Ward(Ward),
+    /// Rough conductor (Mitsuba 3's `roughconductor`).
+    RoughConductor(RoughConductor),
+    /// Rough plastic (Mitsuba 3's `roughplastic`).
+    RoughPlastic(RoughPlastic),
 }
 
 impl Brdf {
@@ -96,12 +121,16 @@ impl Brdf {
     pub fn diffuse_reflectance(&self) -> Option<Rgb> {
         match self {
             Brdf::Diffuse(d) => Some(d.reflectance),
+            _ => None,
         }
     }
 
     fn model(&self) -> &dyn BrdfModel {
         match self {
             Brdf::Diffuse(d) => d,
+            Brdf::Ward(w) => w,
+            Brdf::RoughConductor(c) => c,
+            Brdf::RoughPlastic(p) => p,
         }
     }
 }

@@ -9,6 +9,7 @@
 //!   hitting points y_i, with the solution's radiance there less its emission
 //!   (already counted as direct).
 
+use crate::brdf::BrdfModel;
 use crate::kernel::form_factor::point_to_polygon;
 use crate::render::sampling::hash2;
 use crate::scene::{Rgb, Scene};
@@ -132,6 +133,100 @@ pub fn indirect_radiance(
         }
     }
     [0, 1, 2].map(|ch| rho[ch] * sum[ch] / f64::from(rays.max(1)))
+}
+
+/// Radiance leaving the glossy point `point` towards the world direction
+/// `wo`: its emission, light reflected straight from `emitters` by light
+/// sampling and BRDF sampling combined with the balance heuristic (Veach
+/// 1997), and the rest of the solution by BRDF sampling, each sampled
+/// direction looking up `outgoing(surface, point)`, the solution's radiance
+/// leaving the point hit towards `point`. `samples` light samples per
+/// emitter and BRDF samples.
+pub fn glossy_radiance(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    emitters: &[u32],
+    point: &GatherPoint,
+    wo: DVec3,
+    samples: u32,
+    outgoing: impl Fn(u32, DVec3) -> Rgb,
+) -> Rgb {
+    let GatherPoint {
+        surface,
+        position: x,
+        normal,
+        seed,
+    } = *point;
+    let s = &scene.surfaces[surface as usize];
+    let frame = s.frame();
+    let wo_local = frame.to_local(wo);
+    if wo_local.z <= 0.0 {
+        return [0.0; 3];
+    }
+    let mut out = s.emission;
+    let n = f64::from(samples.max(1));
+    // Density of light sampling emitter e towards direction `wi` hitting y.
+    let light_pdf = |e: u32, wi: DVec3, y: DVec3| {
+        let light = &scene.surfaces[e as usize].patch;
+        let cos_y = -light.normal().dot(wi);
+        (cos_y > 0.0).then(|| (y - x).length_squared() / (cos_y * light.area()))
+    };
+    // Light sampling.
+    for &e in emitters {
+        if e == surface {
+            continue;
+        }
+        let light = &scene.surfaces[e as usize];
+        let skip = |prim: u32| {
+            let h = tracer.surface_of(prim);
+            h == e || h == surface
+        };
+        for j in 0..samples {
+            let u = hash2(seed ^ 0x2545_f491, u64::from(e) << 32 | u64::from(j));
+            let y = light.patch.point_at(square_to_patch(&light.patch, u));
+            let wi = (y - x).normalize();
+            let Some(p_light) = light_pdf(e, wi, y) else {
+                continue;
+            };
+            if normal.dot(wi) <= 0.0 || tracer.occluder.occluded_except(x, y, skip) {
+                continue;
+            }
+            let wi_local = frame.to_local(wi);
+            let f = s.brdf.eval(wi_local, wo_local);
+            let p_brdf = s.brdf.pdf(wo_local, wi_local);
+            let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
+            (0..3).for_each(|ch| out[ch] += w * f[ch] * light.emission[ch]);
+        }
+    }
+    // BRDF sampling: emitters (weighted against light sampling) and the rest
+    // of the solution.
+    for k in 0..samples {
+        let u = hash2(seed ^ 0x9e37_79b9, u64::from(k));
+        let lobe = hash2(seed ^ 0x7f4a_7c15, u64::from(k)).x;
+        let Some(sample) = s.brdf.sample(wo_local, u, lobe) else {
+            continue;
+        };
+        let wi = frame.to_world(sample.direction);
+        let Some(hit) = tracer.trace(x, wi, 1e-7, f64::INFINITY) else {
+            continue;
+        };
+        let q = &scene.surfaces[hit.surface as usize];
+        if hit.surface == surface || q.patch.normal().dot(wi) >= 0.0 {
+            continue; // itself, or the back of a one-sided surface: black
+        }
+        let l = outgoing(hit.surface, hit.position);
+        let emitted_weight = if emitters.contains(&hit.surface) {
+            light_pdf(hit.surface, wi, hit.position)
+                .map_or(1.0, |p_light| sample.pdf / (p_light + sample.pdf))
+        } else {
+            1.0
+        };
+        for ch in 0..3 {
+            let reflected = (l[ch] - q.emission[ch]).max(0.0);
+            out[ch] += sample.weight[ch] * (emitted_weight * q.emission[ch] + reflected) / n;
+        }
+    }
+    out
 }
 
 /// ρ of a diffuse surface (black for any other: glossy surfaces are gathered

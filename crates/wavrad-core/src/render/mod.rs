@@ -3,17 +3,19 @@
 //! film ([`film`]).
 
 pub mod camera;
+pub mod eye;
 pub mod film;
 pub mod gather;
 pub mod reconstruct;
 pub mod sampling;
 
-use crate::scene::{Camera, Film, Scene};
+use crate::hierarchy::ElementId;
+use crate::scene::{Camera, Film, Rgb, Scene};
 use crate::solve::Solution;
 use crate::{Error, Result};
 use film::{develop, Image};
 use gather::GatherPoint;
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use reconstruct::{radiance_at, Reconstruction};
 
 /// How to render a view.
@@ -33,6 +35,9 @@ pub struct RenderSettings {
     pub gather_grid: u32,
     /// Indirect gather rays per gathering camera ray.
     pub gather_rays: u32,
+    /// On glossy surfaces in [`Reconstruction::Gather`], where every camera
+    /// ray gathers: light samples per emitter and BRDF samples per ray.
+    pub glossy_samples: u32,
 }
 
 impl Default for RenderSettings {
@@ -43,6 +48,7 @@ impl Default for RenderSettings {
             gather_samples_per_pixel: 128,
             gather_grid: 2,
             gather_rays: 4,
+            glossy_samples: 1,
         }
     }
 }
@@ -86,6 +92,11 @@ impl Solution {
         let emitters: Vec<u32> = (0..self.scene.surfaces.len() as u32)
             .filter(|&s| self.scene.surfaces[s as usize].is_emitter())
             .collect();
+        // Glossy surfaces outside the gather mode show their radiance towards
+        // this view, gathered once into the eye.
+        let glossy = self.scene.surfaces.iter().any(|s| !s.is_diffuse());
+        let eye = (glossy && settings.mode != Reconstruction::Gather)
+            .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         // Every `stride`-th camera ray gathers, weighted by `stride`.
         let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
         let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
@@ -98,39 +109,58 @@ impl Solution {
                 return [0.0; 3];
             };
             let s = hit.surface as usize;
-            let patch = &self.scene.surfaces[s].patch;
+            let surface = &self.scene.surfaces[s];
+            let patch = &surface.patch;
             // One-sided surfaces are black from behind (Mitsuba's diffuse).
             if patch.normal().dot(ray.direction) >= 0.0 {
                 return [0.0; 3];
             }
             let uv = patch.clamp_param(patch.param_of(hit.position));
-            let reconstructed = radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
-            if settings.mode != Reconstruction::Gather || k % stride != 0 {
-                return reconstructed;
-            }
-            let emission = self.scene.surfaces[s].emission;
             let point = GatherPoint {
                 surface: hit.surface,
                 position: hit.position,
                 normal: patch.normal(),
+                seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(k as u64),
+            };
+            let outgoing =
+                |q: u32, y: DVec3| self.outgoing_radiance(q, y, hit.surface, hit.position);
+            if !surface.is_diffuse() {
+                if let Some(eye) = &eye {
+                    let mode = match settings.mode {
+                        Reconstruction::Smooth => Reconstruction::Smooth,
+                        _ => Reconstruction::Haar,
+                    };
+                    return eye.surfaces[s]
+                        .as_ref()
+                        .map_or([0.0; 3], |(tree, l)| radiance_at(tree, l, uv, mode));
+                }
+                // Every camera ray gathers through the BRDF.
+                return gather::glossy_radiance(
+                    &self.scene,
+                    &self.tracer,
+                    &emitters,
+                    &point,
+                    -ray.direction,
+                    settings.glossy_samples,
+                    outgoing,
+                );
+            }
+            let reconstructed = radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
+            if settings.mode != Reconstruction::Gather || k % stride != 0 {
+                return reconstructed;
+            }
+            let point = GatherPoint {
                 seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1),
+                ..point
             };
             let indirect = gather::indirect_radiance(
                 &self.scene,
                 &self.tracer,
                 &point,
                 settings.gather_rays,
-                |q, point| {
-                    let q = q as usize;
-                    let patch = &self.scene.surfaces[q].patch;
-                    let uv = patch.clamp_param(patch.param_of(point));
-                    let l = radiance_at(
-                        &self.trees[q],
-                        &self.radiance[q],
-                        uv,
-                        Reconstruction::Smooth,
-                    );
-                    let e = self.scene.surfaces[q].emission;
+                |q, y| {
+                    let l = outgoing(q, y);
+                    let e = self.scene.surfaces[q as usize].emission;
                     [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
                 },
             );
@@ -141,7 +171,7 @@ impl Solution {
                 &point,
                 settings.gather_grid,
             );
-            let gathered = [0, 1, 2].map(|ch| emission[ch] + direct[ch] + indirect[ch]);
+            let gathered = [0, 1, 2].map(|ch| surface.emission[ch] + direct[ch] + indirect[ch]);
             [0, 1, 2]
                 .map(|ch| reconstructed[ch] + stride as f64 * (gathered[ch] - reconstructed[ch]))
         });
@@ -152,6 +182,35 @@ impl Solution {
             *v = v.max(0.0);
         }
         image
+    }
+
+    /// Radiance the solution says leaves point `y` of surface `q` towards
+    /// point `x` of surface `s`: the smooth reconstruction for a diffuse `q`,
+    /// the directional radiance L_{q→s} of the element pair holding (y, x)
+    /// for a glossy one.
+    pub fn outgoing_radiance(&self, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
+        let surface = &self.scene.surfaces[q as usize];
+        let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
+        if surface.is_diffuse() {
+            let q = q as usize;
+            return radiance_at(
+                &self.trees[q],
+                &self.radiance[q],
+                uv_y,
+                Reconstruction::Smooth,
+            );
+        }
+        let Some(&index) = self.interactions.structure_of.get(&(q, s)) else {
+            return surface.emission;
+        };
+        let receiver = &self.scene.surfaces[s as usize].patch;
+        let uv_x = receiver.clamp_param(receiver.param_of(x));
+        let depth = self.settings.refine.max_level;
+        let path_y = ElementId::path_to(&surface.patch, uv_y, depth);
+        let path_x = ElementId::path_to(receiver, uv_x, depth);
+        let tree = &self.interactions.directional[index as usize].tree;
+        let leaf = tree.leaf_at(|l| path_y[l as usize], |l| path_x[l as usize]);
+        self.directional[index as usize][leaf as usize]
     }
 }
 

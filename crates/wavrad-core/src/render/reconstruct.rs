@@ -22,6 +22,11 @@ pub enum Reconstruction {
     Haar,
     /// Bilinear interpolation of leaf averages (dual linear-spline basis).
     Smooth,
+    /// The solution looked up along the view ray with no gathering: smooth
+    /// radiance on diffuse surfaces, and on glossy ones their directional
+    /// radiance towards the eye (a hypothetical receiver, paper §6) as
+    /// stored, per element.
+    Direct,
     /// Final gather: light reflected straight from emitters evaluated exactly
     /// at each visible point ([`crate::render::gather`]), the rest of the
     /// solution reconstructed smoothly. The most accurate mode.
@@ -29,12 +34,42 @@ pub enum Reconstruction {
     Gather,
 }
 
+impl Reconstruction {
+    /// Every mode by its user-facing name.
+    pub const NAMES: [(&'static str, Reconstruction); 4] = [
+        ("gather", Reconstruction::Gather),
+        ("direct", Reconstruction::Direct),
+        ("smooth", Reconstruction::Smooth),
+        ("haar", Reconstruction::Haar),
+    ];
+}
+
+impl std::str::FromStr for Reconstruction {
+    type Err = String;
+
+    /// The mode named `name` (`gather`, `direct`, `smooth`, `haar`).
+    fn from_str(name: &str) -> Result<Self, String> {
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, mode)| mode)
+            .ok_or_else(|| {
+                let names: Vec<String> =
+                    Self::NAMES.iter().map(|(n, _)| format!("{n:?}")).collect();
+                format!(
+                    "unknown render mode {name:?} (expected one of {})",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
 /// Radiance of `tree` at surface parameter `uv`.
 pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Reconstruction) -> Rgb {
     let (leaf, _) = tree.locate(uv);
     match mode {
         Reconstruction::Haar => radiance[leaf as usize],
-        Reconstruction::Smooth | Reconstruction::Gather => {
+        Reconstruction::Smooth | Reconstruction::Direct | Reconstruction::Gather => {
             let root = &tree.nodes[0].patch;
             let h = 0.5f64.powi(tree.nodes[leaf as usize].id.level as i32);
             // Element centres around uv on this level's grid, and weights.

@@ -137,7 +137,7 @@ impl Interactions {
             });
         }
         for list in &mut out.incoming {
-            list.sort_by(|x, y| x.receiver.cmp(&y.receiver));
+            list.sort_by_key(|t| t.receiver);
         }
         out
     }

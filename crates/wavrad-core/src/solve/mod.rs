@@ -206,8 +206,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         &trees,
         &links,
         (&interactions.directional, three_point.len()),
-        iterations,
-        residual,
+        (iterations, residual),
         times,
     );
     Ok(Solution {

@@ -1,9 +1,27 @@
-//! BSDF plugins: `diffuse` and `twosided`.
+//! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `roughplastic` and
+//! `twosided`. Colours are `<rgb>`, `<float>` or `<spectrum value>`;
+//! reflectances must lie in [0, 1].
 //!
-//! | plugin     | parameter     | type                                   | default |
-//! |------------|---------------|----------------------------------------|---------|
-//! | `diffuse`  | `reflectance` | `<rgb>`, `<float>`, `<spectrum value>` | 0.5     |
-//! | `twosided` | one or two nested BSDFs (front, back)                ||         |
+//! | plugin           | parameter                                        | type                 | default         |
+//! |------------------|--------------------------------------------------|----------------------|-----------------|
+//! | `diffuse`        | `reflectance`                                    | colour               | 0.5             |
+//! | `ward` (0.6)     | `variant`: `ward`, `ward-duer`, `balanced`       | `<string>`           | `balanced`      |
+//! |                  | `alpha`; `alpha_u`/`alphaU`, `alpha_v`/`alphaV`  | `<float>` > 0        | 0.1; `alpha`    |
+//! |                  | `specular_reflectance` (`specularReflectance`)   | colour               | 0.2             |
+//! |                  | `diffuse_reflectance` (`diffuseReflectance`)     | colour, ρ_s + ρ_d ≤ 1 | 0.5            |
+//! | `roughconductor` | `distribution`: `beckmann`, `ggx`                | `<string>`           | `beckmann`      |
+//! |                  | `alpha`, or both `alpha_u` and `alpha_v`         | `<float>` ≥ 0        | 0.1             |
+//! |                  | `material` (Mitsuba's names, e.g. `Au`, `Cu`)    | `<string>`           | `none` (mirror) |
+//! |                  | `eta`, `k` (instead of `material`)               | colour ≥ 0           | 0, 1            |
+//! |                  | `specular_reflectance`                           | colour               | 1               |
+//! | `roughplastic`   | `distribution`, `alpha` (isotropic only)         | as above             | `beckmann`, 0.1 |
+//! |                  | `int_ior`, `ext_ior` (number or name, e.g. `bk7`) | `<float>`/`<string>` | `polypropylene`, `air` |
+//! |                  | `specular_reflectance`, `diffuse_reflectance`    | colour               | 1, 0.5          |
+//! |                  | `nonlinear`                                      | `<boolean>`          | false           |
+//! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
+//!
+//! `sample_visible` is accepted when true (the only sampling wavrad has).
+//! Mitsuba rescales a `ward` whose ρ_s + ρ_d exceeds 1; wavrad rejects it.
 //!
 //! ```xml
 //! <bsdf type="twosided" id="white">
@@ -16,9 +34,14 @@
 //! Without `twosided` a surface reflects on its front side only, as in
 //! Mitsuba. Textures and every other plugin are rejected.
 
-use wavrad_core::brdf::Brdf;
+use wavrad_core::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
+use wavrad_core::brdf::{
+    Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
+    WardVariant,
+};
+use wavrad_core::scene::Rgb;
 
-use super::params::{Ids, Nested, Object};
+use super::params::{FloatOrString, Ids, Nested, Object};
 use crate::error::Result;
 
 /// The BRDF of the front side and, for `twosided`, of the back.
@@ -56,20 +79,20 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
     match obj.plugin {
         "diffuse" => {
             let reflectance = obj.color("reflectance")?.unwrap_or([0.5; 3]);
-            if let Some(c) = reflectance.iter().find(|c| !(0.0..=1.0).contains(*c)) {
-                return Err(obj.location_of("reflectance").error(format!(
-                    "reflectance {reflectance:?} of {} has a component ({c}) outside [0, 1]",
-                    obj.describe()
-                )));
-            }
-            if let Some(n) = obj.nested.first() {
-                return Err(obj.unexpected(n));
-            }
-            obj.finish()?;
-            Ok(Material {
-                front: Brdf::diffuse(reflectance),
-                back: None,
-            })
+            check_unit(&obj, "reflectance", reflectance)?;
+            one_sided(&obj, Brdf::diffuse(reflectance))
+        }
+        "ward" => {
+            let ward = parse_ward(&mut obj)?;
+            one_sided(&obj, Brdf::Ward(ward))
+        }
+        "roughconductor" => {
+            let conductor = parse_roughconductor(&mut obj)?;
+            one_sided(&obj, Brdf::RoughConductor(conductor))
+        }
+        "roughplastic" => {
+            let params = parse_roughplastic(&mut obj)?;
+            one_sided(&obj, Brdf::RoughPlastic(RoughPlastic::new(params)))
         }
         "twosided" => {
             obj.finish()?;
@@ -102,7 +125,274 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
             }
         }
         other => Err(obj.at().error(format!(
-            "unsupported bsdf plugin \"{other}\" (supported: diffuse, twosided)"
+            "unsupported bsdf plugin \"{other}\" (supported: diffuse, twosided, ward, \
+             roughconductor, roughplastic)"
         ))),
     }
+}
+
+/// A one-sided material from a plugin that takes no nested objects.
+fn one_sided(obj: &Object, brdf: Brdf) -> Result<Material> {
+    if let Some(n) = obj.nested.first() {
+        return Err(obj.unexpected(n));
+    }
+    obj.finish()?;
+    Ok(Material {
+        front: brdf,
+        back: None,
+    })
+}
+
+/// Reject a reflectance with a component outside [0, 1].
+fn check_unit(obj: &Object, name: &str, value: Rgb) -> Result<()> {
+    match value.iter().find(|c| !(0.0..=1.0).contains(*c)) {
+        None => Ok(()),
+        Some(c) => Err(obj.location_of(name).error(format!(
+            "{name} {value:?} of {} has a component ({c}) outside [0, 1]",
+            obj.describe()
+        ))),
+    }
+}
+
+/// A colour under its Mitsuba 3 name or its Mitsuba 0.6 camelCase alias;
+/// returns the value and the name it was given under.
+fn color_alias(
+    obj: &mut Object,
+    name: &'static str,
+    alias: &'static str,
+    default: f64,
+) -> Result<(Rgb, &'static str)> {
+    both_not_allowed(obj, name, alias)?;
+    Ok(match (obj.color(name)?, obj.color(alias)?) {
+        (Some(v), _) => (v, name),
+        (None, Some(v)) => (v, alias),
+        (None, None) => ([default; 3], name),
+    })
+}
+
+/// A float under its Mitsuba 3 name or its Mitsuba 0.6 alias.
+fn float_alias(obj: &mut Object, name: &'static str, alias: &'static str) -> Result<Option<f64>> {
+    both_not_allowed(obj, name, alias)?;
+    Ok(obj.float(name)?.or(obj.float(alias)?))
+}
+
+fn both_not_allowed(obj: &Object, a: &str, b: &str) -> Result<()> {
+    if obj.has(a) && obj.has(b) {
+        return Err(obj.location_of(b).error(format!(
+            "{} takes \"{a}\" or \"{b}\", not both",
+            obj.describe()
+        )));
+    }
+    Ok(())
+}
+
+/// Roughness `name` must be ≥ `min` (exclusive when `strict`).
+fn check_alpha(obj: &Object, name: &str, alpha: f64, strict: bool) -> Result<f64> {
+    if alpha < 0.0 || (strict && alpha == 0.0) {
+        let bound = if strict { "positive" } else { "non-negative" };
+        return Err(obj.location_of(name).error(format!(
+            "roughness {name} = {alpha} of {} must be {bound}",
+            obj.describe()
+        )));
+    }
+    Ok(alpha)
+}
+
+fn parse_ward(obj: &mut Object) -> Result<Ward> {
+    let variant = match obj.string("variant")? {
+        None => WardVariant::Balanced,
+        Some(v) => WardVariant::from_name(&v).ok_or_else(|| {
+            obj.location_of("variant").error(format!(
+                "unknown variant \"{v}\" of {} (known: ward, ward-duer, balanced)",
+                obj.describe()
+            ))
+        })?,
+    };
+    let alpha = obj.float("alpha")?.unwrap_or(0.1);
+    check_alpha(obj, "alpha", alpha, true)?;
+    let alpha_u = float_alias(obj, "alpha_u", "alphaU")?.unwrap_or(alpha);
+    let alpha_v = float_alias(obj, "alpha_v", "alphaV")?.unwrap_or(alpha);
+    let name_u = if obj.has("alphaU") {
+        "alphaU"
+    } else {
+        "alpha_u"
+    };
+    let name_v = if obj.has("alphaV") {
+        "alphaV"
+    } else {
+        "alpha_v"
+    };
+    check_alpha(obj, name_u, alpha_u, true)?;
+    check_alpha(obj, name_v, alpha_v, true)?;
+    let (spec, spec_name) = color_alias(obj, "specular_reflectance", "specularReflectance", 0.2)?;
+    let (diff, diff_name) = color_alias(obj, "diffuse_reflectance", "diffuseReflectance", 0.5)?;
+    check_unit(obj, spec_name, spec)?;
+    check_unit(obj, diff_name, diff)?;
+    if let Some(c) = (0..3).find(|&c| spec[c] + diff[c] > 1.0) {
+        return Err(obj.location_of(diff_name).error(format!(
+            "{spec_name} + {diff_name} of {} exceed 1 in channel {c} ({} + {}): the BRDF \
+             would create energy (Mitsuba rescales it; scale them down instead)",
+            obj.describe(),
+            spec[c],
+            diff[c]
+        )));
+    }
+    Ok(Ward {
+        variant,
+        alpha_u,
+        alpha_v,
+        specular_reflectance: spec,
+        diffuse_reflectance: diff,
+    })
+}
+
+/// `distribution`, `alpha` / `alpha_u` + `alpha_v` and `sample_visible` of
+/// Mitsuba 3's microfacet plugins.
+fn parse_microfacet(obj: &mut Object) -> Result<Microfacet> {
+    let kind = match obj.string("distribution")? {
+        None => MicrofacetType::Beckmann,
+        Some(d) => MicrofacetType::from_name(&d).ok_or_else(|| {
+            obj.location_of("distribution").error(format!(
+                "unknown distribution \"{d}\" of {} (known: beckmann, ggx)",
+                obj.describe()
+            ))
+        })?,
+    };
+    if obj.boolean("sample_visible")? == Some(false) {
+        return Err(obj.location_of("sample_visible").error(format!(
+            "sample_visible = false of {} is not supported (wavrad samples visible normals)",
+            obj.describe()
+        )));
+    }
+    let has_u = obj.has("alpha_u");
+    let alpha = obj.float("alpha")?;
+    let alpha_u = obj.float("alpha_u")?;
+    let alpha_v = obj.float("alpha_v")?;
+    let (au, av) = match (alpha, alpha_u, alpha_v) {
+        (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+            let name = if has_u { "alpha_u" } else { "alpha_v" };
+            return Err(obj.location_of(name).error(format!(
+                "{} takes either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both",
+                obj.describe()
+            )));
+        }
+        (_, Some(u), Some(v)) => (u, v),
+        (None, Some(_), None) | (None, None, Some(_)) => {
+            let name = if has_u { "alpha_u" } else { "alpha_v" };
+            return Err(obj.location_of(name).error(format!(
+                "{} needs both \"alpha_u\" and \"alpha_v\"",
+                obj.describe()
+            )));
+        }
+        (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
+    };
+    let (name_u, name_v) = if has_u {
+        ("alpha_u", "alpha_v")
+    } else {
+        ("alpha", "alpha")
+    };
+    check_alpha(obj, name_u, au, false)?;
+    check_alpha(obj, name_v, av, false)?;
+    Ok(Microfacet::new(kind, au, av))
+}
+
+fn parse_roughconductor(obj: &mut Object) -> Result<RoughConductor> {
+    let distribution = parse_microfacet(obj)?;
+    let material = obj.string("material")?;
+    let (eta, k) = (obj.color("eta")?, obj.color("k")?);
+    let ior = match material.as_deref() {
+        Some(m) if m != "none" => {
+            if eta.is_some() || k.is_some() {
+                let name = if eta.is_some() { "eta" } else { "k" };
+                return Err(obj.location_of(name).error(format!(
+                    "{} takes either \"material\" or \"eta\"/\"k\", not both",
+                    obj.describe()
+                )));
+            }
+            conductor_ior(m).ok_or_else(|| {
+                let known: Vec<&str> = CONDUCTORS.iter().map(|c| c.0).collect();
+                obj.location_of("material").error(format!(
+                    "unknown conductor material \"{m}\" of {} (known: none, {})",
+                    obj.describe(),
+                    known.join(", ")
+                ))
+            })?
+        }
+        _ => {
+            let mut ior = conductor_ior("none").expect("the default conductor");
+            ior.eta = eta.unwrap_or(ior.eta);
+            ior.k = k.unwrap_or(ior.k);
+            ior
+        }
+    };
+    for (name, v) in [("eta", ior.eta), ("k", ior.k)] {
+        if let Some(c) = v.iter().find(|c| **c < 0.0) {
+            return Err(obj.location_of(name).error(format!(
+                "{name} {v:?} of {} has a negative component ({c})",
+                obj.describe()
+            )));
+        }
+    }
+    let specular_reflectance = obj.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    check_unit(obj, "specular_reflectance", specular_reflectance)?;
+    Ok(RoughConductor {
+        distribution,
+        eta: ior.eta,
+        k: ior.k,
+        specular_reflectance,
+    })
+}
+
+/// An index of refraction given by value or by one of Mitsuba's names.
+fn parse_ior(obj: &mut Object, name: &'static str, default: f64) -> Result<f64> {
+    let ior = match obj.float_or_string(name)? {
+        None => default,
+        Some(FloatOrString::Float(v)) => v,
+        Some(FloatOrString::String(s)) => dielectric_ior(&s).ok_or_else(|| {
+            let known: Vec<&str> = DIELECTRICS.iter().map(|d| d.0).collect();
+            obj.location_of(name).error(format!(
+                "unknown {name} \"{s}\" of {} (known: {})",
+                obj.describe(),
+                known.join(", ")
+            ))
+        })?,
+    };
+    if ior <= 0.0 {
+        return Err(obj.location_of(name).error(format!(
+            "{name} = {ior} of {} must be positive",
+            obj.describe()
+        )));
+    }
+    Ok(ior)
+}
+
+fn parse_roughplastic(obj: &mut Object) -> Result<RoughPlasticParams> {
+    let distribution = parse_microfacet(obj)?;
+    if distribution.alpha_u != distribution.alpha_v {
+        return Err(obj.location_of("alpha_u").error(format!(
+            "{} is isotropic only (as in Mitsuba): alpha_u and alpha_v must be equal",
+            obj.describe()
+        )));
+    }
+    let int_ior = parse_ior(obj, "int_ior", 1.49)?;
+    let ext_ior = parse_ior(obj, "ext_ior", 1.000277)?;
+    if int_ior == ext_ior {
+        return Err(obj.location_of("int_ior").error(format!(
+            "int_ior and ext_ior of {} must differ (both {int_ior})",
+            obj.describe()
+        )));
+    }
+    let specular_reflectance = obj.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let diffuse_reflectance = obj.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+    check_unit(obj, "specular_reflectance", specular_reflectance)?;
+    check_unit(obj, "diffuse_reflectance", diffuse_reflectance)?;
+    Ok(RoughPlasticParams {
+        distribution: distribution.kind,
+        alpha: distribution.alpha_u,
+        int_ior,
+        ext_ior,
+        specular_reflectance,
+        diffuse_reflectance,
+        nonlinear: obj.boolean("nonlinear")?.unwrap_or(false),
+    })
 }

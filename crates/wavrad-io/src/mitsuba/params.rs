@@ -71,6 +71,13 @@ impl Value {
     }
 }
 
+/// A parameter that may be a number or a name.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum FloatOrString {
+    Float(f64),
+    String(String),
+}
+
 #[derive(Debug)]
 struct Property {
     name: String,
@@ -266,6 +273,25 @@ impl<'a> Object<'a> {
             Value::String(v) => Ok(Some(v)),
             other => Err(self.mismatch(name, "a <string>", &other, &at)),
         }
+    }
+
+    /// A `<float>` (or `<integer>`) or a `<string>` parameter, such as an
+    /// index of refraction given by value or by name.
+    pub fn float_or_string(&mut self, name: &'static str) -> Result<Option<FloatOrString>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Float(v) => Ok(Some(FloatOrString::Float(v))),
+            Value::Integer(v) => Ok(Some(FloatOrString::Float(v as f64))),
+            Value::String(v) => Ok(Some(FloatOrString::String(v))),
+            other => Err(self.mismatch(name, "a <float> or a <string>", &other, &at)),
+        }
+    }
+
+    /// Whether parameter `name` is given (without consuming it).
+    pub fn has(&self, name: &str) -> bool {
+        self.props.iter().any(|p| p.name == name)
     }
 
     /// A constant color: `<rgb>`, `<float>`, `<integer>` or a single-valued

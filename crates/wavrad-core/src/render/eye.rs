@@ -1,0 +1,130 @@
+//! The eye as a hypothetical receiver (paper §6, after Aupperle & Hanrahan):
+//! a surface at the sensor that receives light through three-point links but
+//! neither occludes nor reflects. Gathering into it once, after the solve,
+//! gives every glossy surface its radiance towards this view, L_{p→eye},
+//! which the `direct`, `smooth` and `haar` modes look up along view rays.
+//!
+//! The eye is a tiny square at the pinhole (for an orthographic sensor, far
+//! behind it along the view axis, so that every point sees it along the view
+//! direction) and is never subdivided.
+
+use crate::hierarchy::{ElementId, ElementTree};
+use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
+use crate::solve::{push_pull::push_pull, Progress, Solution};
+use crate::three_point::refine_three_point_links;
+use glam::DVec3;
+use std::collections::BTreeSet;
+
+/// Radiance of every glossy surface towards one view, per element.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EyeRadiance {
+    /// For each surface, if glossy and facing the eye: its element tree and
+    /// the average radiance L_{a→eye} of every node.
+    pub surfaces: Vec<Option<(ElementTree, Vec<Rgb>)>>,
+}
+
+/// Where the eye receiver sits for `camera`, as a tiny square.
+pub fn eye_patch(scene: &Scene, camera: &Camera) -> Patch {
+    let m = &camera.world_from_camera;
+    let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+    for s in &scene.surfaces {
+        for v in s.patch.vertices() {
+            (lo, hi) = (lo.min(v), hi.max(v));
+        }
+    }
+    let extent = (hi - lo).length().max(1e-9);
+    let view = m.transform_vector3(DVec3::Z).normalize();
+    let centre = match camera.projection {
+        Projection::Perspective { .. } => m.transform_point3(DVec3::ZERO),
+        Projection::Orthographic => m.transform_point3(DVec3::ZERO) - view * 1e4 * extent,
+    };
+    let side = 1e-6 * extent;
+    let (u, v) = (
+        view.any_orthonormal_vector(),
+        view.cross(view.any_orthonormal_vector()),
+    );
+    Patch::Parallelogram {
+        origin: centre - 0.5 * side * (u + v),
+        edge_s: side * v,
+        edge_t: side * u,
+    }
+}
+
+impl Solution {
+    /// Gather the solution once into the eye at `camera` (three-point links
+    /// r → p → eye for every glossy p that faces it).
+    pub fn eye_radiance(&self, camera: &Camera, progress: &dyn Progress) -> EyeRadiance {
+        let scene = &self.scene;
+        let eye = eye_patch(scene, camera);
+        let eye_index = scene.surfaces.len() as u32;
+        let at = eye.centroid();
+        let triples: Vec<(u32, u32, u32)> = crate::three_point::surface_triples(scene)
+            .into_iter()
+            .map(|(r, p, _)| (r, p))
+            .collect::<BTreeSet<_>>()
+            .into_iter()
+            .filter(|&(_, p)| {
+                let patch = &scene.surfaces[p as usize].patch;
+                patch.normal().dot(at - patch.vertices()[0]) > 0.0
+            })
+            .map(|(r, p)| (r, p, eye_index))
+            .collect();
+        let links = refine_three_point_links(
+            scene,
+            &self.tracer,
+            self.settings.refine,
+            &triples,
+            |_| eye,
+            progress,
+        );
+        let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
+        for l in &links {
+            ids[l.p as usize].insert(l.a);
+        }
+        let mut surfaces: Vec<Option<(ElementTree, Vec<Rgb>)>> = vec![None; scene.surfaces.len()];
+        let mut gathered: Vec<Vec<Rgb>> = vec![Vec::new(); scene.surfaces.len()];
+        for &(_, p, _) in &triples {
+            if surfaces[p as usize].is_none() {
+                let tree = ElementTree::build(&scene.surfaces[p as usize].patch, &ids[p as usize]);
+                gathered[p as usize] = vec![[0.0; 3]; tree.nodes.len()];
+                surfaces[p as usize] = Some((tree, Vec::new()));
+            }
+        }
+        for l in &links {
+            let Some((tree, _)) = &surfaces[l.p as usize] else {
+                continue;
+            };
+            let node = tree.index_of(l.a).expect("linked element is in the tree");
+            let source = self.radiance_from(l.r, l.c, l.p, l.a);
+            let g = &mut gathered[l.p as usize][node as usize];
+            (0..3).for_each(|ch| g[ch] += l.coefficient[ch] * source[ch]);
+        }
+        for (p, entry) in surfaces.iter_mut().enumerate() {
+            if let Some((tree, radiance)) = entry {
+                *radiance = push_pull(tree, &gathered[p], scene.surfaces[p].emission);
+            }
+        }
+        EyeRadiance { surfaces }
+    }
+
+    /// L_{c→a}: the average radiance leaving element `c` of surface `r`
+    /// towards element `a` of surface `p`, at any levels.
+    pub fn radiance_from(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> Rgb {
+        let (r, p) = (r as usize, p as usize);
+        if self.scene.surfaces[r].is_diffuse() {
+            return self.radiance[r][self.trees[r].node_containing(c) as usize];
+        }
+        let Some(&s) = self.interactions.structure_of.get(&(r as u32, p as u32)) else {
+            return self.scene.surfaces[r].emission;
+        };
+        let values = &self.directional[s as usize];
+        let mut l = [0.0; 3];
+        for (n, w) in self.interactions.directional[s as usize]
+            .tree
+            .overlaps(c, a)
+        {
+            (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
+        }
+        l
+    }
+}

@@ -1,0 +1,136 @@
+//! Invariants of the glossy path (three-point links, directional radiance):
+//! a glossy surface whose BRDF happens to be Lambertian must give what the
+//! diffuse path gives, a closed glossy box obeys the furnace identity, and
+//! glossy surfaces with albedo ≤ 1 never create energy.
+
+use glam::DVec3;
+use wavrad_core::brdf::{Brdf, Ward, WardVariant};
+use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
+use wavrad_core::solve::{solve, Silent, Solution, SolveSettings};
+use wavrad_core::testing::inward_box;
+
+/// Ward with no specular lobe: Lambertian, but solved as a glossy surface.
+fn lambertian_ward(rho: f64) -> Brdf {
+    Brdf::Ward(Ward {
+        variant: WardVariant::Balanced,
+        alpha_u: 0.2,
+        alpha_v: 0.2,
+        specular_reflectance: [0.0; 3],
+        diffuse_reflectance: [rho; 3],
+    })
+}
+
+fn settings(max_level: u32) -> SolveSettings {
+    let mut s = SolveSettings::default();
+    s.refine.max_level = max_level;
+    s
+}
+
+fn surface(patch: Patch, brdf: Brdf, emission: Rgb) -> Surface {
+    Surface {
+        name: "s".into(),
+        patch,
+        brdf,
+        emission,
+    }
+}
+
+/// Every directional radiance value of the solution.
+fn directional_values(solution: &Solution) -> impl Iterator<Item = f64> + '_ {
+    solution.directional.iter().flatten().flat_map(|l| *l)
+}
+
+#[test]
+fn closed_glossy_box_furnace_radiance_is_le_over_one_minus_rho() {
+    let (rho, le) = (0.5, 1.0);
+    let walls = inward_box(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 1.5, 3.0))
+        .into_iter()
+        .map(|p| surface(p, lambertian_ward(rho), [le; 3]))
+        .collect();
+    let solution = solve(&Scene::from_surfaces(walls), &settings(2), &Silent).unwrap();
+    assert!(solution.stats.converged);
+    assert!(solution.stats.three_point_interactions > 0);
+    let expect = le / (1.0 - rho);
+    // Whole-surface pairs: energy is conserved pair by pair.
+    for (d, values) in solution
+        .interactions
+        .directional
+        .iter()
+        .zip(&solution.directional)
+    {
+        let e = (values[0][0] - expect).abs() / expect;
+        assert!(e < 0.02, "L_{}→{} = {} vs {expect}", d.p, d.q, values[0][0]);
+    }
+    let worst = directional_values(&solution)
+        .map(|l| (l - expect).abs() / expect)
+        .fold(0.0, f64::max);
+    assert!(worst < 0.2, "worst element pair error {worst}");
+}
+
+#[test]
+fn glossy_path_of_a_lambertian_brdf_matches_the_diffuse_path() {
+    // A floor lit by a square light, seen by a wall: the floor once diffuse,
+    // once a Ward surface with no specular lobe (three-point links).
+    let floor = Patch::Parallelogram {
+        origin: DVec3::ZERO,
+        edge_s: DVec3::X,
+        edge_t: DVec3::Y,
+    };
+    let light = Patch::Parallelogram {
+        origin: DVec3::new(0.1, 0.2, 0.8),
+        edge_s: DVec3::Y * 0.5,
+        edge_t: DVec3::X * 0.5,
+    };
+    let wall = Patch::Parallelogram {
+        origin: DVec3::new(1.0, 0.0, 0.0),
+        edge_s: DVec3::Z,
+        edge_t: DVec3::Y,
+    };
+    let scene = |floor_brdf: Brdf| {
+        Scene::from_surfaces(vec![
+            surface(floor, floor_brdf, [0.0; 3]),
+            surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
+            surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
+        ])
+    };
+    let diffuse = solve(&scene(Brdf::diffuse([0.6; 3])), &settings(4), &Silent).unwrap();
+    let glossy = solve(&scene(lambertian_ward(0.6)), &settings(4), &Silent).unwrap();
+    assert_eq!(diffuse.stats.three_point_interactions, 0);
+    assert!(glossy.stats.three_point_interactions > 0);
+    // The wall's light, all of it via the floor.
+    let (d, g) = (diffuse.radiance[2][0][0], glossy.radiance[2][0][0]);
+    assert!(
+        d > 0.0 && (g - d).abs() / d < 0.002,
+        "wall: diffuse {d}, glossy {g}"
+    );
+    // The floor's radiance towards the wall is its diffuse radiance.
+    let s = glossy.interactions.structure_of[&(0, 2)] as usize;
+    let (d, g) = (diffuse.radiance[0][0][0], glossy.directional[s][0][0]);
+    assert!((g - d).abs() / d < 0.002, "floor: diffuse {d}, glossy {g}");
+}
+
+#[test]
+fn glossy_box_with_albedo_below_one_gains_no_energy() {
+    // Ward (balanced) with ρd + ρs = 0.75 on every wall, one wall emitting:
+    // radiance can never exceed Le / (1 − 0.75).
+    let ward = Brdf::Ward(Ward {
+        variant: WardVariant::Balanced,
+        alpha_u: 0.15,
+        alpha_v: 0.4,
+        specular_reflectance: [0.25; 3],
+        diffuse_reflectance: [0.5; 3],
+    });
+    let walls = inward_box(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 1.5, 3.0))
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| surface(p, ward.clone(), if i == 0 { [1.0; 3] } else { [0.0; 3] }))
+        .collect();
+    let solution = solve(&Scene::from_surfaces(walls), &settings(2), &Silent).unwrap();
+    assert!(solution.stats.converged, "{:?}", solution.stats);
+    let bound = 1.0 / (1.0 - 0.75);
+    let brightest = directional_values(&solution).fold(0.0, f64::max);
+    assert!(brightest <= bound, "{brightest} > {bound}");
+    // Light did bounce: walls that do not emit are lit.
+    let s = solution.interactions.structure_of[&(1, 2)] as usize;
+    assert!(solution.directional[s][0][0] > 0.05);
+}
