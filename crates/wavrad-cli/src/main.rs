@@ -70,6 +70,10 @@ struct SolveArgs {
     /// Maximum subdivision level of an element (the paper uses 8).
     #[arg(long)]
     max_level: Option<u32>,
+    /// Maximum subdivision level of the elements of three-point (glossy)
+    /// links [default: 3].
+    #[arg(long)]
+    three_point_max_level: Option<u32>,
     /// Write statistics (counts per level, times, memory) as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -214,6 +218,9 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
     }
     if let Some(j) = args.max_level {
         settings.refine.max_level = j;
+    }
+    if let Some(j) = args.three_point_max_level {
+        settings.three_point_max_level = j;
     }
     solve(&scene, &settings, progress).map_err(|e| format!("{}: {e}", args.scene.display()))
 }

@@ -107,3 +107,30 @@ fn mitsuba_written_cornell_box_renders_like_the_bundled_one() {
     let err = wavrad_io::relative_rmse(&a.rgb, &b.rgb);
     assert!(err < 0.02, "relRMSE between the two files {err}");
 }
+
+/// The glossy Cornell box (Ward floor, anisotropic Ward block) against
+/// Mitsuba 3 with Mitsuba 0.6's Ward registered from Python
+/// (`scenes/glossy-cornell-box/reference.exr`, `scenes/make_references.py`).
+#[test]
+fn glossy_cornell_box_matches_mitsuba_path_tracer() {
+    let dir = repo().join("scenes/glossy-cornell-box");
+    let scene = wavrad_io::load_scene(&dir.join("scene.xml")).unwrap();
+    let (w, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference.exr")).unwrap();
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    assert!(solution.stats.converged);
+    assert!(solution.stats.three_point_interactions > 0);
+    for (mode, bound) in [
+        (Reconstruction::Gather, 0.035),
+        (Reconstruction::Direct, 0.08),
+    ] {
+        let image = solution
+            .render(&RenderSettings {
+                mode,
+                ..RenderSettings::for_scene(&scene)
+            })
+            .unwrap();
+        let (all, away) = errors(&image.rgb, &reference, w as usize);
+        eprintln!("glossy {mode:?}: relRMSE {all:.4}, away from the light {away:.4}");
+        assert!(all < bound, "{mode:?} relRMSE {all}");
+    }
+}

@@ -46,6 +46,8 @@ pub struct Stats {
     pub threshold: f64,
     /// Maximum element level.
     pub max_level: u32,
+    /// Maximum element level of three-point links.
+    pub three_point_max_level: u32,
     /// Gauss–Seidel sweeps done.
     pub iterations: u32,
     /// Largest change of a coarsest coefficient in the last sweep, relative
@@ -96,6 +98,7 @@ impl Stats {
             interactions_per_level,
             threshold: settings.refine.oracle.threshold,
             max_level: settings.refine.max_level,
+            three_point_max_level: settings.three_point_max_level,
             iterations,
             residual,
             converged: residual <= settings.tolerance,

@@ -72,7 +72,7 @@ impl Solution {
         let links = refine_three_point_links(
             scene,
             &self.tracer,
-            self.settings.refine,
+            self.settings.three_point_refine(),
             &triples,
             |_| eye,
             progress,

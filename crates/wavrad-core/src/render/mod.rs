@@ -205,7 +205,7 @@ impl Solution {
         };
         let receiver = &self.scene.surfaces[s as usize].patch;
         let uv_x = receiver.clamp_param(receiver.param_of(x));
-        let depth = self.settings.refine.max_level;
+        let depth = self.settings.three_point_max_level;
         let path_y = ElementId::path_to(&surface.patch, uv_y, depth);
         let path_x = ElementId::path_to(receiver, uv_x, depth);
         let tree = &self.interactions.directional[index as usize].tree;

@@ -27,6 +27,11 @@ pub const MAX_SURFACES: usize = 4096;
 pub struct SolveSettings {
     /// Kernel projection (oracle threshold, maximum level, quadrature).
     pub refine: RefineSettings,
+    /// Deepest element level of three-point links (each of the three
+    /// elements). Their count grows with the cube of the elements per
+    /// surface, so they stop coarser than two-point links by default; the
+    /// paper uses 8 for both.
+    pub three_point_max_level: u32,
     /// Stop when no surface's coarsest radiance changes by more than this,
     /// relative to the brightest emitted radiance.
     pub tolerance: f64,
@@ -99,7 +104,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     let three_point = refine_three_point_links(
         scene,
         &tracer,
-        settings.refine,
+        settings.three_point_refine(),
         &triples,
         |q| scene.surfaces[q as usize].patch,
         progress,
@@ -222,6 +227,14 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 }
 
 impl SolveSettings {
+    /// The refinement settings of three-point links.
+    pub fn three_point_refine(&self) -> RefineSettings {
+        RefineSettings {
+            max_level: self.three_point_max_level,
+            ..self.refine
+        }
+    }
+
     /// Check the settings make sense.
     pub fn validate(&self) -> Result<()> {
         let r = &self.refine;
@@ -231,11 +244,15 @@ impl SolveSettings {
                 r.oracle.threshold
             )));
         }
-        if r.max_level > 16 {
-            return Err(Error::InvalidSetting(format!(
-                "max level must be at most 16, got {}",
-                r.max_level
-            )));
+        for (name, level) in [
+            ("max level", r.max_level),
+            ("three-point max level", self.three_point_max_level),
+        ] {
+            if level > 16 {
+                return Err(Error::InvalidSetting(format!(
+                    "{name} must be at most 16, got {level}"
+                )));
+            }
         }
         if r.quadrature.points == 0 || r.quadrature.rays == 0 {
             return Err(Error::InvalidSetting(
@@ -262,6 +279,7 @@ impl Default for SolveSettings {
                 max_level: 5,
                 quadrature: crate::kernel::Quadrature::default(),
             },
+            three_point_max_level: 3,
             tolerance: 1e-5,
             max_iterations: 200,
         }
