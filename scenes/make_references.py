@@ -19,11 +19,32 @@ self-noise is estimated from the two halves:
   noise_half = sqrt(mean((A-B)^2)) / mean(B) / sqrt(2)   (relative RMSE of one half)
   noise_ref  = noise_half / sqrt(2)                       (of the committed average)
 
+Glossy scenes (--scene NAME; reference only, per-scene defaults below,
+overridable with --spp/--res/--pass-spp/--integrator):
+
+  glossy-cornell-box  scenes/glossy-cornell-box/scene.xml -> reference.exr
+                      path, 64x64, 196608 spp
+  figure3-diffuse     scenes/figure3/diffuse.xml  -> reference-diffuse.exr
+                      path, 64x64, 262144 spp
+  figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
+                      ptracer (light tracer), 64x64, 1048576 spp
+                      (the receiver is lit only via the glossy reflector, a
+                      caustic-like path that a path tracer samples ~9x less
+                      efficiently; with the whole lit geometry >= 4 px inside
+                      the frame both integrators have the same expectation in
+                      every pixel; --integrator path renders it as written)
+
+  The ward BSDF (Mitsuba 0.6; Mitsuba 3 has none) comes from
+  scenes/ward_bsdf.py, registered before any scene is loaded.
+
 Usage:
   python3 scenes/make_references.py                       # everything, defaults
   python3 scenes/make_references.py --spp 98304 --res 128
   python3 scenes/make_references.py --fixture-only
   python3 scenes/make_references.py --verify-only         # XML-vs-dict check
+  python3 scenes/make_references.py --scene glossy-cornell-box
+  python3 scenes/make_references.py --scene figure3-diffuse
+  python3 scenes/make_references.py --scene figure3-specular
 
 Variant: llvm_ad_rgb if available (needs a libLLVM shared library, LLVM >= 17:
 LLVM 14/15/16 abort with "Cannot select: fminimum" on AVX-512 CPUs), else
@@ -43,6 +64,20 @@ ROOT = os.path.dirname(HERE)
 SCENE_XML = os.path.join(HERE, "cornell-box", "scene.xml")
 REFERENCE_EXR = os.path.join(HERE, "cornell-box", "reference.exr")
 FIXTURE_XML = os.path.join(ROOT, "tests", "fixtures", "cornell_box_dict_to_xml.xml")
+
+# --scene NAME: (scene xml, reference exr, res, spp, pass_spp, integrator)
+SCENES = {
+    "cornell-box": (SCENE_XML, REFERENCE_EXR, 128, 98304, 1024, "path"),
+    "glossy-cornell-box": (os.path.join(HERE, "glossy-cornell-box", "scene.xml"),
+                           os.path.join(HERE, "glossy-cornell-box", "reference.exr"),
+                           64, 196608, 1024, "path"),
+    "figure3-diffuse": (os.path.join(HERE, "figure3", "diffuse.xml"),
+                        os.path.join(HERE, "figure3", "reference-diffuse.exr"),
+                        64, 262144, 1024, "path"),
+    "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
+                         os.path.join(HERE, "figure3", "reference-specular.exr"),
+                         64, 1048576, 1024, "ptracer"),
+}
 
 
 def find_libllvm():
@@ -117,17 +152,25 @@ def verify_xml_matches_dict(mi, np, res, spp):
     return same, noise
 
 
-def render_reference(mi, np, res, spp, pass_spp):
+def render_reference(mi, np, res, spp, pass_spp, scene_xml=SCENE_XML,
+                     reference_exr=REFERENCE_EXR, integrator=None):
     passes = max(1, spp // (2 * pass_spp))  # passes per half
     total = 2 * passes * pass_spp
-    scene = mi.load_file(SCENE_XML, res=res)
+    scene = mi.load_file(scene_xml, res=res)
+    integ = None
+    if integrator is not None and integrator != "path":
+        integ = mi.load_dict({"type": integrator, "max_depth": -1})
+    print(f"scene {os.path.relpath(scene_xml, ROOT)}, {res}x{res}, integrator "
+          f"{integrator or 'path (as in the XML)'}", flush=True)
     halves = []
     t0 = time.time()
     for h in range(2):
         acc = np.zeros((res, res, 3), dtype=np.float64)
         for p in range(passes):
             seed = h * passes + p
-            acc += np.array(mi.render(scene, spp=pass_spp, seed=seed), dtype=np.float64)
+            img = (mi.render(scene, spp=pass_spp, seed=seed) if integ is None else
+                   mi.render(scene, integrator=integ, spp=pass_spp, seed=seed))
+            acc += np.array(img, dtype=np.float64)
             print(f"  half {'AB'[h]} pass {p + 1}/{passes} (seed {seed}) "
                   f"t={time.time() - t0:.0f}s", flush=True)
         halves.append(acc / passes)
@@ -137,12 +180,12 @@ def render_reference(mi, np, res, spp, pass_spp):
     noise_ref = noise_half / np.sqrt(2.0)
     ref = (0.5 * (a + b)).astype(np.float32)
     bmp = mi.Bitmap(ref, pixel_format=mi.Bitmap.PixelFormat.RGB)
-    bmp.write(REFERENCE_EXR)
+    bmp.write(reference_exr)
     # read back and check
-    back = mi.Bitmap(REFERENCE_EXR)
+    back = mi.Bitmap(reference_exr)
     chans = [back.struct_()[i].name for i in range(back.channel_count())]
-    print(f"wrote {os.path.relpath(REFERENCE_EXR, ROOT)}: {res}x{res}, channels {chans}, "
-          f"{back.component_format()}, {os.path.getsize(REFERENCE_EXR)} bytes")
+    print(f"wrote {os.path.relpath(reference_exr, ROOT)}: {res}x{res}, channels {chans}, "
+          f"{back.component_format()}, {os.path.getsize(reference_exr)} bytes")
     print(f"total spp {total} ({2 * passes} passes x {pass_spp}), render time {elapsed:.0f}s")
     print(f"self-noise: per half ({total // 2} spp) rel. RMSE {100 * noise_half:.3f} %; "
           f"reference ({total} spp) {100 * noise_ref:.3f} %")
@@ -151,9 +194,17 @@ def render_reference(mi, np, res, spp, pass_spp):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--spp", type=int, default=98304, help="total samples per pixel (both halves)")
-    ap.add_argument("--pass-spp", type=int, default=1024, help="samples per pixel per render pass")
-    ap.add_argument("--res", type=int, default=128, help="image width = height")
+    ap.add_argument("--scene", choices=sorted(SCENES), default=None,
+                    help="render only this scene's reference (default: the original "
+                         "cornell-box fixture + check + reference)")
+    ap.add_argument("--spp", type=int, default=None,
+                    help="total samples per pixel (both halves; default per scene, 98304)")
+    ap.add_argument("--pass-spp", type=int, default=None,
+                    help="samples per pixel per render pass (default per scene, 1024)")
+    ap.add_argument("--res", type=int, default=None,
+                    help="image width = height (default per scene, 128)")
+    ap.add_argument("--integrator", default=None,
+                    help="override the scene's reference integrator (path, ptracer)")
     ap.add_argument(
         "--variant", default="auto", help="mitsuba variant (default: llvm_ad_rgb, else scalar_rgb)"
     )
@@ -171,6 +222,19 @@ def main():
     variant = pick_variant(mi, args.variant)
     print(f"mitsuba {mi.__version__}, variant {variant}, "
           f"DRJIT_LIBLLVM_PATH={os.environ.get('DRJIT_LIBLLVM_PATH')}")
+    sys.path.insert(0, HERE)
+    import ward_bsdf  # noqa: E402  (Mitsuba 0.6's ward, see scenes/ward_bsdf.py)
+    ward_bsdf.register()
+
+    if args.scene is not None:
+        xml, exr, res, spp, pass_spp, integrator = SCENES[args.scene]
+        render_reference(mi, np, args.res or res, args.spp or spp,
+                         args.pass_spp or pass_spp, xml, exr,
+                         args.integrator or integrator)
+        return
+    args.res = args.res or 128
+    args.spp = args.spp or 98304
+    args.pass_spp = args.pass_spp or 1024
 
     if not (args.verify_only or args.reference_only):
         write_fixture(mi, variant)

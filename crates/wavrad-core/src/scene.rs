@@ -167,7 +167,9 @@ impl Patch {
         self.cross().normalize_or_zero()
     }
 
-    /// The same patch seen from the other side (normal reversed).
+    /// The same patch seen from the other side (normal reversed; a
+    /// parallelogram keeps the axis of its tangent, as Mitsuba's `twosided`
+    /// and `flip_normals` keep dp/du).
     pub fn flipped(&self) -> Patch {
         match *self {
             Patch::Parallelogram {
@@ -175,9 +177,9 @@ impl Patch {
                 edge_s,
                 edge_t,
             } => Patch::Parallelogram {
-                origin,
-                edge_s: edge_t,
-                edge_t: edge_s,
+                origin: origin + edge_s,
+                edge_s: -edge_s,
+                edge_t,
             },
             Patch::Triangle([a, b, c]) => Patch::Triangle([a, c, b]),
         }
@@ -266,6 +268,7 @@ mod tests {
         let f = p.flipped();
         assert!((f.area() - 2.0).abs() < 1e-12);
         assert!((f.normal() + DVec3::Z).length() < 1e-12);
+        assert_eq!(f.tangent().dot(p.tangent()).abs(), 1.0);
     }
 
     #[test]
