@@ -88,13 +88,16 @@ def solve(
     *,
     threshold: float | None = None,
     max_level: int | None = None,
+    three_point_threshold: float | None = None,
     three_point_max_level: int | None = None,
     tolerance: float | None = None,
     max_iterations: int | None = None,
 ) -> Solution:
     """Solve ``scene``. ``threshold``: the kernel oracle's threshold (default
     1e-3; the paper uses 1e-4); ``max_level``: deepest element level
-    (default 5; the paper uses 8); ``three_point_max_level``: deepest
+    (default 5; the paper uses 8); ``three_point_threshold``: the oracle's
+    threshold for three-point (glossy) links (default 1e-4);
+    ``three_point_max_level``: deepest
     element level of three-point (glossy) links (default 3); ``tolerance``:
     convergence of the Gauss-Seidel sweeps (default 1e-5); ``max_iterations``:
     most sweeps (default 200). Raises ``SolveError`` for invalid settings."""

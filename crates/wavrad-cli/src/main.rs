@@ -74,6 +74,9 @@ struct SolveArgs {
     /// links [default: 3].
     #[arg(long)]
     three_point_max_level: Option<u32>,
+    /// Oracle threshold of three-point (glossy) links [default: 1e-4].
+    #[arg(long)]
+    three_point_threshold: Option<f64>,
     /// Write statistics (counts per level, times, memory) as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
@@ -221,6 +224,9 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
     }
     if let Some(j) = args.three_point_max_level {
         settings.three_point_max_level = j;
+    }
+    if let Some(t) = args.three_point_threshold {
+        settings.three_point_threshold = t;
     }
     solve(&scene, &settings, progress).map_err(|e| format!("{}: {e}", args.scene.display()))
 }

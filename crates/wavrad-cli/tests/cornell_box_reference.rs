@@ -134,3 +134,25 @@ fn glossy_cornell_box_matches_mitsuba_path_tracer() {
         assert!(all < bound, "{mode:?} relRMSE {all}");
     }
 }
+
+/// The paper's Figure 3 scenes (`scenes/figure3/`): the receiver gets light
+/// only by way of the reflector, so the image's total is the reflector's
+/// transport, diffuse and glossy (Ward 1992 rolled aluminium), against
+/// Mitsuba 3.
+#[test]
+fn figure3_scenes_carry_the_light_mitsuba_does() {
+    let dir = repo().join("scenes/figure3");
+    for (name, bound) in [("diffuse", 0.08), ("specular", 0.16)] {
+        let scene = wavrad_io::load_scene(&dir.join(format!("{name}.xml"))).unwrap();
+        let (_, _, reference) =
+            wavrad_io::read_exr_rgb(&dir.join(format!("reference-{name}.exr"))).unwrap();
+        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+        let image = solution.render(&RenderSettings::for_scene(&scene)).unwrap();
+        let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+        let ratio = mean(&image.rgb) / mean(&reference);
+        let error = wavrad_io::relative_rmse(&image.rgb, &reference);
+        eprintln!("figure 3 {name}: mean ratio {ratio:.4}, relRMSE {error:.4}");
+        assert!((ratio - 1.0).abs() < 0.03, "{name}: mean ratio {ratio}");
+        assert!(error < bound, "{name}: relRMSE {error}");
+    }
+}

@@ -48,6 +48,8 @@ pub struct Stats {
     pub max_level: u32,
     /// Maximum element level of three-point links.
     pub three_point_max_level: u32,
+    /// Oracle threshold of three-point links.
+    pub three_point_threshold: f64,
     /// Gauss–Seidel sweeps done.
     pub iterations: u32,
     /// Largest change of a coarsest coefficient in the last sweep, relative
@@ -99,6 +101,7 @@ impl Stats {
             threshold: settings.refine.oracle.threshold,
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,
+            three_point_threshold: settings.three_point_threshold,
             iterations,
             residual,
             converged: residual <= settings.tolerance,

@@ -125,13 +125,14 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
 
 /// Solve `scene`; unset settings keep the core defaults.
 #[pyfunction]
-#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_max_level=None, tolerance=None, max_iterations=None))]
+#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
 fn solve(
     py: Python<'_>,
     scene: &Scene,
     threshold: Option<f64>,
     max_level: Option<u32>,
+    three_point_threshold: Option<f64>,
     three_point_max_level: Option<u32>,
     tolerance: Option<f64>,
     max_iterations: Option<u32>,
@@ -145,6 +146,9 @@ fn solve(
     }
     if let Some(level) = three_point_max_level {
         settings.three_point_max_level = level;
+    }
+    if let Some(t) = three_point_threshold {
+        settings.three_point_threshold = t;
     }
     if let Some(tolerance) = tolerance {
         settings.tolerance = tolerance;

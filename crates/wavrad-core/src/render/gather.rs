@@ -87,14 +87,18 @@ pub fn direct_radiance(
     out
 }
 
-/// Indirect radiance reflected at `point`: `rays` cosine-distributed gather rays
-/// (stratified), each looking up `outgoing(surface, point)`, the solution's
-/// radiance leaving the point hit minus its emission.
+/// Indirect radiance reflected at the diffuse `point` from the solution,
+/// each sample looking up `outgoing(surface, point)`, the solution's radiance
+/// leaving the point it reaches minus its emission: `rays` cosine-distributed
+/// gather rays (stratified), and `grid` × `grid` points by area on each of
+/// the `bright` surfaces (glossy ones, whose reflected light is
+/// concentrated: a small mirror-like surface lighting a wall is found by few
+/// cosine rays), combined with the balance heuristic (Veach 1997).
 pub fn indirect_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
-    rays: u32,
+    (rays, bright, grid): (u32, &[u32], u32),
     outgoing: impl Fn(u32, DVec3) -> Rgb,
 ) -> Rgb {
     let GatherPoint {
@@ -105,17 +109,28 @@ pub fn indirect_radiance(
     } = *point;
     let rho = diffuse_reflectance(scene, surface);
     let (t, b) = orthonormal_basis(normal);
+    let (n_cos, n_area) = (f64::from(rays), f64::from(grid * grid));
     let mut sum = [0.0; 3];
+    // Area sampling of the bright surfaces.
+    for &q in bright {
+        if q == surface {
+            continue;
+        }
+        for (wi, y, p_area) in area_samples(scene, tracer, point, q, grid, 0x3c6e_f372) {
+            let cos = normal.dot(wi);
+            let p_cos = cos * std::f64::consts::FRAC_1_PI;
+            let w = n_area * p_area / (n_area * p_area + n_cos * p_cos);
+            let l = outgoing(q, y);
+            // f·cos/pdf with f = ρ/π, over n_area samples (ρ applied below).
+            let weight = w * p_cos / p_area / n_area;
+            (0..3).for_each(|ch| sum[ch] += weight * l[ch]);
+        }
+    }
     for k in 0..rays {
         // Stratified in the first dimension, cosine-weighted (Malley).
         let r = hash2(seed ^ 0x5bd1_e995, u64::from(k));
         let u1 = (k as f64 + r.x) / rays as f64;
-        let (radius, phi) = (u1.sqrt(), 2.0 * std::f64::consts::PI * r.y);
-        let local = DVec3::new(
-            radius * phi.cos(),
-            radius * phi.sin(),
-            (1.0 - u1).max(0.0).sqrt(),
-        );
+        let local = crate::brdf::cosine_hemisphere(DVec2::new(u1, r.y));
         let dir = local.x * t + local.y * b + local.z * normal;
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
@@ -127,12 +142,67 @@ pub fn indirect_radiance(
         if hit_patch.normal().dot(dir) >= 0.0 {
             continue; // back of a one-sided surface: black
         }
+        let mut w = 1.0 / n_cos;
+        if bright.contains(&hit.surface) {
+            let p_area = area_pdf(hit_patch, dir, (hit.position - x).length_squared());
+            let p_cos = local.z * std::f64::consts::FRAC_1_PI;
+            w = p_cos / (n_area * p_area + n_cos * p_cos);
+        }
         let l = outgoing(hit.surface, hit.position);
-        for ch in 0..3 {
-            sum[ch] += l[ch];
+        (0..3).for_each(|ch| sum[ch] += w * l[ch]);
+    }
+    [0, 1, 2].map(|ch| rho[ch] * sum[ch])
+}
+
+/// Solid-angle density of picking a point of `patch` uniformly by area,
+/// seen along `wi` at squared distance `r2`.
+fn area_pdf(patch: &crate::scene::Patch, wi: DVec3, r2: f64) -> f64 {
+    let cos_y = -patch.normal().dot(wi);
+    if cos_y <= 0.0 {
+        return f64::INFINITY;
+    }
+    r2 / (cos_y * patch.area())
+}
+
+/// `grid` × `grid` stratified points of surface `q` by area that `point`
+/// sees in front of itself: (direction to it, the point, solid-angle pdf).
+fn area_samples(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    point: &GatherPoint,
+    q: u32,
+    grid: u32,
+    salt: u64,
+) -> Vec<(DVec3, DVec3, f64)> {
+    let patch = &scene.surfaces[q as usize].patch;
+    let x = point.position;
+    let skip = |prim: u32| {
+        let h = tracer.surface_of(prim);
+        h == q || h == point.surface
+    };
+    let mut out = Vec::new();
+    for j in 0..grid {
+        for i in 0..grid {
+            let r = hash2(
+                point.seed ^ salt,
+                u64::from(q) << 32 | u64::from(j * grid + i),
+            );
+            let uv = DVec2::new(
+                (i as f64 + r.x) / grid as f64,
+                (j as f64 + r.y) / grid as f64,
+            );
+            let y = patch.point_at(square_to_patch(patch, uv));
+            let wi = (y - x).normalize();
+            let p = area_pdf(patch, wi, (y - x).length_squared());
+            if p.is_finite()
+                && point.normal.dot(wi) > 0.0
+                && !tracer.occluder.occluded_except(x, y, skip)
+            {
+                out.push((wi, y, p));
+            }
         }
     }
-    [0, 1, 2].map(|ch| rho[ch] * sum[ch] / f64::from(rays.max(1)))
+    out
 }
 
 /// Radiance leaving the glossy point `point` towards the world direction
@@ -140,22 +210,22 @@ pub fn indirect_radiance(
 /// sampling and BRDF sampling combined with the balance heuristic (Veach
 /// 1997), and the rest of the solution by BRDF sampling, each sampled
 /// direction looking up `outgoing(surface, point)`, the solution's radiance
-/// leaving the point hit towards `point`. `samples` light samples per
-/// emitter and BRDF samples.
+/// leaving the point hit towards `point`. `grid` × `grid` light samples per
+/// emitter and as many BRDF samples.
 pub fn glossy_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
     emitters: &[u32],
     point: &GatherPoint,
     wo: DVec3,
-    samples: u32,
+    grid: u32,
     outgoing: impl Fn(u32, DVec3) -> Rgb,
 ) -> Rgb {
     let GatherPoint {
         surface,
         position: x,
-        normal,
         seed,
+        ..
     } = *point;
     let s = &scene.surfaces[surface as usize];
     let frame = s.frame();
@@ -164,33 +234,15 @@ pub fn glossy_radiance(
         return [0.0; 3];
     }
     let mut out = s.emission;
+    let samples = grid * grid;
     let n = f64::from(samples.max(1));
-    // Density of light sampling emitter e towards direction `wi` hitting y.
-    let light_pdf = |e: u32, wi: DVec3, y: DVec3| {
-        let light = &scene.surfaces[e as usize].patch;
-        let cos_y = -light.normal().dot(wi);
-        (cos_y > 0.0).then(|| (y - x).length_squared() / (cos_y * light.area()))
-    };
     // Light sampling.
     for &e in emitters {
         if e == surface {
             continue;
         }
         let light = &scene.surfaces[e as usize];
-        let skip = |prim: u32| {
-            let h = tracer.surface_of(prim);
-            h == e || h == surface
-        };
-        for j in 0..samples {
-            let u = hash2(seed ^ 0x2545_f491, u64::from(e) << 32 | u64::from(j));
-            let y = light.patch.point_at(square_to_patch(&light.patch, u));
-            let wi = (y - x).normalize();
-            let Some(p_light) = light_pdf(e, wi, y) else {
-                continue;
-            };
-            if normal.dot(wi) <= 0.0 || tracer.occluder.occluded_except(x, y, skip) {
-                continue;
-            }
+        for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, 0x2545_f491) {
             let wi_local = frame.to_local(wi);
             let f = s.brdf.eval(wi_local, wo_local);
             let p_brdf = s.brdf.pdf(wo_local, wi_local);
@@ -216,8 +268,8 @@ pub fn glossy_radiance(
         }
         let l = outgoing(hit.surface, hit.position);
         let emitted_weight = if emitters.contains(&hit.surface) {
-            light_pdf(hit.surface, wi, hit.position)
-                .map_or(1.0, |p_light| sample.pdf / (p_light + sample.pdf))
+            let p_light = area_pdf(&q.patch, wi, (hit.position - x).length_squared());
+            sample.pdf / (p_light + sample.pdf)
         } else {
             1.0
         };

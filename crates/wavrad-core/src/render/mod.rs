@@ -30,14 +30,16 @@ pub struct RenderSettings {
     /// ones carry the correction for them: a control variate, so that edges
     /// get many camera rays and the costly gather only a few).
     pub gather_samples_per_pixel: u32,
-    /// Shadow rays per emitter and gathering camera ray: a `gather_grid` ×
-    /// `gather_grid` jittered grid.
+    /// Shadow rays per emitter, and area samples per glossy surface, for
+    /// each gathering camera ray: a `gather_grid` × `gather_grid` jittered
+    /// grid.
     pub gather_grid: u32,
     /// Indirect gather rays per gathering camera ray.
     pub gather_rays: u32,
     /// On glossy surfaces in [`Reconstruction::Gather`], where every camera
-    /// ray gathers: light samples per emitter and BRDF samples per ray.
-    pub glossy_samples: u32,
+    /// ray gathers: `glossy_grid` × `glossy_grid` light samples per emitter
+    /// and as many BRDF samples per ray.
+    pub glossy_grid: u32,
 }
 
 impl Default for RenderSettings {
@@ -48,7 +50,7 @@ impl Default for RenderSettings {
             gather_samples_per_pixel: 128,
             gather_grid: 2,
             gather_rays: 4,
-            glossy_samples: 1,
+            glossy_grid: 1,
         }
     }
 }
@@ -94,8 +96,10 @@ impl Solution {
             .collect();
         // Glossy surfaces outside the gather mode show their radiance towards
         // this view, gathered once into the eye.
-        let glossy = self.scene.surfaces.iter().any(|s| !s.is_diffuse());
-        let eye = (glossy && settings.mode != Reconstruction::Gather)
+        let glossy: Vec<u32> = (0..self.scene.surfaces.len() as u32)
+            .filter(|&s| !self.scene.surfaces[s as usize].is_diffuse())
+            .collect();
+        let eye = (!glossy.is_empty() && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         // Every `stride`-th camera ray gathers, weighted by `stride`.
         let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
@@ -141,7 +145,7 @@ impl Solution {
                     &emitters,
                     &point,
                     -ray.direction,
-                    settings.glossy_samples,
+                    settings.glossy_grid,
                     outgoing,
                 );
             }
@@ -157,7 +161,7 @@ impl Solution {
                 &self.scene,
                 &self.tracer,
                 &point,
-                settings.gather_rays,
+                (settings.gather_rays, &glossy, settings.gather_grid),
                 |q, y| {
                     let l = outgoing(q, y);
                     let e = self.scene.surfaces[q as usize].emission;
@@ -185,9 +189,10 @@ impl Solution {
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
-    /// point `x` of surface `s`: the smooth reconstruction for a diffuse `q`,
-    /// the directional radiance L_{q→s} of the element pair holding (y, x)
-    /// for a glossy one.
+    /// point `x` of surface `s`: the smooth reconstruction for a diffuse `q`;
+    /// for a glossy one the directional radiance L_{q→s} of the element pairs
+    /// (a ∋ y, b), smooth over the receiver's elements b around `x` (the
+    /// gather integrates over y already, so only x needs the smoothing).
     pub fn outgoing_radiance(&self, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
         let surface = &self.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
@@ -204,13 +209,22 @@ impl Solution {
             return surface.emission;
         };
         let receiver = &self.scene.surfaces[s as usize].patch;
-        let uv_x = receiver.clamp_param(receiver.param_of(x));
+        let uv_x = receiver.param_of(x);
         let depth = self.settings.three_point_max_level;
         let path_y = ElementId::path_to(&surface.patch, uv_y, depth);
-        let path_x = ElementId::path_to(receiver, uv_x, depth);
         let tree = &self.interactions.directional[index as usize].tree;
-        let leaf = tree.leaf_at(|l| path_y[l as usize], |l| path_x[l as usize]);
-        self.directional[index as usize][leaf as usize]
+        let values = &self.directional[index as usize];
+        let leaf_towards = |uv: DVec2| {
+            let path_x = ElementId::path_to(receiver, receiver.clamp_param(uv), depth);
+            tree.leaf_at(|l| path_y[l as usize], |l| path_x[l as usize]) as usize
+        };
+        let level = tree.nodes[leaf_towards(uv_x)].b.level;
+        let mut out = [0.0; 3];
+        for (centre, w) in reconstruct::hat_stencil(uv_x, level) {
+            let l = values[leaf_towards(centre)];
+            (0..3).for_each(|ch| out[ch] += w * l[ch]);
+        }
+        out
     }
 }
 

@@ -71,22 +71,8 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
         Reconstruction::Haar => radiance[leaf as usize],
         Reconstruction::Smooth | Reconstruction::Direct | Reconstruction::Gather => {
             let root = &tree.nodes[0].patch;
-            let h = 0.5f64.powi(tree.nodes[leaf as usize].id.level as i32);
-            // Element centres around uv on this level's grid, and weights.
-            let g = uv / h - DVec2::splat(0.5);
-            let base = g.floor();
-            let f = (g - base).clamp(DVec2::ZERO, DVec2::ONE);
             let mut out = [0.0; 3];
-            for (dx, dy, w) in [
-                (0.0, 0.0, (1.0 - f.x) * (1.0 - f.y)),
-                (1.0, 0.0, f.x * (1.0 - f.y)),
-                (0.0, 1.0, (1.0 - f.x) * f.y),
-                (1.0, 1.0, f.x * f.y),
-            ] {
-                if w == 0.0 {
-                    continue;
-                }
-                let centre = (base + DVec2::new(dx, dy) + DVec2::splat(0.5)) * h;
+            for (centre, w) in hat_stencil(uv, tree.nodes[leaf as usize].id.level) {
                 let (node, _) = tree.locate(root.clamp_param(centre));
                 for ch in 0..3 {
                     out[ch] += w * radiance[node as usize][ch];
@@ -95,6 +81,26 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
             out
         }
     }
+}
+
+/// The bilinear ("hat") reconstruction at parameter `uv` from element
+/// averages at `level`: the centres of the four elements of that level's
+/// grid around `uv`, with their weights (zero-weight centres left out).
+pub fn hat_stencil(uv: DVec2, level: u32) -> Vec<(DVec2, f64)> {
+    let h = 0.5f64.powi(level as i32);
+    let g = uv / h - DVec2::splat(0.5);
+    let base = g.floor();
+    let f = (g - base).clamp(DVec2::ZERO, DVec2::ONE);
+    [
+        (0.0, 0.0, (1.0 - f.x) * (1.0 - f.y)),
+        (1.0, 0.0, f.x * (1.0 - f.y)),
+        (0.0, 1.0, (1.0 - f.x) * f.y),
+        (1.0, 1.0, f.x * f.y),
+    ]
+    .into_iter()
+    .filter(|&(_, _, w)| w > 0.0)
+    .map(|(dx, dy, w)| ((base + DVec2::new(dx, dy) + DVec2::splat(0.5)) * h, w))
+    .collect()
 }
 
 #[cfg(test)]
