@@ -40,7 +40,7 @@ lint: venv
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --exclude wavrad-py
-	$(VENV)/bin/pip install --quiet ruff && $(VENV)/bin/ruff check python tests scenes
+	$(VENV)/bin/pip install --quiet ruff && $(VENV)/bin/ruff check python tests scenes benches
 
 bench-bvh:
 	$(CARGO) run --release --manifest-path benches/bvh-choice/Cargo.toml

@@ -45,6 +45,20 @@ def relative_rmse(image, reference):
     return float(out.split()[-1])
 
 
+def receiver_rmse(image, reference):
+    """relRMSE over the pixels where the reference shows the receiver: lit,
+    but below a quarter of the image's maximum (the reflector, lit directly,
+    is far brighter and dominates a whole-image error)."""
+    import numpy as np
+
+    import wavrad as wr
+
+    a, b = wr.read_exr(image), wr.read_exr(reference)
+    lum = b.mean(axis=2)
+    mask = (lum > 1e-3 * lum.max()) & (lum < 0.25 * lum.max())
+    return float(np.sqrt(((a - b)[mask] ** 2).mean()) / b[mask].mean())
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--threshold", default="1e-4")
@@ -71,7 +85,8 @@ def main():
             with open(stats) as f:
                 s = json.load(f)
             result[mode] = {"stats": s, "wall_s": wall,
-                            "rel_rmse": relative_rmse(exr, reference)}
+                            "rel_rmse": relative_rmse(exr, reference),
+                            "receiver_rmse": receiver_rmse(exr, reference)}
             os.remove(exr)
         rows.append(result)
         print(name, json.dumps({k: result["direct"]["stats"][k] for k in COUNTS}))
@@ -102,8 +117,8 @@ def main():
     lines += [
         "",
         "| reflector | mode | kernels s | solve s | render s | peak memory MB "
-        "| relRMSE vs Mitsuba 3 |",
-        "|---|---|---|---|---|---|---|",
+        "| relRMSE vs Mitsuba 3 | on the receiver |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         for mode in ("direct", "gather"):
@@ -112,8 +127,22 @@ def main():
             mem = (s.get("peak_memory_bytes") or 0) / 2**20
             lines.append(
                 f"| {r['name']} | {mode} | {t['kernels_s']:.2f} | {t['solve_s']:.3f} | "
-                f"{t['render_s']:.2f} | {mem:.0f} | {100 * r[mode]['rel_rmse']:.1f} % |")
+                f"{t['render_s']:.2f} | {mem:.0f} | {100 * r[mode]['rel_rmse']:.1f} % | "
+                f"{100 * r[mode]['receiver_rmse']:.1f} % |")
     lines += [
+        "",
+        "\"On the receiver\": pixels where the reference is lit but below a quarter "
+        "of its maximum; the directly lit reflector is 20–50× brighter than the "
+        "receiver and dominates the whole-image error, most of all in `direct` "
+        "mode, where it is read from its element radiance instead of being "
+        "lit per pixel.",
+        "",
+        "Our layout is not the paper's (it gives no dimensions): counts depend on "
+        "it. In ours the surfaces are far apart and do not touch, so the kernel "
+        "oracle refines the diffuse case far less than the paper did; the "
+        "specular case makes more three-point interactions and fewer nodes "
+        "because virtual resolution refines the three elements one at a time "
+        "and a pair tree node is shared by many links.",
         "",
         "Images (64×64, this run): `docs/figure3/{diffuse,specular}-{direct,gather}.png`;",
         "the references are `scenes/figure3/reference-*.exr`.",

@@ -42,7 +42,8 @@ for kw in [dict(variant="balanced", alpha=0.1, specular_reflectance=1.0, diffuse
            dict(variant="balanced", alpha_u=0.1, alpha_v=0.35, specular_reflectance=1.0,
                 diffuse_reflectance=0.0),
            dict(variant="balanced", alpha=0.3, specular_reflectance=1.0, diffuse_reflectance=0.0),
-           dict(variant="balanced", alpha=0.25, specular_reflectance=0.18, diffuse_reflectance=0.62),
+           dict(variant="balanced", alpha=0.25, specular_reflectance=0.18,
+                diffuse_reflectance=0.62),
            dict(variant="ward", alpha_u=0.04, alpha_v=0.09, specular_reflectance=0.21,
                 diffuse_reflectance=0.1),
            dict(variant="ward-duer", alpha=0.3, specular_reflectance=1.0, diffuse_reflectance=0.0)]:

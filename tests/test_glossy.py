@@ -36,7 +36,9 @@ def test_glossy_stats_count_three_point_nodes_and_interactions(glossy: wavrad.So
 
 
 @pytest.mark.parametrize("mode", ["gather", "direct", "smooth", "haar"])
-def test_glossy_render_modes_give_finite_positive_images(glossy: wavrad.Solution, mode: str) -> None:
+def test_glossy_render_modes_give_finite_positive_images(
+    glossy: wavrad.Solution, mode: str
+) -> None:
     image = glossy.render(mode, spp=4)
     assert image.shape == (16, 16, 3)
     assert np.isfinite(image).all()

@@ -20,9 +20,12 @@ fn lambertian_ward(rho: f64) -> Brdf {
     })
 }
 
+/// Two- and three-point links refined alike, so both paths compare.
 fn settings(max_level: u32) -> SolveSettings {
     let mut s = SolveSettings::default();
     s.refine.max_level = max_level;
+    s.three_point_max_level = max_level;
+    s.three_point_threshold = s.refine.oracle.threshold;
     s
 }
 

@@ -357,7 +357,7 @@ mod tests {
             normal: n,
             seed: 3,
         };
-        let l = indirect_radiance(&scene, &tracer, &point, 64, |_, _| [2.0; 3]);
+        let l = indirect_radiance(&scene, &tracer, &point, (64, &[], 1), |_, _| [2.0; 3]);
         assert!((l[0] - 1.0).abs() < 1e-12, "{}", l[0]);
     }
 
