@@ -2,6 +2,7 @@
 //! results that do not depend on the number of threads.
 
 use glam::DVec3;
+use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
 use wavrad_core::scene::{Camera, Film, Patch, PixelFilter, Projection, Scene, Surface};
 use wavrad_core::solve::{solve, Silent, SolveSettings};
@@ -53,7 +54,7 @@ fn open_scene_energy_balance_single_bounce() {
 }
 
 /// Refinement, solve and rendering give bit-identical results on 1 and 2
-/// threads.
+/// threads, diffuse and glossy (two- and three-point links, the eye).
 #[test]
 fn results_do_not_depend_on_thread_count() {
     let mut surfaces: Vec<Surface> =
@@ -67,6 +68,11 @@ fn results_do_not_depend_on_thread_count() {
             })
             .collect();
     surfaces[1].emission = [3.0; 3];
+    surfaces[2].brdf = wavrad_core::brdf::Brdf::Ward(wavrad_core::brdf::Ward {
+        alpha_u: 0.15,
+        alpha_v: 0.3,
+        ..Default::default()
+    });
     surfaces.push(Surface {
         name: "blocker".into(),
         patch: Patch::Triangle([
@@ -96,7 +102,11 @@ fn results_do_not_depend_on_thread_count() {
         height: 9,
         filter: PixelFilter::Gaussian { stddev: 0.5 },
     };
-    let settings = SolveSettings::default();
+    let settings = SolveSettings {
+        three_point_max_level: 2,
+        three_point_threshold: 1e-3,
+        ..SolveSettings::default()
+    };
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -109,12 +119,27 @@ fn results_do_not_depend_on_thread_count() {
                 gather_samples_per_pixel: 4,
                 ..RenderSettings::default()
             };
-            let image = s.render(&render).unwrap();
-            (s.radiance, s.stats.two_point_interactions, image.rgb)
+            let gather = s.render(&render).unwrap();
+            let direct = s
+                .render(&RenderSettings {
+                    mode: Reconstruction::Direct,
+                    ..render
+                })
+                .unwrap();
+            let counts = (
+                s.stats.two_point_interactions,
+                s.stats.three_point_interactions,
+            );
+            (
+                (s.radiance, s.directional),
+                counts,
+                (gather.rgb, direct.rgb),
+            )
         })
     };
     let (r1, n1, i1) = run(1);
     let (r2, n2, i2) = run(2);
+    assert!(n1.1 > 0, "the glossy wall makes three-point links");
     assert_eq!(n1, n2);
     assert_eq!(r1, r2);
     assert_eq!(i1, i2);
