@@ -101,6 +101,7 @@ impl Solution {
             .collect();
         let eye = (!glossy.is_empty() && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
+        let bright = self.secondary_sources(&glossy);
         // Every `stride`-th camera ray gathers, weighted by `stride`.
         let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
         let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
@@ -161,7 +162,7 @@ impl Solution {
                 &self.scene,
                 &self.tracer,
                 &point,
-                (settings.gather_rays, &glossy, settings.gather_grid),
+                (settings.gather_rays, &bright, settings.gather_grid),
                 |q, y| {
                     let l = outgoing(q, y);
                     let e = self.scene.surfaces[q as usize].emission;
@@ -186,6 +187,32 @@ impl Solution {
             *v = v.max(0.0);
         }
         image
+    }
+
+    /// The surfaces a diffuse point's final gather samples by area besides
+    /// its cosine rays: every glossy one (its reflected light is
+    /// concentrated in its lobes) and every diffuse non-emitter whose
+    /// average radiance is over four times the area-weighted mean of all
+    /// non-emitters (a small, strongly lit surface that lights the others:
+    /// cosine rays rarely find it).
+    fn secondary_sources(&self, glossy: &[u32]) -> Vec<u32> {
+        let lum = |l: Rgb| (l[0] + l[1] + l[2]) / 3.0;
+        let lit: Vec<(u32, f64, f64)> = (0..self.scene.surfaces.len() as u32)
+            .filter(|&s| {
+                let surface = &self.scene.surfaces[s as usize];
+                surface.is_diffuse() && !surface.is_emitter()
+            })
+            .map(|s| {
+                let area = self.scene.surfaces[s as usize].patch.area();
+                (s, lum(self.radiance[s as usize][0]), area)
+            })
+            .collect();
+        let total_area: f64 = lit.iter().map(|l| l.2).sum();
+        let mean = lit.iter().map(|l| l.1 * l.2).sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
+        let mut out = glossy.to_vec();
+        out.extend(lit.iter().filter(|l| l.1 > 4.0 * mean).map(|l| l.0));
+        out.sort_unstable();
+        out
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
