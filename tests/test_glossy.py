@@ -30,6 +30,9 @@ def test_glossy_stats_count_three_point_nodes_and_interactions(glossy: wavrad.So
     stats = glossy.stats
     assert stats["three_point_nodes"] > 0
     assert stats["three_point_interactions"] > stats["three_point_nodes"] / 10
+    assert sum(stats["three_point_nodes_per_level"]) == stats["three_point_nodes"]
+    # A pair's two levels are each at most the three-point maximum level.
+    assert len(stats["three_point_nodes_per_level"]) <= 2 * 2 + 1
     assert stats["three_point_max_level"] == 2
     assert stats["three_point_threshold"] == 1e-3
     assert stats["converged"]

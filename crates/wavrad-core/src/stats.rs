@@ -38,6 +38,9 @@ pub struct Stats {
     pub three_point_nodes: usize,
     /// Three-point links: the paper's "three point interactions".
     pub three_point_interactions: usize,
+    /// Element pairs per sum of their two levels (index = level of a +
+    /// level of b).
+    pub three_point_nodes_per_level: Vec<usize>,
     /// Elements per level (index = level).
     pub nodes_per_level: Vec<usize>,
     /// Links per level of their finer element (index = level).
@@ -73,15 +76,7 @@ impl Stats {
         (iterations, residual): (u32, f64),
         times: PhaseTimes,
     ) -> Stats {
-        let mut nodes_per_level = Vec::new();
-        for t in trees {
-            for (l, n) in t.count_per_level().into_iter().enumerate() {
-                if nodes_per_level.len() <= l {
-                    nodes_per_level.resize(l + 1, 0);
-                }
-                nodes_per_level[l] += n;
-            }
-        }
+        let nodes_per_level = add_counts(trees.iter().map(ElementTree::count_per_level));
         let mut interactions_per_level = vec![0; nodes_per_level.len().max(1)];
         for l in links {
             let level = l.a.level.max(l.c.level) as usize;
@@ -95,6 +90,9 @@ impl Stats {
             two_point_nodes: trees.iter().map(|t| t.nodes.len()).sum(),
             two_point_interactions: links.len(),
             three_point_nodes: directional.iter().map(|d| d.tree.nodes.len()).sum(),
+            three_point_nodes_per_level: add_counts(
+                directional.iter().map(|d| d.tree.count_per_level()),
+            ),
             three_point_interactions,
             nodes_per_level,
             interactions_per_level,
@@ -109,6 +107,18 @@ impl Stats {
             peak_memory_bytes: peak_memory_bytes(),
         }
     }
+}
+
+/// Per-level counts added up level by level.
+fn add_counts(counts: impl Iterator<Item = Vec<usize>>) -> Vec<usize> {
+    let mut total = Vec::new();
+    for c in counts {
+        if total.len() < c.len() {
+            total.resize(c.len(), 0);
+        }
+        total.iter_mut().zip(c).for_each(|(t, n)| *t += n);
+    }
+    total
 }
 
 /// Peak resident set size of this process (Linux `VmHWM`), if known.
