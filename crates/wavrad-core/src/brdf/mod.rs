@@ -84,6 +84,28 @@ pub struct BrdfSample {
     pub weight: Rgb,
 }
 
+impl BrdfSample {
+    /// The sample of a mixture model that drew `wi` given `wo` (by any of
+    /// its lobes): its density and weight come from the whole model's
+    /// `pdf` and `eval`. `None` below the surface or where the density
+    /// vanishes.
+    pub fn drawn(model: &impl BrdfModel, wo: DVec3, wi: DVec3) -> Option<BrdfSample> {
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = model.pdf(wo, wi);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        let f = model.eval(wi, wo);
+        Some(BrdfSample {
+            direction: wi,
+            pdf,
+            weight: f.map(|f| f * wi.z / pdf),
+        })
+    }
+}
+
 /// What every reflection model provides (directions in the local frame).
 pub trait BrdfModel {
     /// f(wi → wo) per unit solid angle, without the cosine: light arriving

@@ -224,19 +224,7 @@ impl BrdfModel for RoughPlastic {
         } else {
             cosine_hemisphere(u)
         };
-        if wi.z <= 0.0 {
-            return None;
-        }
-        let pdf = self.pdf(wo, wi);
-        if pdf.is_nan() || pdf <= 0.0 {
-            return None;
-        }
-        let f = self.eval(wi, wo);
-        Some(BrdfSample {
-            direction: wi,
-            pdf,
-            weight: f.map(|f| f * wi.z / pdf),
-        })
+        BrdfSample::drawn(self, wo, wi)
     }
 }
 
