@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
+use wavrad_core::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
 use wavrad_core::solve::{solve, Progress, Solution, SolveSettings};
@@ -63,10 +64,23 @@ enum Command {
 struct SolveArgs {
     /// Mitsuba 3 XML scene.
     scene: PathBuf,
-    /// Oracle threshold on the kernel's Haar detail coefficients, in the paper's
-    /// orthonormal normalisation (the paper uses 1e-4).
+    /// Refinement oracle: `kernel` (the paper's: Haar details of the kernel
+    /// alone), `power` (kernel variation × radiance carried, Hanrahan et al.
+    /// 1991) or `importance` (power × the receiver's importance for the
+    /// scene's sensor, Smits et al. 1992). The last two run a refine–solve
+    /// loop.
+    #[arg(long, default_value = "kernel", value_parser = parse_oracle)]
+    oracle: Oracle,
+    /// Oracle threshold. Kernel oracle: on the kernel's Haar detail
+    /// coefficients in the paper's orthonormal normalisation (the paper uses
+    /// 1e-4) [default: 1e-3]. Weighted oracles: on the estimated error of a
+    /// receiver's radiance relative to the brightest emission [default: see
+    /// README].
     #[arg(long)]
     threshold: Option<f64>,
+    /// Most projections of the refine–solve loop of the weighted oracles.
+    #[arg(long)]
+    refine_passes: Option<u32>,
     /// Maximum subdivision level of an element (the paper uses 8).
     #[arg(long)]
     max_level: Option<u32>,
@@ -215,7 +229,10 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
         })
         .collect::<Result<Vec<_>, _>>()?;
     let scene = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
-    let mut settings = SolveSettings::default();
+    let mut settings = SolveSettings::for_oracle(args.oracle);
+    if let Some(n) = args.refine_passes {
+        settings.refine_passes = n;
+    }
     if let Some(t) = args.threshold {
         settings.refine.oracle.threshold = t;
     }
@@ -229,6 +246,10 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
         settings.three_point_threshold = t;
     }
     solve(&scene, &settings, progress).map_err(|e| format!("{}: {e}", args.scene.display()))
+}
+
+fn parse_oracle(s: &str) -> Result<Oracle, String> {
+    s.parse()
 }
 
 fn check_output_extension(output: &Path) -> Result<(), String> {

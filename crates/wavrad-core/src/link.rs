@@ -10,8 +10,9 @@
 
 use crate::hierarchy::ElementId;
 use crate::kernel::{self, KernelElement, OuterSamples, Quadrature};
-use crate::oracle::KernelSmoothness;
+use crate::oracle::{average_detail, KernelSmoothness};
 use crate::scene::{Patch, Scene, Surface};
+use crate::solve::estimate::LightEstimate;
 use crate::solve::Progress;
 use crate::tracing::SceneTracer;
 use rayon::prelude::*;
@@ -30,6 +31,11 @@ pub struct Link {
     pub c: ElementId,
     /// Geometric throughput T(a,c) = |a|·F(a,c) = |c|·F(c,a).
     pub throughput: f64,
+    /// Largest kernel detail the weighted oracles saw when they kept the
+    /// link (element-average units, [`average_detail`]); a later pass of
+    /// the refine–solve loop re-weighs it without new quadrature. Zero
+    /// under the kernel oracle and for links at the maximum level.
+    pub detail: f32,
 }
 
 /// Settings of the adaptive kernel projection.
@@ -53,12 +59,108 @@ struct Side {
 struct PairRefiner<'a> {
     tracer: &'a SceneTracer,
     settings: RefineSettings,
+    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
+    estimate: Option<&'a LightEstimate>,
+    /// Reflectance (largest channel) and area of the two surfaces, by
+    /// surface index.
+    reflectance: [(u32, f64, f64); 2],
     /// max(ρ_p A_r, ρ_r A_p): the paper's kernel scale for both directions.
     scale: f64,
     links: Vec<Link>,
 }
 
-impl PairRefiner<'_> {
+/// What an oracle test found: whether the details pass, and the largest
+/// detail in element-average units (for the weighted oracles).
+#[derive(Clone, Copy)]
+struct Verdict {
+    smooth: bool,
+    detail: f64,
+}
+
+impl<'a> PairRefiner<'a> {
+    fn new(
+        scene: &Scene,
+        tracer: &'a SceneTracer,
+        settings: RefineSettings,
+        estimate: Option<&'a LightEstimate>,
+        (p, r): (u32, u32),
+    ) -> Self {
+        let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
+        let rho = |s: &Surface| {
+            s.brdf
+                .diffuse_reflectance()
+                .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
+        };
+        PairRefiner {
+            tracer,
+            settings,
+            estimate,
+            reflectance: [(p, rho(sp), sp.patch.area()), (r, rho(sr), sr.patch.area())],
+            scale: (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area()),
+            links: Vec::new(),
+        }
+    }
+
+    fn surface(&self, s: u32) -> (f64, f64) {
+        let (_, rho, area) = self.reflectance[usize::from(self.reflectance[0].0 != s)];
+        (rho, area)
+    }
+
+    /// The light the pair (x, y) carries, for the weighted oracles: the
+    /// larger of ρ_x·|y|·L_{y→x}·I_x and the same the other way, so that
+    /// `detail × weight` estimates the error of the receiver's radiance
+    /// (relative to the brightest emission, and weighted by importance).
+    fn weight(
+        &self,
+        e: &LightEstimate,
+        (xs, x): (u32, ElementId),
+        (ys, y): (u32, ElementId),
+    ) -> f64 {
+        let one_way = |(rs, r): (u32, ElementId), (ss, s): (u32, ElementId)| {
+            let (rho, _) = self.surface(rs);
+            let (_, area) = self.surface(ss);
+            rho * area
+                * 0.25f64.powi(s.level as i32)
+                * e.radiance(ss, s, rs, r)
+                * e.importance(rs, r)
+        };
+        one_way((xs, x), (ys, y)).max(one_way((ys, y), (xs, x)))
+    }
+
+    /// The oracle on the mean kernel over the four children of `split`
+    /// against `other`.
+    fn test(&self, means: [f64; 4], split: &Side, other: &Side) -> Verdict {
+        let threshold = self.settings.oracle.threshold;
+        match self.estimate {
+            None => Verdict {
+                smooth: self.settings.oracle.accepts(
+                    means,
+                    split.id.level,
+                    other.id.level,
+                    self.scale,
+                ),
+                detail: 0.0,
+            },
+            Some(e) => {
+                let detail = average_detail(means);
+                let w = self.weight(e, (split.surface, split.id), (other.surface, other.id));
+                Verdict {
+                    smooth: detail * w <= threshold,
+                    detail,
+                }
+            }
+        }
+    }
+
+    /// True when a kept link still passes the weighted oracle under a new
+    /// estimate.
+    fn still_smooth(&self, l: &Link) -> bool {
+        let threshold = self.settings.oracle.threshold;
+        self.estimate.is_none_or(|e| {
+            f64::from(l.detail) * self.weight(e, (l.p, l.a), (l.r, l.c)) <= threshold
+        })
+    }
+
     fn samples(&self, a: &Side, c: &Side) -> OuterSamples {
         kernel::throughput_samples(
             self.tracer,
@@ -106,45 +208,51 @@ impl PairRefiner<'_> {
     /// wherever the quadrature already sampled them: over the quadrants of
     /// each child of `split` (when the child was the point-sampled element),
     /// and over the quadrants of `other` (when it was, for every child).
-    /// Returns (children smooth, other smooth). A kernel symmetric over the
-    /// four children (two facing walls) has zero details at the children's
-    /// level however much it varies inside them; this catches it.
+    /// Returns the verdicts for (children, other). A kernel symmetric over
+    /// the four children (two facing walls) has zero details at the
+    /// children's level however much it varies inside them; this catches it.
     fn look_ahead(
         &self,
         samples: &[OuterSamples],
         children: &[Side],
         split: &Side,
         other: &Side,
-    ) -> (bool, bool) {
-        let oracle = self.settings.oracle;
+    ) -> (Verdict, Verdict) {
         let max = self.settings.max_level;
+        let pass = Verdict {
+            smooth: true,
+            detail: 0.0,
+        };
+        let both = |x: Verdict, y: Verdict| Verdict {
+            smooth: x.smooth && y.smooth,
+            detail: x.detail.max(y.detail),
+        };
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
-        let children_smooth = samples.iter().zip(children).all(|(s, child)| {
+        let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
             if !s.outer_is_a || child.id.level >= max {
-                return true;
+                return v;
             }
             four(s)
                 .and_then(|c| self.quadrant_means(c, child, other))
-                .is_none_or(|m| oracle.accepts(m, child.id.level, other.id.level, self.scale))
+                .map_or(v, |m| both(v, self.test(m, child, other)))
         });
-        let other_smooth = other.id.level >= max || samples.iter().any(|s| s.outer_is_a) || {
-            let mut sum = [0.0; 4];
-            let mut complete = true;
-            for s in samples {
-                match four(s) {
-                    Some(c) => (0..4).for_each(|i| sum[i] += c[i]),
-                    None => complete = false,
-                }
+        if other.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
+            return (children_verdict, pass);
+        }
+        let mut sum = [0.0; 4];
+        for s in samples {
+            match four(s) {
+                Some(c) => (0..4).for_each(|i| sum[i] += c[i]),
+                None => return (children_verdict, pass),
             }
-            !complete
-                || self
-                    .quadrant_means(sum, other, split)
-                    .is_none_or(|m| oracle.accepts(m, other.id.level, split.id.level, self.scale))
-        };
-        (children_smooth, other_smooth)
+        }
+        let other_verdict = self
+            .quadrant_means(sum, other, split)
+            .map_or(pass, |m| self.test(m, other, split));
+        (children_verdict, other_verdict)
     }
 
-    fn push(&mut self, a: &Side, c: &Side, throughput: f64) {
+    fn push(&mut self, a: &Side, c: &Side, throughput: f64, detail: f64) {
         if throughput > 0.0 {
             self.links.push(Link {
                 p: a.surface,
@@ -152,6 +260,7 @@ impl PairRefiner<'_> {
                 r: c.surface,
                 c: c.id,
                 throughput,
+                detail: detail as f32,
             });
         }
     }
@@ -160,7 +269,7 @@ impl PairRefiner<'_> {
     fn refine(&mut self, a: Side, c: Side, throughput: f64) {
         let max = self.settings.max_level;
         let split_a = match (a.id.level < max, c.id.level < max) {
-            (false, false) => return self.push(&a, &c, throughput),
+            (false, false) => return self.push(&a, &c, throughput, 0.0),
             (true, false) => true,
             (false, true) => false,
             (true, true) => a.patch.area() >= c.patch.area(),
@@ -190,16 +299,17 @@ impl PairRefiner<'_> {
             t[2] / pair_area,
             t[3] / pair_area,
         ];
-        let (children_smooth, other_smooth) = self.look_ahead(&samples, &children, split, other);
-        let split_smooth = children_smooth
-            && self
-                .settings
-                .oracle
-                .accepts(means, split.id.level, other.id.level, self.scale);
+        let (children_verdict, other_verdict) = self.look_ahead(&samples, &children, split, other);
+        let split_verdict = self.test(means, split, other);
+        let split_smooth = children_verdict.smooth && split_verdict.smooth;
         // Hierarchical decomposition: keep the link here if the details pass;
         // if only the unsplit element's fail, refine it instead.
-        if split_smooth && other_smooth {
-            return self.push(&a, &c, t.iter().sum());
+        if split_smooth && other_verdict.smooth {
+            let detail = split_verdict
+                .detail
+                .max(children_verdict.detail)
+                .max(other_verdict.detail);
+            return self.push(&a, &c, t.iter().sum(), detail);
         }
         if split_smooth {
             let (split, other) = (*other, *split);
@@ -231,11 +341,13 @@ impl PairRefiner<'_> {
 
 /// All two-point links of a scene (compute_kernel of §4.2 for pairs with a
 /// diffuse surface), refined in parallel over surface pairs; the result does not
-/// depend on the number of threads.
+/// depend on the number of threads. With an `estimate` the weighted oracles
+/// decide (see [`crate::oracle::Oracle`]), else the paper's.
 pub fn refine_links(
     scene: &Scene,
     tracer: &SceneTracer,
     settings: RefineSettings,
+    estimate: Option<&LightEstimate>,
     progress: &dyn Progress,
 ) -> Vec<Link> {
     let n = scene.surfaces.len();
@@ -249,29 +361,14 @@ pub fn refine_links(
     let per_pair: Vec<Vec<Link>> = pairs
         .par_iter()
         .map(|&(p, r)| {
-            let (sp, sr) = (&scene.surfaces[p], &scene.surfaces[r]);
-            let rho = |s: &Surface| {
-                s.brdf
-                    .diffuse_reflectance()
-                    .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
-            };
-            let scale = (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area());
-            let mut refiner = PairRefiner {
-                tracer,
-                settings,
-                scale,
-                links: Vec::new(),
-            };
-            let a = Side {
-                surface: p as u32,
+            let mut refiner =
+                PairRefiner::new(scene, tracer, settings, estimate, (p as u32, r as u32));
+            let side = |s: usize| Side {
+                surface: s as u32,
                 id: ElementId::ROOT,
-                patch: sp.patch,
+                patch: scene.surfaces[s].patch,
             };
-            let c = Side {
-                surface: r as u32,
-                id: ElementId::ROOT,
-                patch: sr.patch,
-            };
+            let (a, c) = (side(p), side(r));
             let t = refiner.throughput(&a, &c);
             refiner.refine(a, c, t);
             progress.advance(1);
@@ -280,6 +377,59 @@ pub fn refine_links(
         .collect();
     progress.finish();
     per_pair.into_iter().flatten().collect()
+}
+
+/// One pass of the refine–solve loop: every link that the weighted oracle
+/// rejects under the new `estimate` is refined further (links are never
+/// coarsened); the others are kept as they are. Returns the links, in a
+/// deterministic order, and how many were refined.
+pub fn refine_links_further(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    settings: RefineSettings,
+    estimate: &LightEstimate,
+    links: Vec<Link>,
+    progress: &dyn Progress,
+) -> (Vec<Link>, usize) {
+    progress.start("kernels", links.len() as u64);
+    let out = refine_each(&links, progress, |l| {
+        let mut refiner = PairRefiner::new(scene, tracer, settings, Some(estimate), (l.p, l.r));
+        if refiner.still_smooth(l) {
+            return vec![*l];
+        }
+        let side = |surface: u32, id: ElementId| Side {
+            surface,
+            id,
+            patch: id.patch(&scene.surfaces[surface as usize].patch),
+        };
+        refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput);
+        refiner.links
+    });
+    progress.finish();
+    out
+}
+
+/// Replace every link by what `refine` makes of it, in parallel and in
+/// order; also count the links that changed.
+pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
+    links: &[L],
+    progress: &dyn Progress,
+    refine: impl Fn(&L) -> Vec<L> + Sync,
+) -> (Vec<L>, usize) {
+    let per_link: Vec<Vec<L>> = links
+        .par_iter()
+        .map(|l| {
+            let out = refine(l);
+            progress.advance(1);
+            out
+        })
+        .collect();
+    let changed = per_link
+        .iter()
+        .zip(links)
+        .filter(|(new, old)| new.as_slice() != [**old])
+        .count();
+    (per_link.into_iter().flatten().collect(), changed)
 }
 
 #[cfg(test)]
@@ -313,12 +463,79 @@ mod tests {
             max_level: 4,
             quadrature: Quadrature::default(),
         };
-        let links = refine_links(&scene, &tracer, settings, &Silent);
+        let links = refine_links(&scene, &tracer, settings, None, &Silent);
         assert!(links.len() > 16, "{} links", links.len());
         assert!(links.iter().all(|l| l.a.level + l.c.level >= 2));
         // The links partition the pair: they add up to Howell's closed form
         // for parallel unit squares at distance 0.3.
         let t: f64 = links.iter().map(|l| l.throughput).sum();
         assert!((t - 0.579_530_8).abs() < 1e-4, "{t}");
+    }
+
+    /// An emitter over a dark floor, and a second dark square facing the
+    /// floor: the power oracle refines only where light flows.
+    fn lit_floor() -> Scene {
+        let square = |z: f64, up: bool, emission: f64| Surface {
+            name: String::new(),
+            patch: Patch::Parallelogram {
+                origin: DVec3::new(0.0, 0.0, z),
+                edge_s: if up { DVec3::X } else { DVec3::Y },
+                edge_t: if up { DVec3::Y } else { DVec3::X },
+            },
+            brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
+            emission: [emission; 3],
+        };
+        Scene::from_surfaces(vec![square(0.0, true, 0.0), square(0.5, false, 4.0)])
+    }
+
+    #[test]
+    fn power_oracle_refines_where_light_flows_and_the_loop_refines_further() {
+        let scene = lit_floor();
+        let tracer = SceneTracer::new(&scene);
+        let settings = RefineSettings {
+            oracle: KernelSmoothness { threshold: 1e-3 },
+            max_level: 4,
+            quadrature: Quadrature::default(),
+        };
+        let dark = Scene::from_surfaces(
+            scene
+                .surfaces
+                .iter()
+                .map(|s| Surface {
+                    emission: [0.0; 3],
+                    ..s.clone()
+                })
+                .collect(),
+        );
+        // No light anywhere: nothing to refine.
+        let none = LightEstimate::emission(&dark, None);
+        let coarse = refine_links(&dark, &tracer, settings, Some(&none), &Silent);
+        assert_eq!(coarse.len(), 1);
+        assert_eq!(
+            (coarse[0].a, coarse[0].c),
+            (ElementId::ROOT, ElementId::ROOT)
+        );
+        // The emitter's light is refined over the floor.
+        let lit = LightEstimate::emission(&scene, None);
+        let links = refine_links(&scene, &tracer, settings, Some(&lit), &Silent);
+        assert!(links.len() > 4, "{} links", links.len());
+        // Re-testing against the same estimate changes nothing; a stricter
+        // test refines further from the stored details. Both keep the
+        // partition (Howell's parallel unit squares at distance 0.5).
+        let (same, changed) =
+            refine_links_further(&scene, &tracer, settings, &lit, links.clone(), &Silent);
+        assert_eq!((same.len(), changed), (links.len(), 0));
+        let stricter = RefineSettings {
+            oracle: KernelSmoothness { threshold: 3e-4 },
+            ..settings
+        };
+        let (finer, changed) =
+            refine_links_further(&scene, &tracer, stricter, &lit, links.clone(), &Silent);
+        assert!(changed > 0 && finer.len() > links.len());
+        assert!(finer.iter().any(|l| l.a.level + l.c.level > 6));
+        for set in [&links, &finer] {
+            let t: f64 = set.iter().map(|l| l.throughput).sum();
+            assert!((t - 0.415_253_7).abs() < 2e-4, "{t}");
+        }
     }
 }

@@ -3,9 +3,77 @@
 //! The paper's oracle (§4.2, Compute_2point_Kernel) looks at the kernel
 //! alone: a link is kept at a level when every Haar detail coefficient of the
 //! kernel one level down is at most a threshold, in the orthonormal
-//! normalisation of [`crate::haar`].
+//! normalisation of [`crate::haar`]. It refines wherever the kernel varies,
+//! whether or not light flows there (the paper's §6 calls it overkill).
+//!
+//! The power-weighted oracle (Hanrahan, Salzman & Aupperle 1991, "BF"
+//! refinement) estimates instead the error a link makes in its receiver's
+//! radiance: the kernel's variation over the children, in element-average
+//! units, times the radiance the source sends through it. The
+//! importance-driven oracle (Smits, Arvo & Salesin 1992; Christensen et al.
+//! 1996 for glossy surfaces) further weighs that error by how much the
+//! receiver matters to the image. Both need an estimate of the solution,
+//! so they run in a refine–solve loop ([`crate::solve`]).
 
 use crate::haar;
+use std::fmt;
+use std::str::FromStr;
+
+/// Which test decides that a link is projected finely enough.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Oracle {
+    /// The paper's: Haar details of the kernel alone ([`KernelSmoothness`]).
+    #[default]
+    Kernel,
+    /// The kernel's variation ([`average_detail`] of the receiver's
+    /// transfer coefficients) times the radiance it carries, relative to the
+    /// brightest emitted radiance.
+    Power,
+    /// As `Power`, times the receiver's importance for the scene's sensor
+    /// relative to the mean importance.
+    Importance,
+}
+
+impl Oracle {
+    /// The names accepted by [`Oracle::from_str`], in declaration order.
+    pub const NAMES: [&'static str; 3] = ["kernel", "power", "importance"];
+
+    /// True for the oracles that weigh the kernel by an estimate of the
+    /// solution (and so need a refine–solve loop).
+    pub fn is_weighted(self) -> bool {
+        self != Oracle::Kernel
+    }
+}
+
+impl fmt::Display for Oracle {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(Self::NAMES[*self as usize])
+    }
+}
+
+impl FromStr for Oracle {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "kernel" => Ok(Oracle::Kernel),
+            "power" => Ok(Oracle::Power),
+            "importance" => Ok(Oracle::Importance),
+            _ => Err(format!(
+                "unknown oracle '{s}' (expected one of: {})",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+/// Largest Haar detail of a function over the four children of an element,
+/// in element-average units (the level-0 normalisation of
+/// [`haar::details_2d`]): how far a child's average can be from the parent's.
+pub fn average_detail(child_means: [f64; 4]) -> f64 {
+    haar::details_2d(child_means, 0)
+        .iter()
+        .fold(0.0f64, |m, d| m.max(d.abs()))
+}
 
 /// The paper's kernel-smoothness test for a two-point kernel.
 ///
@@ -50,6 +118,26 @@ impl KernelSmoothness {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn oracle_names_round_trip() {
+        for name in Oracle::NAMES {
+            assert_eq!(name.parse::<Oracle>().unwrap().to_string(), name);
+        }
+        let err = "bf".parse::<Oracle>().unwrap_err();
+        assert!(err.contains("kernel, power, importance"), "{err}");
+        assert!(!Oracle::Kernel.is_weighted() && Oracle::Power.is_weighted());
+    }
+
+    #[test]
+    fn average_detail_is_the_largest_child_deviation_pattern() {
+        assert_eq!(average_detail([2.0; 4]), 0.0);
+        // One bright child of four: each detail is a quarter of its excess.
+        assert!((average_detail([1.0, 0.0, 0.0, 0.0]) - 0.25).abs() < 1e-15);
+        // Level-independent, unlike the orthonormal details.
+        let k = [3.0, 1.0, 1.0, 3.0];
+        assert_eq!(average_detail(k), 1.0);
+    }
 
     #[test]
     fn constant_kernel_has_no_detail() {

@@ -45,7 +45,12 @@ pub struct Stats {
     pub nodes_per_level: Vec<usize>,
     /// Links per level of their finer element (index = level).
     pub interactions_per_level: Vec<usize>,
-    /// Oracle threshold (paper's orthonormal normalisation).
+    /// The refinement oracle (`kernel`, `power` or `importance`).
+    pub oracle: String,
+    /// Projections done by the refine–solve loop (1 for the kernel oracle).
+    pub refine_passes: u32,
+    /// Oracle threshold (the paper's orthonormal normalisation for the
+    /// kernel oracle; relative radiance error for the weighted ones).
     pub threshold: f64,
     /// Maximum element level.
     pub max_level: u32,
@@ -73,7 +78,7 @@ impl Stats {
         trees: &[ElementTree],
         links: &[Link],
         (directional, three_point_interactions): (&[Directional], usize),
-        (iterations, residual): (u32, f64),
+        (iterations, residual, refine_passes): (u32, f64, u32),
         times: PhaseTimes,
     ) -> Stats {
         let nodes_per_level = add_counts(trees.iter().map(ElementTree::count_per_level));
@@ -96,6 +101,8 @@ impl Stats {
             three_point_interactions,
             nodes_per_level,
             interactions_per_level,
+            oracle: settings.oracle.to_string(),
+            refine_passes,
             threshold: settings.refine.oracle.threshold,
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,

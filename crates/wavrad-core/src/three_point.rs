@@ -13,8 +13,10 @@ use crate::brdf::Frame;
 use crate::hierarchy::ElementId;
 use crate::kernel::three_point::{coefficient, GlossyElement};
 use crate::kernel::{faces_away, KernelElement};
-use crate::link::RefineSettings;
+use crate::link::{refine_each, RefineSettings};
+use crate::oracle::average_detail;
 use crate::scene::{Patch, Rgb, Scene};
+use crate::solve::estimate::LightEstimate;
 use crate::solve::Progress;
 use crate::tracing::SceneTracer;
 use rayon::prelude::*;
@@ -37,6 +39,9 @@ pub struct ThreePointLink {
     pub b: ElementId,
     /// R(c, a, b) per channel (element-average form of eq. 13).
     pub coefficient: Rgb,
+    /// Largest detail of R the weighted oracles saw when they kept the link
+    /// (see [`crate::link::Link::detail`]).
+    pub detail: f32,
 }
 
 /// One element of a triple being refined.
@@ -61,6 +66,8 @@ struct TripleRefiner<'a> {
     tracer: &'a SceneTracer,
     scene: &'a Scene,
     settings: RefineSettings,
+    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
+    estimate: Option<&'a LightEstimate>,
     r: u32,
     p: u32,
     q: u32,
@@ -68,7 +75,27 @@ struct TripleRefiner<'a> {
     links: Vec<ThreePointLink>,
 }
 
-impl TripleRefiner<'_> {
+impl<'a> TripleRefiner<'a> {
+    fn new(
+        scene: &'a Scene,
+        tracer: &'a SceneTracer,
+        settings: RefineSettings,
+        estimate: Option<&'a LightEstimate>,
+        (r, p, q): (u32, u32, u32),
+    ) -> Self {
+        TripleRefiner {
+            tracer,
+            scene,
+            settings,
+            estimate,
+            r,
+            p,
+            q,
+            frame: scene.surfaces[p as usize].frame(),
+            links: Vec::new(),
+        }
+    }
+
     fn coefficient(&self, c: &Part, a: &Part, b: &Part) -> Rgb {
         coefficient(
             self.tracer,
@@ -89,7 +116,7 @@ impl TripleRefiner<'_> {
         )
     }
 
-    fn push(&mut self, c: &Part, a: &Part, b: &Part, coefficient: Rgb) {
+    fn push(&mut self, c: &Part, a: &Part, b: &Part, coefficient: Rgb, detail: f64) {
         if coefficient.iter().any(|&x| x > 0.0) {
             self.links.push(ThreePointLink {
                 r: self.r,
@@ -99,6 +126,7 @@ impl TripleRefiner<'_> {
                 q: self.q,
                 b: b.id,
                 coefficient,
+                detail: detail as f32,
             });
         }
     }
@@ -122,6 +150,7 @@ impl TripleRefiner<'_> {
             .collect();
         order.sort_by(|&i, &j| parts[j].patch.area().total_cmp(&parts[i].patch.area()));
         let mut kept = None;
+        let mut detail = 0.0f64;
         for split in order {
             let children = parts[split].children();
             let coefficients = children.map(|child| {
@@ -129,7 +158,9 @@ impl TripleRefiner<'_> {
                 t[split] = child;
                 self.coefficient(&t[0], &t[1], &t[2])
             });
-            if !self.smooth(&parts, split, &children, &coefficients) {
+            let (smooth, d) = self.test(&parts, split, &children, &coefficients);
+            detail = detail.max(d);
+            if !smooth {
                 for (child, k) in children.into_iter().zip(coefficients) {
                     let mut t = parts;
                     t[split] = child;
@@ -144,7 +175,35 @@ impl TripleRefiner<'_> {
                 [0, 1, 2].map(|ch| weight * coefficients.iter().map(|k| k[ch]).sum::<f64>())
             });
         }
-        self.push(&c, &a, &b, kept.unwrap_or(known));
+        self.push(&c, &a, &b, kept.unwrap_or(known), detail);
+    }
+
+    /// The oracle on the children of `parts[split]` with coefficients `k`:
+    /// whether they pass, and their largest detail in element-average units
+    /// (for the weighted oracles; zero for the paper's).
+    fn test(
+        &self,
+        parts: &[Part; 3],
+        split: usize,
+        children: &[Part; 4],
+        k: &[Rgb; 4],
+    ) -> (bool, f64) {
+        let Some(e) = self.estimate else {
+            return (self.smooth(parts, split, children, k), 0.0);
+        };
+        // R integrates over c: a child of c carries a quarter of the light.
+        let scale = if split == 0 { 4.0 } else { 1.0 };
+        let detail = average_detail(k.map(|k| scale * k.iter().fold(0.0f64, |m, &x| m.max(x))));
+        (
+            detail * self.weight(e, parts) <= self.settings.oracle.threshold,
+            detail,
+        )
+    }
+
+    /// The light a triple carries, for the weighted oracles: L_{c→a}
+    /// relative to the brightest emission, times the importance of b.
+    fn weight(&self, e: &LightEstimate, [c, a, b]: &[Part; 3]) -> f64 {
+        e.radiance(self.r, c.id, self.p, a.id) * e.importance(self.q, b.id)
     }
 
     /// The paper's oracle on the children of `parts[split]`: the kernel in
@@ -192,11 +251,13 @@ pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
 /// The three-point links of the triples `(r, p, q)` (compute_kernel of §4.2
 /// for glossy surfaces), refined in parallel over triples; the result does
 /// not depend on the number of threads. `receiver(q)` gives the geometry of
-/// receiver `q`, which may be a hypothetical surface outside the scene.
+/// receiver `q`, which may be a hypothetical surface outside the scene. With
+/// an `estimate` the weighted oracles decide, else the paper's.
 pub fn refine_three_point_links(
     scene: &Scene,
     tracer: &SceneTracer,
     settings: RefineSettings,
+    estimate: Option<&LightEstimate>,
     triples: &[(u32, u32, u32)],
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
@@ -209,16 +270,7 @@ pub fn refine_three_point_links(
                 id: ElementId::ROOT,
                 patch,
             };
-            let mut refiner = TripleRefiner {
-                tracer,
-                scene,
-                settings,
-                r,
-                p,
-                q,
-                frame: scene.surfaces[p as usize].frame(),
-                links: Vec::new(),
-            };
+            let mut refiner = TripleRefiner::new(scene, tracer, settings, estimate, (r, p, q));
             let (c, a, b) = (
                 root(scene.surfaces[r as usize].patch),
                 root(scene.surfaces[p as usize].patch),
@@ -232,4 +284,35 @@ pub fn refine_three_point_links(
         .collect();
     progress.finish();
     per_triple.into_iter().flatten().collect()
+}
+
+/// One pass of the refine–solve loop for three-point links (see
+/// [`crate::link::refine_links_further`]); the receivers are the scene's
+/// surfaces. Returns the links and how many were refined.
+pub fn refine_three_point_links_further(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    settings: RefineSettings,
+    estimate: &LightEstimate,
+    links: Vec<ThreePointLink>,
+    progress: &dyn Progress,
+) -> (Vec<ThreePointLink>, usize) {
+    progress.start("3-point kernels", links.len() as u64);
+    let out = refine_each(&links, progress, |l| {
+        let mut refiner =
+            TripleRefiner::new(scene, tracer, settings, Some(estimate), (l.r, l.p, l.q));
+        let part = |s: u32, id: ElementId| Part {
+            id,
+            patch: id.patch(&scene.surfaces[s as usize].patch),
+        };
+        let [c, a, b] = [part(l.r, l.c), part(l.p, l.a), part(l.q, l.b)];
+        let weight = refiner.weight(estimate, &[c, a, b]);
+        if f64::from(l.detail) * weight <= settings.oracle.threshold {
+            return vec![*l];
+        }
+        refiner.refine(c, a, b, l.coefficient);
+        refiner.links
+    });
+    progress.finish();
+    out
 }

@@ -4,6 +4,7 @@
 //! that gathering with push–pull converges to the right fixed point.
 
 use glam::DVec3;
+use wavrad_core::oracle::Oracle;
 use wavrad_core::scene::{Patch, Scene, Surface};
 use wavrad_core::solve::{solve, Silent, SolveSettings};
 use wavrad_core::testing::inward_box;
@@ -78,4 +79,34 @@ fn closed_box_of_triangles_furnace() {
     let (surfaces, elements) = furnace(0.5, 1.0, &SolveSettings::default(), true);
     assert!(surfaces < 0.01, "worst surface error {surfaces}");
     assert!(elements < 0.3, "worst element error {elements}");
+}
+
+#[test]
+fn weighted_oracles_conserve_energy_in_the_furnace() {
+    // The refine–solve loop refines links where light flows; whatever it
+    // keeps, each element's form factors must still sum to one.
+    let settings = SolveSettings {
+        refine_passes: 3,
+        ..SolveSettings::for_oracle(Oracle::Power)
+    };
+    let (surfaces, elements) = furnace(0.5, 1.0, &settings, false);
+    assert!(surfaces < 0.01, "worst surface error {surfaces}");
+    assert!(elements < 0.16, "worst element error {elements}");
+}
+
+#[test]
+fn the_importance_oracle_without_a_sensor_is_a_clear_error() {
+    let walls = walls(false)
+        .into_iter()
+        .map(|patch| Surface {
+            name: "wall".into(),
+            patch,
+            brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+            emission: [1.0; 3],
+        })
+        .collect();
+    let settings = SolveSettings::for_oracle(Oracle::Importance);
+    let error = solve(&Scene::from_surfaces(walls), &settings, &Silent).err();
+    let message = error.map(|e| e.to_string()).unwrap_or_default();
+    assert!(message.contains("needs a sensor"), "{message}");
 }

@@ -12,7 +12,13 @@ use wavrad_core::tracing::SceneTracer;
 fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
     let scene = Scene::from_surfaces(vec![grey(a), grey(c)]);
     let tracer = SceneTracer::new(&scene);
-    let links = refine_links(&scene, &tracer, SolveSettings::default().refine, &Silent);
+    let links = refine_links(
+        &scene,
+        &tracer,
+        SolveSettings::default().refine,
+        None,
+        &Silent,
+    );
     let t: f64 = links.iter().map(|l| l.throughput).sum();
     (t / a.area(), t / c.area())
 }

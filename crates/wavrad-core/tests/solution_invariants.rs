@@ -2,9 +2,10 @@
 //! results that do not depend on the number of threads.
 
 use glam::DVec3;
+use wavrad_core::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
-use wavrad_core::scene::{Camera, Film, Patch, PixelFilter, Projection, Scene, Surface};
+use wavrad_core::scene::{Camera, Film, FovAxis, Patch, PixelFilter, Projection, Scene, Surface};
 use wavrad_core::solve::{solve, Silent, SolveSettings};
 
 fn square(z: f64, up: bool) -> Patch {
@@ -93,6 +94,7 @@ fn results_do_not_depend_on_thread_count() {
         .inverse(),
         projection: Projection::Perspective {
             fov_x_degrees: 80.0,
+            fov_axis: FovAxis::X,
         },
         near_clip: 0.01,
         far_clip: 100.0,
@@ -102,18 +104,24 @@ fn results_do_not_depend_on_thread_count() {
         height: 9,
         filter: PixelFilter::Gaussian { stddev: 0.5 },
     };
-    let settings = SolveSettings {
-        three_point_max_level: 2,
-        three_point_threshold: 1e-3,
-        ..SolveSettings::default()
-    };
+    for oracle in [Oracle::Kernel, Oracle::Power, Oracle::Importance] {
+        let settings = SolveSettings {
+            three_point_max_level: 2,
+            three_point_threshold: 1e-3,
+            ..SolveSettings::for_oracle(oracle)
+        };
+        same_on_one_and_two_threads(&scene, &settings);
+    }
+}
+
+fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
         pool.install(|| {
-            let s = solve(&scene, &settings, &Silent).unwrap();
+            let s = solve(scene, settings, &Silent).unwrap();
             let render = RenderSettings {
                 samples_per_pixel: 16,
                 gather_samples_per_pixel: 4,
@@ -139,7 +147,11 @@ fn results_do_not_depend_on_thread_count() {
     };
     let (r1, n1, i1) = run(1);
     let (r2, n2, i2) = run(2);
-    assert!(n1.1 > 0, "the glossy wall makes three-point links");
+    assert!(
+        n1.1 > 0,
+        "{}: the glossy wall makes three-point links",
+        settings.oracle
+    );
     assert_eq!(n1, n2);
     assert_eq!(r1, r2);
     assert_eq!(i1, i2);

@@ -10,6 +10,7 @@
 
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
+use crate::solve::estimate::LightEstimate;
 use crate::solve::{push_pull::push_pull, Progress, Solution};
 use crate::three_point::refine_three_point_links;
 use glam::DVec3;
@@ -69,10 +70,22 @@ impl Solution {
             })
             .map(|(r, p)| (r, p, eye_index))
             .collect();
+        // The weighted oracles weigh the eye's links by the solved light.
+        let estimate = self.settings.oracle.is_weighted().then(|| {
+            LightEstimate::from_solution(
+                scene,
+                self.trees.clone(),
+                &self.radiance,
+                &self.interactions,
+                &self.directional,
+                None,
+            )
+        });
         let links = refine_three_point_links(
             scene,
             &self.tracer,
             self.settings.three_point_refine(),
+            estimate.as_ref(),
             &triples,
             |_| eye,
             progress,

@@ -3,18 +3,25 @@
 //! Gauss–Seidel gathering with push–pull until the coarsest coefficients
 //! settle.
 
+pub mod estimate;
 pub mod gather;
+pub mod importance;
 pub mod push_pull;
 
 use crate::directional::PairTree;
 use crate::hierarchy::{ElementId, ElementTree};
-use crate::link::{refine_links, RefineSettings};
+use crate::link::{refine_links, refine_links_further, Link, RefineSettings};
+use crate::oracle::Oracle;
 use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
-use crate::three_point::{refine_three_point_links, surface_triples};
+use crate::three_point::{
+    refine_three_point_links, refine_three_point_links_further, surface_triples, ThreePointLink,
+};
 use crate::tracing::SceneTracer;
 use crate::{Error, Result};
+use estimate::LightEstimate;
 use gather::{Directional, Interactions};
+use importance::Importance;
 use std::collections::BTreeSet;
 use std::time::Instant;
 
@@ -42,6 +49,12 @@ pub struct SolveSettings {
     pub tolerance: f64,
     /// Give up after this many Gauss–Seidel sweeps.
     pub max_iterations: u32,
+    /// Which test decides that a link is fine enough (the thresholds above
+    /// are in its units).
+    pub oracle: Oracle,
+    /// Most projections of the refine–solve loop of the weighted oracles
+    /// (the first counts; 1 keeps the links projected with the emission).
+    pub refine_passes: u32,
 }
 
 /// Receives progress of the long phases (the CLI draws bars; default: none).
@@ -84,6 +97,14 @@ pub struct Solution {
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
 /// ones through three-point links and directional radiance (eq. 13).
+///
+/// With the paper's oracle the kernels are projected once. The weighted
+/// oracles need the light the links carry, so they run a refine–solve loop
+/// (Hanrahan et al. 1991): links are projected with the emission alone,
+/// the system is solved, every link is re-tested against the new solution
+/// (from the detail stored with it, without new quadrature) and refined
+/// further where it fails, until no link changes or after
+/// `settings.refine_passes` passes.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     settings.validate()?;
     if scene.surfaces.is_empty() {
@@ -95,143 +116,249 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             limit: MAX_SURFACES,
         });
     }
+    let camera = match (settings.oracle, &scene.camera) {
+        (Oracle::Importance, None) => {
+            return Err(Error::InvalidSetting(
+                "the importance oracle needs a sensor in the scene".into(),
+            ))
+        }
+        (Oracle::Importance, Some(camera)) => Some(camera),
+        _ => None,
+    };
     let mut times = PhaseTimes::default();
 
     // Visibility structure.
     let clock = Instant::now();
     let tracer = SceneTracer::new(scene);
     times.visibility_build_s = clock.elapsed().as_secs_f64();
+    let importance =
+        |links: &[Link]| camera.map(|c| Importance::new(scene, &tracer, c, &scene.film, links));
 
     // compute_kernel(): adaptive two-point and three-point links.
     let clock = Instant::now();
-    let links = refine_links(scene, &tracer, settings.refine, progress);
+    let estimate = settings
+        .oracle
+        .is_weighted()
+        .then(|| LightEstimate::emission(scene, importance(&[])));
+    let mut links = refine_links(scene, &tracer, settings.refine, estimate.as_ref(), progress);
     let triples = surface_triples(scene);
-    let three_point = refine_three_point_links(
+    let mut three_point = refine_three_point_links(
         scene,
         &tracer,
         settings.three_point_refine(),
+        estimate.as_ref(),
         &triples,
         |q| scene.surfaces[q as usize].patch,
         progress,
     );
     times.kernels_s = clock.elapsed().as_secs_f64();
 
-    // Element hierarchies holding every linked element, and the directional
-    // structures holding every linked element pair.
-    let clock = Instant::now();
-    let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
-    for l in &links {
-        ids[l.p as usize].insert(l.a);
-        ids[l.r as usize].insert(l.c);
-    }
-    for l in &three_point {
-        ids[l.r as usize].insert(l.c);
-    }
-    let trees: Vec<ElementTree> = scene
-        .surfaces
-        .iter()
-        .zip(&ids)
-        .map(|(s, ids)| ElementTree::build(&s.patch, ids))
-        .collect();
-    let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
-    // A glossy surface lit by nothing may still emit towards what it sees.
-    pairs.extend(triples.iter().map(|&(r, p, _)| (p, r)));
-    let mut directional: Vec<Directional> = pairs
-        .into_iter()
-        .map(|(p, q)| Directional {
-            p,
-            q,
-            tree: PairTree::default(),
-        })
-        .collect();
-    let index: std::collections::BTreeMap<(u32, u32), usize> = directional
-        .iter()
-        .enumerate()
-        .map(|(i, d)| ((d.p, d.q), i))
-        .collect();
-    for l in &three_point {
-        directional[index[&(l.p, l.q)]].tree.insert(l.a, l.b);
-    }
-    let interactions = Interactions::new(scene, &trees, &links, &three_point, directional);
-    times.hierarchy_s = clock.elapsed().as_secs_f64();
-
-    // compute_radiance_solution(): Gauss–Seidel gathering with push–pull.
-    let clock = Instant::now();
-    let mut radiance: Vec<Vec<Rgb>> = scene
-        .surfaces
-        .iter()
-        .zip(&trees)
-        .map(|(s, t)| vec![s.emission; t.nodes.len()])
-        .collect();
-    let mut directional: Vec<Vec<Rgb>> = interactions
-        .directional
-        .iter()
-        .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
-        .collect();
-    let mut structures_of = vec![Vec::new(); scene.surfaces.len()];
-    for (i, d) in interactions.directional.iter().enumerate() {
-        structures_of[d.p as usize].push(i);
-    }
-    let brightest = scene
-        .surfaces
-        .iter()
-        .flat_map(|s| s.emission)
-        .fold(0.0f64, f64::max);
-    let scale = if brightest > 0.0 { brightest } else { 1.0 };
-    let change = |new: Rgb, old: Rgb| {
-        (0..3)
-            .map(|ch| (new[ch] - old[ch]).abs())
-            .fold(0.0, f64::max)
-    };
-    let (mut iterations, mut residual) = (0u32, f64::INFINITY);
-    progress.start("solving", u64::from(settings.max_iterations));
-    while iterations < settings.max_iterations && residual > settings.tolerance {
-        residual = 0.0;
-        for (p, surface) in scene.surfaces.iter().enumerate() {
-            if let Some(rho) = surface.brdf.diffuse_reflectance() {
-                let gathered =
-                    interactions.gather(p, rho, trees[p].nodes.len(), &radiance, &directional);
-                let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
-                residual = residual.max(change(updated[0], radiance[p][0]) / scale);
-                radiance[p] = updated;
-                continue;
-            }
-            for &s in &structures_of[p] {
-                let gathered = interactions.gather_three_point(s, &radiance, &directional);
-                let tree = &interactions.directional[s].tree;
-                let updated = push_pull::push_pull(tree, &gathered, surface.emission);
-                residual = residual.max(change(updated[0], directional[s][0]) / scale);
-                directional[s] = updated;
-            }
+    let mut system = System::assemble(scene, &triples, &links, &three_point, &mut times);
+    let mut sweeps = system.solve(scene, settings, progress, &mut times);
+    let mut passes = 1;
+    while settings.oracle.is_weighted() && passes < settings.refine_passes {
+        let clock = Instant::now();
+        let estimate = LightEstimate::from_solution(
+            scene,
+            system.trees.clone(),
+            &system.radiance,
+            &system.interactions,
+            &system.directional,
+            importance(&links),
+        );
+        let (more, refined) =
+            refine_links_further(scene, &tracer, settings.refine, &estimate, links, progress);
+        links = more;
+        let (more, refined_three_point) = refine_three_point_links_further(
+            scene,
+            &tracer,
+            settings.three_point_refine(),
+            &estimate,
+            three_point,
+            progress,
+        );
+        three_point = more;
+        times.kernels_s += clock.elapsed().as_secs_f64();
+        if refined + refined_three_point == 0 {
+            break;
         }
-        iterations += 1;
-        progress.advance(1);
+        passes += 1;
+        system = System::assemble(scene, &triples, &links, &three_point, &mut times);
+        sweeps = system.solve(scene, settings, progress, &mut times);
     }
-    progress.finish();
-    times.solve_s = clock.elapsed().as_secs_f64();
 
     let stats = Stats::new(
         scene,
         settings,
-        &trees,
+        &system.trees,
         &links,
-        (&interactions.directional, three_point.len()),
-        (iterations, residual),
+        (&system.interactions.directional, three_point.len()),
+        (sweeps.0, sweeps.1, passes),
         times,
     );
     Ok(Solution {
         scene: scene.clone(),
         tracer,
-        trees,
-        radiance,
-        interactions,
-        directional,
+        trees: system.trees,
+        radiance: system.radiance,
+        interactions: system.interactions,
+        directional: system.directional,
         settings: *settings,
         stats,
     })
 }
 
+/// The linear system of one set of links and its solution.
+struct System {
+    trees: Vec<ElementTree>,
+    interactions: Interactions,
+    radiance: Vec<Vec<Rgb>>,
+    directional: Vec<Vec<Rgb>>,
+}
+
+impl System {
+    /// Element hierarchies holding every linked element, and the
+    /// directional structures holding every linked element pair; radiance
+    /// starts at the emission.
+    fn assemble(
+        scene: &Scene,
+        triples: &[(u32, u32, u32)],
+        links: &[Link],
+        three_point: &[ThreePointLink],
+        times: &mut PhaseTimes,
+    ) -> System {
+        let clock = Instant::now();
+        let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
+        for l in links {
+            ids[l.p as usize].insert(l.a);
+            ids[l.r as usize].insert(l.c);
+        }
+        for l in three_point {
+            ids[l.r as usize].insert(l.c);
+        }
+        let trees: Vec<ElementTree> = scene
+            .surfaces
+            .iter()
+            .zip(&ids)
+            .map(|(s, ids)| ElementTree::build(&s.patch, ids))
+            .collect();
+        let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
+        // A glossy surface lit by nothing may still emit towards what it sees.
+        pairs.extend(triples.iter().map(|&(r, p, _)| (p, r)));
+        let mut directional: Vec<Directional> = pairs
+            .into_iter()
+            .map(|(p, q)| Directional {
+                p,
+                q,
+                tree: PairTree::default(),
+            })
+            .collect();
+        let index: std::collections::BTreeMap<(u32, u32), usize> = directional
+            .iter()
+            .enumerate()
+            .map(|(i, d)| ((d.p, d.q), i))
+            .collect();
+        for l in three_point {
+            directional[index[&(l.p, l.q)]].tree.insert(l.a, l.b);
+        }
+        let interactions = Interactions::new(scene, &trees, links, three_point, directional);
+        let radiance = scene
+            .surfaces
+            .iter()
+            .zip(&trees)
+            .map(|(s, t)| vec![s.emission; t.nodes.len()])
+            .collect();
+        let directional = interactions
+            .directional
+            .iter()
+            .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
+            .collect();
+        times.hierarchy_s += clock.elapsed().as_secs_f64();
+        System {
+            trees,
+            interactions,
+            radiance,
+            directional,
+        }
+    }
+
+    /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
+    /// until no coarsest coefficient changes by more than the tolerance.
+    /// Returns the sweeps done and the last residual.
+    fn solve(
+        &mut self,
+        scene: &Scene,
+        settings: &SolveSettings,
+        progress: &dyn Progress,
+        times: &mut PhaseTimes,
+    ) -> (u32, f64) {
+        let clock = Instant::now();
+        let System {
+            trees,
+            interactions,
+            radiance,
+            directional,
+        } = self;
+        let mut structures_of = vec![Vec::new(); scene.surfaces.len()];
+        for (i, d) in interactions.directional.iter().enumerate() {
+            structures_of[d.p as usize].push(i);
+        }
+        let brightest = scene
+            .surfaces
+            .iter()
+            .flat_map(|s| s.emission)
+            .fold(0.0f64, f64::max);
+        let scale = if brightest > 0.0 { brightest } else { 1.0 };
+        let change = |new: Rgb, old: Rgb| {
+            (0..3)
+                .map(|ch| (new[ch] - old[ch]).abs())
+                .fold(0.0, f64::max)
+        };
+        let (mut iterations, mut residual) = (0u32, f64::INFINITY);
+        progress.start("solving", u64::from(settings.max_iterations));
+        while iterations < settings.max_iterations && residual > settings.tolerance {
+            residual = 0.0;
+            for (p, surface) in scene.surfaces.iter().enumerate() {
+                if let Some(rho) = surface.brdf.diffuse_reflectance() {
+                    let gathered =
+                        interactions.gather(p, rho, trees[p].nodes.len(), radiance, directional);
+                    let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
+                    residual = residual.max(change(updated[0], radiance[p][0]) / scale);
+                    radiance[p] = updated;
+                    continue;
+                }
+                for &s in &structures_of[p] {
+                    let gathered = interactions.gather_three_point(s, radiance, directional);
+                    let tree = &interactions.directional[s].tree;
+                    let updated = push_pull::push_pull(tree, &gathered, surface.emission);
+                    residual = residual.max(change(updated[0], directional[s][0]) / scale);
+                    directional[s] = updated;
+                }
+            }
+            iterations += 1;
+            progress.advance(1);
+        }
+        progress.finish();
+        times.solve_s += clock.elapsed().as_secs_f64();
+        (iterations, residual)
+    }
+}
+
 impl SolveSettings {
+    /// The defaults for `oracle`: the weighted oracles' thresholds are
+    /// relative radiance errors, not kernel details.
+    pub fn for_oracle(oracle: Oracle) -> SolveSettings {
+        let mut settings = SolveSettings {
+            oracle,
+            ..SolveSettings::default()
+        };
+        if oracle.is_weighted() {
+            settings.refine.oracle.threshold = 2e-4;
+            settings.three_point_threshold = 2e-4;
+        }
+        settings
+    }
+
     /// The refinement settings of three-point links.
     pub fn three_point_refine(&self) -> RefineSettings {
         RefineSettings {
@@ -271,6 +398,11 @@ impl SolveSettings {
                 "quadrature orders must be at least 1".into(),
             ));
         }
+        if self.refine_passes == 0 {
+            return Err(Error::InvalidSetting(
+                "refine passes must be at least 1".into(),
+            ));
+        }
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
             return Err(Error::InvalidSetting(format!(
                 "tolerance must be > 0, got {}",
@@ -295,6 +427,8 @@ impl Default for SolveSettings {
             three_point_threshold: 1e-4,
             tolerance: 1e-5,
             max_iterations: 200,
+            oracle: Oracle::Kernel,
+            refine_passes: 4,
         }
     }
 }

@@ -1,0 +1,101 @@
+//! What the weighted oracles ([`crate::oracle::Oracle::Power`] and
+//! `Importance`) expect a link to carry: the radiance L_{c→a} its source
+//! sends, from the last solution of the refine–solve loop (or from the
+//! emission alone before the first), and the importance of its receiver.
+
+use super::gather::Interactions;
+use super::importance::Importance;
+use crate::directional::PairTree;
+use crate::hierarchy::{ElementId, ElementTree};
+use crate::scene::{Rgb, Scene};
+use std::collections::BTreeMap;
+
+/// Radiance (and importance) estimates for the weighted oracles, relative
+/// to the brightest emitted radiance.
+#[derive(Debug, Clone)]
+pub struct LightEstimate {
+    /// Brightest emitted radiance (largest channel); estimates are divided
+    /// by it so thresholds do not depend on the scene's units.
+    reference: f64,
+    /// Whole-surface emission (largest channel), used where no solution is.
+    emission: Vec<f64>,
+    /// Element trees and their radiance (largest channel) per surface.
+    trees: Vec<ElementTree>,
+    radiance: Vec<Vec<f64>>,
+    /// Directional radiance of glossy surfaces, by (p, q).
+    directional: BTreeMap<(u32, u32), (PairTree, Vec<f64>)>,
+    /// Receiver importance for the importance-driven oracle.
+    importance: Option<Importance>,
+}
+
+fn largest(rgb: &Rgb) -> f64 {
+    rgb.iter().fold(0.0f64, |m, &x| m.max(x))
+}
+
+impl LightEstimate {
+    /// Before any solve: only emitters carry light.
+    pub fn emission(scene: &Scene, importance: Option<Importance>) -> LightEstimate {
+        let emission: Vec<f64> = scene
+            .surfaces
+            .iter()
+            .map(|s| largest(&s.emission))
+            .collect();
+        LightEstimate {
+            reference: emission
+                .iter()
+                .fold(0.0f64, |m, &x| m.max(x))
+                .max(f64::MIN_POSITIVE),
+            emission,
+            trees: Vec::new(),
+            radiance: Vec::new(),
+            directional: BTreeMap::new(),
+            importance,
+        }
+    }
+
+    /// From a solution: element radiance of diffuse surfaces over `trees`,
+    /// directional radiance of glossy ones over `interactions`' structures.
+    pub fn from_solution(
+        scene: &Scene,
+        trees: Vec<ElementTree>,
+        radiance: &[Vec<Rgb>],
+        interactions: &Interactions,
+        directional: &[Vec<Rgb>],
+        importance: Option<Importance>,
+    ) -> LightEstimate {
+        let values = |v: &[Rgb]| v.iter().map(largest).collect::<Vec<f64>>();
+        LightEstimate {
+            trees,
+            radiance: radiance.iter().map(|r| values(r)).collect(),
+            directional: interactions
+                .directional
+                .iter()
+                .zip(directional)
+                .map(|(d, v)| ((d.p, d.q), (d.tree.clone(), values(v))))
+                .collect(),
+            ..LightEstimate::emission(scene, importance)
+        }
+    }
+
+    /// L_{c→a} (c on r, a on p) relative to the brightest emission.
+    pub fn radiance(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> f64 {
+        let l = match self.directional.get(&(r, p)) {
+            Some((tree, values)) => tree
+                .overlaps(c, a)
+                .into_iter()
+                .map(|(n, w)| w * values[n as usize])
+                .sum(),
+            None => match self.trees.get(r as usize) {
+                Some(tree) => self.radiance[r as usize][tree.node_containing(c) as usize],
+                None => self.emission[r as usize],
+            },
+        };
+        l / self.reference
+    }
+
+    /// Relative importance of element `b` of receiver `q` (1 without an
+    /// importance estimate).
+    pub fn importance(&self, q: u32, b: ElementId) -> f64 {
+        self.importance.as_ref().map_or(1.0, |i| i.at(q, b))
+    }
+}
