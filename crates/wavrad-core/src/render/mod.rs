@@ -164,8 +164,32 @@ impl Solution {
                 &point,
                 (settings.gather_rays, &bright, settings.gather_grid),
                 |q, y| {
-                    let l = outgoing(q, y);
-                    let e = self.scene.surfaces[q as usize].emission;
+                    let source = &self.scene.surfaces[q as usize];
+                    let l = if source.is_diffuse() {
+                        outgoing(q, y)
+                    } else {
+                        // The glossy bounce before this diffuse point is
+                        // evaluated per point: emitters reflected exactly
+                        // (a highlight's sharp edge on a wall is finer than
+                        // the pair tree's elements), the rest from the
+                        // solution.
+                        let at = GatherPoint {
+                            surface: q,
+                            position: y,
+                            normal: source.patch.normal(),
+                            seed: point.seed.rotate_left(17) ^ u64::from(q),
+                        };
+                        gather::glossy_radiance(
+                            &self.scene,
+                            &self.tracer,
+                            &emitters,
+                            &at,
+                            (hit.position - y).normalize(),
+                            settings.glossy_grid,
+                            |h, z| self.outgoing_radiance(h, z, q, y),
+                        )
+                    };
+                    let e = source.emission;
                     [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
                 },
             );
