@@ -5,6 +5,7 @@
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
@@ -12,7 +13,8 @@ use std::time::Instant;
 use wavrad_core::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
-use wavrad_core::solve::{solve, Progress, Solution, SolveSettings};
+use wavrad_core::solve::shoot::{solve_shooting, Step};
+use wavrad_core::solve::{solve, Progress, Solution, SolveSettings, Solver};
 
 /// Haar-wavelet global illumination (Pattanaik & Bouatouch 1994) for Mitsuba 3
 /// XML scenes.
@@ -71,6 +73,17 @@ struct SolveArgs {
     /// loop.
     #[arg(long, default_value = "kernel", value_parser = parse_oracle)]
     oracle: Oracle,
+    /// How the radiance system is solved: `gather` (every kernel projected
+    /// up front, then Gauss–Seidel gathering; the paper's §4.2) or `shoot`
+    /// (progressive shooting from the emitters, kernels projected only where
+    /// light flows; the paper's §6; diffuse scenes only for now).
+    #[arg(long, default_value = "gather", value_parser = parse_solver)]
+    solver: Solver,
+    /// With `--solver shoot`: after every shooting step, write a quick image
+    /// of the solution so far (smooth reconstruction, 4 rays per pixel, the
+    /// scene's sensor) to DIR/step-0001.exr, DIR/step-0002.exr, ...
+    #[arg(long, value_name = "DIR")]
+    progressive: Option<PathBuf>,
     /// Oracle threshold. Kernel oracle: on the kernel's Haar detail
     /// coefficients in the paper's orthonormal normalisation (the paper uses
     /// 1e-4) [default: 1e-3]. Weighted oracles: on the estimated error of a
@@ -245,10 +258,57 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
     if let Some(t) = args.three_point_threshold {
         settings.three_point_threshold = t;
     }
-    solve(&scene, &settings, progress).map_err(|e| format!("{}: {e}", args.scene.display()))
+    let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
+    match (args.solver, &args.progressive) {
+        (Solver::Gather, None) => solve(&scene, &settings, progress).map_err(in_scene),
+        (Solver::Gather, Some(_)) => Err("--progressive needs --solver shoot".into()),
+        (Solver::Shoot, None) => {
+            solve_shooting(&scene, &settings, progress, None).map_err(in_scene)
+        }
+        (Solver::Shoot, Some(dir)) => {
+            if scene.camera.is_none() {
+                return Err(format!(
+                    "{}: --progressive renders the scene's sensor, and the scene has no sensor",
+                    args.scene.display()
+                ));
+            }
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let mut failure = None;
+            let mut on_step = |solution: &Solution, step: &Step| {
+                let written = write_progressive_image(solution, step, dir);
+                failure = written.err();
+                match failure {
+                    Some(_) => ControlFlow::Break(()),
+                    None => ControlFlow::Continue(()),
+                }
+            };
+            let solution = solve_shooting(&scene, &settings, progress, Some(&mut on_step))
+                .map_err(in_scene)?;
+            match failure {
+                Some(e) => Err(e),
+                None => Ok(solution),
+            }
+        }
+    }
+}
+
+/// One progressive image: the solution after `step`, smoothly reconstructed
+/// with few camera rays.
+fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Result<(), String> {
+    let settings = RenderSettings {
+        mode: Reconstruction::Smooth,
+        ..RenderSettings::default().with_samples_per_pixel(4)
+    };
+    let image = solution.render(&settings).map_err(|e| e.to_string())?;
+    let path = dir.join(format!("step-{:04}.exr", step.index));
+    wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
 }
 
 fn parse_oracle(s: &str) -> Result<Oracle, String> {
+    s.parse()
+}
+
+fn parse_solver(s: &str) -> Result<Solver, String> {
     s.parse()
 }
 
@@ -282,6 +342,13 @@ fn report(solution: &Solution, output: Option<&Path>) {
         t.solve_s,
         t.render_s
     );
+    if s.shooting_steps > 0 {
+        eprintln!(
+            "wavrad: {} shooting steps (unshot {:.2e} of the emitted power); kernels projected for \
+             {} of {} surface pairs",
+            s.shooting_steps, s.unshot_fraction, s.kernel_pairs, s.exchanging_pairs
+        );
+    }
     if let Some(out) = output {
         eprintln!("wavrad: wrote {}", out.display());
     }

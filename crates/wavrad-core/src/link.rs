@@ -350,33 +350,53 @@ pub fn refine_links(
     estimate: Option<&LightEstimate>,
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    let n = scene.surfaces.len();
-    let pairs: Vec<(usize, usize)> = (0..n)
-        .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
-        .filter(|&(p, r)| !kernel::faces_away(&scene.surfaces[p].patch, &scene.surfaces[r].patch))
-        // Glossy receivers gather through three-point links instead.
-        .filter(|&(p, r)| scene.surfaces[p].is_diffuse() || scene.surfaces[r].is_diffuse())
-        .collect();
+    let pairs = linked_pairs(scene);
     progress.start("kernels", pairs.len() as u64);
     let per_pair: Vec<Vec<Link>> = pairs
         .par_iter()
-        .map(|&(p, r)| {
-            let mut refiner =
-                PairRefiner::new(scene, tracer, settings, estimate, (p as u32, r as u32));
-            let side = |s: usize| Side {
-                surface: s as u32,
-                id: ElementId::ROOT,
-                patch: scene.surfaces[s].patch,
-            };
-            let (a, c) = (side(p), side(r));
-            let t = refiner.throughput(&a, &c);
-            refiner.refine(a, c, t);
+        .map(|&pair| {
+            let links = refine_pair(scene, tracer, settings, estimate, pair);
             progress.advance(1);
-            refiner.links
+            links
         })
         .collect();
     progress.finish();
     per_pair.into_iter().flatten().collect()
+}
+
+/// The surface pairs (p < r) that get two-point links: those not facing
+/// away from each other, with at least one diffuse surface (glossy
+/// receivers gather through three-point links instead), in order.
+pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
+    let n = scene.surfaces.len() as u32;
+    (0..n)
+        .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
+        .filter(|&(p, r)| {
+            let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
+            !kernel::faces_away(&sp.patch, &sr.patch) && (sp.is_diffuse() || sr.is_diffuse())
+        })
+        .collect()
+}
+
+/// The two-point links of one surface pair (p, r), projected from the whole
+/// surfaces down (as [`refine_links`] does for every pair).
+pub fn refine_pair(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    settings: RefineSettings,
+    estimate: Option<&LightEstimate>,
+    (p, r): (u32, u32),
+) -> Vec<Link> {
+    let mut refiner = PairRefiner::new(scene, tracer, settings, estimate, (p, r));
+    let side = |s: u32| Side {
+        surface: s,
+        id: ElementId::ROOT,
+        patch: scene.surfaces[s as usize].patch,
+    };
+    let (a, c) = (side(p), side(r));
+    let t = refiner.throughput(&a, &c);
+    refiner.refine(a, c, t);
+    refiner.links
 }
 
 /// One pass of the refine–solve loop: every link that the weighted oracle

@@ -58,7 +58,24 @@ pub struct Stats {
     pub three_point_max_level: u32,
     /// Oracle threshold of three-point links.
     pub three_point_threshold: f64,
-    /// Gauss–Seidel sweeps done.
+    /// How the system was solved: `gather` (Gauss–Seidel, every kernel
+    /// projected up front) or `shoot` (progressive shooting, kernels
+    /// projected lazily where light flows).
+    pub solver: String,
+    /// Shooting steps done (one surface's unshot radiance each; 0 when
+    /// gathering).
+    pub shooting_steps: u32,
+    /// Unshot power left when shooting stopped, relative to the emitted
+    /// power (0 when gathering).
+    pub unshot_fraction: f64,
+    /// Surface pairs that can exchange light (not facing away, one of them
+    /// diffuse): the pairs gathering projects kernels for.
+    pub exchanging_pairs: usize,
+    /// Surface pairs whose kernels were projected: all exchanging pairs when
+    /// gathering, only those light flowed through when shooting.
+    pub kernel_pairs: usize,
+    /// Gauss–Seidel sweeps done (when shooting: the sweeps that finish the
+    /// solution over the links it made).
     pub iterations: u32,
     /// Largest change of a coarsest coefficient in the last sweep, relative
     /// to the brightest emitted radiance.
@@ -72,18 +89,22 @@ pub struct Stats {
 }
 
 impl Stats {
-    pub(crate) fn new(
+    /// The counts of a gathering solve (the shooting solver fills in its
+    /// own fields afterwards).
+    pub(crate) fn new<'l>(
         scene: &Scene,
         settings: &SolveSettings,
         trees: &[ElementTree],
-        links: &[Link],
+        links: impl IntoIterator<Item = &'l Link>,
         (directional, three_point_interactions): (&[Directional], usize),
         (iterations, residual, refine_passes): (u32, f64, u32),
         times: PhaseTimes,
     ) -> Stats {
         let nodes_per_level = add_counts(trees.iter().map(ElementTree::count_per_level));
         let mut interactions_per_level = vec![0; nodes_per_level.len().max(1)];
+        let mut two_point_interactions = 0;
         for l in links {
+            two_point_interactions += 1;
             let level = l.a.level.max(l.c.level) as usize;
             if interactions_per_level.len() <= level {
                 interactions_per_level.resize(level + 1, 0);
@@ -93,7 +114,7 @@ impl Stats {
         Stats {
             surfaces: scene.surfaces.len(),
             two_point_nodes: trees.iter().map(|t| t.nodes.len()).sum(),
-            two_point_interactions: links.len(),
+            two_point_interactions,
             three_point_nodes: directional.iter().map(|d| d.tree.nodes.len()).sum(),
             three_point_nodes_per_level: add_counts(
                 directional.iter().map(|d| d.tree.count_per_level()),
@@ -107,6 +128,11 @@ impl Stats {
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,
             three_point_threshold: settings.three_point_threshold,
+            solver: "gather".into(),
+            shooting_steps: 0,
+            unshot_fraction: 0.0,
+            exchanging_pairs: 0,
+            kernel_pairs: 0,
             iterations,
             residual,
             converged: residual <= settings.tolerance,

@@ -8,7 +8,7 @@ use super::importance::Importance;
 use crate::directional::PairTree;
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Rgb, Scene};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Radiance (and importance) estimates for the weighted oracles, relative
 /// to the brightest emitted radiance.
@@ -74,6 +74,26 @@ impl LightEstimate {
                 .map(|(d, v)| ((d.p, d.q), (d.tree.clone(), values(v))))
                 .collect(),
             ..LightEstimate::emission(scene, importance)
+        }
+    }
+
+    /// One step of shooting ([`super::shoot`]): only `shooter` sends light,
+    /// its radiance `sent` over `tree`; the other surfaces send none in this
+    /// step.
+    pub fn shot(scene: &Scene, shooter: u32, tree: ElementTree, sent: &[Rgb]) -> LightEstimate {
+        let mut trees = Vec::with_capacity(scene.surfaces.len());
+        let mut radiance = Vec::with_capacity(scene.surfaces.len());
+        for surface in &scene.surfaces {
+            // The others: one element that sends nothing.
+            trees.push(ElementTree::build(&surface.patch, &BTreeSet::new()));
+            radiance.push(vec![0.0]);
+        }
+        trees[shooter as usize] = tree;
+        radiance[shooter as usize] = sent.iter().map(largest).collect();
+        LightEstimate {
+            trees,
+            radiance,
+            ..LightEstimate::emission(scene, None)
         }
     }
 

@@ -1,12 +1,14 @@
 //! The whole solution (paper §4.2, wavelet_radiance): compute kernels
 //! ([`crate::link::refine_links`]), build the element hierarchies, then
 //! Gauss–Seidel gathering with push–pull until the coarsest coefficients
-//! settle.
+//! settle. [`shoot`] solves diffuse scenes by progressive shooting instead,
+//! projecting kernels only where light flows (the paper's §6).
 
 pub mod estimate;
 pub mod gather;
 pub mod importance;
 pub mod push_pull;
+pub mod shoot;
 
 use crate::directional::PairTree;
 use crate::hierarchy::{ElementId, ElementTree};
@@ -23,6 +25,8 @@ use estimate::LightEstimate;
 use gather::{Directional, Interactions};
 use importance::Importance;
 use std::collections::BTreeSet;
+use std::fmt;
+use std::str::FromStr;
 use std::time::Instant;
 
 /// Most surfaces a scene may have: all pairs are linked (no clustering yet),
@@ -55,6 +59,43 @@ pub struct SolveSettings {
     /// Most projections of the refine–solve loop of the weighted oracles
     /// (the first counts; 1 keeps the links projected with the emission).
     pub refine_passes: u32,
+}
+
+/// How the radiance system is solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Solver {
+    /// [`solve`]: every kernel projected up front, then Gauss–Seidel
+    /// gathering (the paper's §4.2).
+    #[default]
+    Gather,
+    /// [`shoot::solve_shooting`]: progressive shooting from the emitters,
+    /// kernels projected lazily where light flows (the paper's §6).
+    Shoot,
+}
+
+impl Solver {
+    /// The names accepted by [`Solver::from_str`], in declaration order.
+    pub const NAMES: [&'static str; 2] = ["gather", "shoot"];
+}
+
+impl fmt::Display for Solver {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(Self::NAMES[*self as usize])
+    }
+}
+
+impl FromStr for Solver {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        match s {
+            "gather" => Ok(Solver::Gather),
+            "shoot" => Ok(Solver::Shoot),
+            _ => Err(format!(
+                "unknown solver '{s}' (expected one of: {})",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
 }
 
 /// Receives progress of the long phases (the CLI draws bars; default: none).
@@ -107,15 +148,7 @@ pub struct Solution {
 /// `settings.refine_passes` passes.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     settings.validate()?;
-    if scene.surfaces.is_empty() {
-        return Err(Error::EmptyScene);
-    }
-    if scene.surfaces.len() > MAX_SURFACES {
-        return Err(Error::TooManySurfaces {
-            surfaces: scene.surfaces.len(),
-            limit: MAX_SURFACES,
-        });
-    }
+    check_size(scene)?;
     let camera = match (settings.oracle, &scene.camera) {
         (Oracle::Importance, None) => {
             return Err(Error::InvalidSetting(
@@ -187,7 +220,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         sweeps = system.solve(scene, settings, progress, &mut times);
     }
 
-    let stats = Stats::new(
+    let mut stats = Stats::new(
         scene,
         settings,
         &system.trees,
@@ -196,6 +229,8 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (sweeps.0, sweeps.1, passes),
         times,
     );
+    stats.exchanging_pairs = crate::link::linked_pairs(scene).len();
+    stats.kernel_pairs = stats.exchanging_pairs;
     Ok(Solution {
         scene: scene.clone(),
         tracer,
@@ -206,6 +241,20 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         settings: *settings,
         stats,
     })
+}
+
+/// A scene the solvers accept: some surfaces, not too many.
+fn check_size(scene: &Scene) -> Result<()> {
+    if scene.surfaces.is_empty() {
+        return Err(Error::EmptyScene);
+    }
+    if scene.surfaces.len() > MAX_SURFACES {
+        return Err(Error::TooManySurfaces {
+            surfaces: scene.surfaces.len(),
+            limit: MAX_SURFACES,
+        });
+    }
+    Ok(())
 }
 
 /// The linear system of one set of links and its solution.

@@ -1,0 +1,606 @@
+//! Progressive shooting with lazy kernels, the route the paper's §6 proposes
+//! (progressive refinement after Cohen et al. 1988, in its Southwell form,
+//! over the hierarchical links of Hanrahan et al. 1991).
+//!
+//! Every surface keeps, per element of its hierarchy, its radiance and its
+//! *unshot* radiance: light it has received but not yet sent on. Emitters
+//! start with unshot radiance = emission. Each step shoots the surface with
+//! the most unshot power (area × unshot radiance, largest channel): for
+//! every diffuse surface it can light (the pairs of
+//! [`crate::link::linked_pairs`]), the pair's links are projected the first
+//! time power flows through them, with the power-weighted oracle weighing
+//! the kernel by the shooter's unshot radiance, and re-tested from their
+//! stored details ([`crate::link::refine_links_further`]) when a later shot
+//! carries more power than they were refined for. Each receiver element
+//! gains ρ·F·ΔL, push–pull keeps its averages, and the shooter's unshot
+//! radiance becomes zero. Kernels between surfaces no light flows between
+//! are never projected.
+//!
+//! Shooting stops when the unshot power falls below `tolerance` × the
+//! emitted power, or after `max_iterations` steps. Gauss–Seidel sweeps over
+//! the links made then finish the solution, starting from the shot
+//! radiance (so they are few): early shots went through links that later
+//! shots refined, and the sweeps make the result the exact fixed point of
+//! the final links, as [`super::solve`]'s is of its own, and spread the
+//! last unshot power. The result is an ordinary [`Solution`].
+//!
+//! Only diffuse scenes for now: glossy surfaces are an
+//! [`Error::InvalidSetting`].
+//!
+//! ```
+//! use std::ops::ControlFlow;
+//! use wavrad_core::scene::{Scene, Surface};
+//! use wavrad_core::solve::{shoot::solve_shooting, Silent, SolveSettings};
+//! use glam::DVec3;
+//!
+//! // A unit cube seen from inside: every face reflects 50 % and emits 1.
+//! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
+//! let surfaces = faces
+//!     .into_iter()
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
+//!     .collect();
+//! let mut settings = SolveSettings::default();
+//! settings.refine.max_level = 3;
+//! let mut steps = 0;
+//! let mut on_step = |_: &_, _: &_| {
+//!     steps += 1; // a progressive image could be rendered here
+//!     ControlFlow::Continue(())
+//! };
+//! let solution =
+//!     solve_shooting(&Scene::from_surfaces(surfaces), &settings, &Silent, Some(&mut on_step)).unwrap();
+//! // The furnace: radiance is Le / (1 − ρ) = 2 everywhere.
+//! assert!((solution.radiance[0][0][0] - 2.0).abs() < 0.03);
+//! assert_eq!(solution.stats.shooting_steps, steps);
+//! ```
+
+use super::estimate::LightEstimate;
+use super::gather::Interactions;
+use super::{push_pull, Progress, Silent, Solution, SolveSettings, System};
+use crate::hierarchy::{ElementId, ElementTree};
+use crate::link::{linked_pairs, refine_links_further, refine_pair, Link};
+use crate::oracle::Oracle;
+use crate::scene::{Rgb, Scene, Surface};
+use crate::stats::{PhaseTimes, Stats};
+use crate::tracing::SceneTracer;
+use crate::{Error, Result};
+use rayon::prelude::*;
+use std::collections::BTreeSet;
+use std::ops::ControlFlow;
+use std::time::Instant;
+
+/// What one shooting step did, as reported to the `on_step` callback of
+/// [`solve_shooting`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// Steps done so far (1 after the first).
+    pub index: u32,
+    /// The surface that was shot.
+    pub shooter: u32,
+    /// Unshot power left, relative to the emitted power.
+    pub unshot_fraction: f64,
+    /// Surface pairs whose kernels are projected so far.
+    pub kernel_pairs: usize,
+    /// Two-point links so far.
+    pub links: usize,
+}
+
+/// The callback of [`solve_shooting`]: called after every step with the
+/// solution so far; `ControlFlow::Break` stops shooting early (the solution
+/// is then finished as usual).
+pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
+
+/// Solve a diffuse `scene` by progressive shooting with lazy kernels (see
+/// the [module documentation](self)).
+///
+/// `settings` are those of [`super::solve`]: with [`Oracle::Power`] links
+/// are refined by the power they carry, with [`Oracle::Kernel`] by the
+/// paper's kernel oracle (still only for pairs light flows through);
+/// `tolerance` applies to the unshot power relative to the emitted power,
+/// `max_iterations` to the steps (and to the finishing sweeps).
+///
+/// After every step `on_step`, if given, sees the solution so far: its
+/// element trees and radiance (what rendering reads on diffuse surfaces)
+/// and its statistics; its `interactions` stay empty until the end. The
+/// result is the same for any number of threads.
+///
+/// # Errors
+/// [`Error::InvalidSetting`] for a scene with a glossy surface, for the
+/// importance oracle, or for bad settings; [`Error::EmptyScene`] and
+/// [`Error::TooManySurfaces`] as [`super::solve`].
+pub fn solve_shooting(
+    scene: &Scene,
+    settings: &SolveSettings,
+    progress: &dyn Progress,
+    mut on_step: Option<OnStep<'_>>,
+) -> Result<Solution> {
+    settings.validate()?;
+    super::check_size(scene)?;
+    if let Some(s) = scene.surfaces.iter().find(|s| !s.is_diffuse()) {
+        return Err(Error::InvalidSetting(format!(
+            "the shooting solver supports diffuse scenes for now, but surface '{}' is glossy \
+             (use the gather solver)",
+            s.name
+        )));
+    }
+    if settings.oracle == Oracle::Importance {
+        return Err(Error::InvalidSetting(
+            "the shooting solver supports the kernel and power oracles for now".into(),
+        ));
+    }
+    let mut times = PhaseTimes::default();
+    let clock = Instant::now();
+    let tracer = SceneTracer::new(scene);
+    times.visibility_build_s = clock.elapsed().as_secs_f64();
+    let mut shooting = Shooting::new(scene, settings, times);
+    let mut solution = Solution {
+        scene: scene.clone(),
+        tracer,
+        trees: Vec::new(),
+        radiance: Vec::new(),
+        interactions: Interactions::default(),
+        directional: Vec::new(),
+        settings: *settings,
+        stats: shooting.stats(&[], (0, f64::INFINITY)),
+    };
+
+    // Shoot the surface with the most unshot power until little is left.
+    progress.start("shooting", u64::from(settings.max_iterations));
+    while shooting.steps < settings.max_iterations {
+        let (shooter, remaining) = shooting.largest_unshot();
+        if remaining <= settings.tolerance {
+            break;
+        }
+        shooting.shoot(shooter, &solution.tracer);
+        progress.advance(1);
+        let Some(on_step) = on_step.as_deref_mut() else {
+            continue;
+        };
+        solution.trees = shooting.states.iter().map(|s| s.tree.clone()).collect();
+        solution.radiance = shooting.states.iter().map(|s| s.radiance.clone()).collect();
+        solution.stats = shooting.stats(&solution.trees, (0, f64::INFINITY));
+        let step = Step {
+            index: shooting.steps,
+            shooter: shooter as u32,
+            unshot_fraction: solution.stats.unshot_fraction,
+            kernel_pairs: solution.stats.kernel_pairs,
+            links: solution.stats.two_point_interactions,
+        };
+        if on_step(&solution, &step).is_break() {
+            break;
+        }
+    }
+    progress.finish();
+
+    // Finish with Gauss–Seidel sweeps over the links made.
+    let clock = Instant::now();
+    let links: Vec<Link> = shooting.links().copied().collect();
+    let trees: Vec<ElementTree> = shooting.states.iter().map(|s| s.tree.clone()).collect();
+    let interactions = Interactions::new(scene, &trees, &links, &[], Vec::new());
+    shooting.times.hierarchy_s += clock.elapsed().as_secs_f64();
+    let mut system = System {
+        trees,
+        interactions,
+        radiance: shooting
+            .states
+            .iter_mut()
+            .map(|s| std::mem::take(&mut s.radiance))
+            .collect(),
+        directional: Vec::new(),
+    };
+    let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
+    solution.stats = shooting.stats(&system.trees, sweeps);
+    solution.trees = system.trees;
+    solution.radiance = system.radiance;
+    solution.interactions = system.interactions;
+    Ok(solution)
+}
+
+/// Radiance and unshot radiance over one surface's element hierarchy.
+struct SurfaceState {
+    /// Elements any link of the surface mentioned (the tree holds them).
+    ids: BTreeSet<ElementId>,
+    tree: ElementTree,
+    radiance: Vec<Rgb>,
+    unshot: Vec<Rgb>,
+}
+
+impl SurfaceState {
+    fn new(surface: &Surface) -> SurfaceState {
+        SurfaceState {
+            ids: BTreeSet::new(),
+            tree: ElementTree::build(&surface.patch, &BTreeSet::new()),
+            radiance: vec![surface.emission],
+            unshot: vec![surface.emission],
+        }
+    }
+
+    /// Make the tree hold `ids`. New elements inherit the radiance of the
+    /// leaf they lie in (radiance is constant over a leaf), so the radiance
+    /// represented does not change.
+    fn grow(&mut self, surface: &Surface, ids: impl IntoIterator<Item = ElementId>) {
+        let before = self.ids.len();
+        self.ids.extend(
+            ids.into_iter()
+                .filter(|&id| self.tree.index_of(id).is_none()),
+        );
+        if self.ids.len() == before {
+            return;
+        }
+        let tree = ElementTree::build(&surface.patch, &self.ids);
+        let carry = |values: &[Rgb]| {
+            tree.nodes
+                .iter()
+                .map(|n| values[self.tree.node_containing(n.id) as usize])
+                .collect::<Vec<Rgb>>()
+        };
+        self.radiance = carry(&self.radiance);
+        self.unshot = carry(&self.unshot);
+        self.tree = tree;
+    }
+
+    /// Receive the unshot radiance `unshot` (over `tree`) of surface `s`
+    /// through `links` of the pair (r, s), r being this surface:
+    /// ρ·F·ΔL at each receiving element, then push–pull.
+    fn receive(
+        &mut self,
+        (r, surface): (u32, &Surface),
+        links: &[Link],
+        (tree, unshot): (&ElementTree, &[Rgb]),
+    ) {
+        let rho = surface.brdf.diffuse_reflectance().unwrap_or([0.0; 3]);
+        let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
+        self.grow(surface, links.iter().map(|l| ends(l).0));
+        let mut gathered = vec![[0.0; 3]; self.tree.nodes.len()];
+        for l in links {
+            let (a, c) = ends(l);
+            let node = self.tree.index_of(a).expect("link element is in its tree") as usize;
+            let form_factor = l.throughput / self.tree.nodes[node].patch.area();
+            let sent = unshot[tree.node_containing(c) as usize];
+            for ch in 0..3 {
+                gathered[node][ch] += rho[ch] * form_factor * sent[ch];
+            }
+        }
+        let received = push_pull::push_pull(&self.tree, &gathered, [0.0; 3]);
+        for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
+            for ch in 0..3 {
+                l[ch] += d[ch];
+                u[ch] += d[ch];
+            }
+        }
+    }
+}
+
+/// The state of a shooting solve.
+struct Shooting<'a> {
+    scene: &'a Scene,
+    settings: &'a SolveSettings,
+    /// Surface pairs that can exchange light, in order.
+    pairs: Vec<(u32, u32)>,
+    /// For each surface, the (receiver, pair index) it can light: diffuse
+    /// receivers that reflect something.
+    targets: Vec<Vec<(u32, usize)>>,
+    /// Links of each pair, `None` until light first flows through it.
+    links: Vec<Option<Vec<Link>>>,
+    states: Vec<SurfaceState>,
+    /// Σ area × emission (largest channel).
+    emitted: f64,
+    steps: u32,
+    times: PhaseTimes,
+}
+
+fn largest(rgb: &Rgb) -> f64 {
+    rgb.iter().fold(0.0f64, |m, &x| m.max(x))
+}
+
+impl<'a> Shooting<'a> {
+    fn new(scene: &'a Scene, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
+        let pairs = linked_pairs(scene);
+        let reflects = |s: u32| {
+            let surface = &scene.surfaces[s as usize];
+            surface
+                .brdf
+                .diffuse_reflectance()
+                .is_some_and(|rho| largest(&rho) > 0.0)
+        };
+        let mut targets = vec![Vec::new(); scene.surfaces.len()];
+        for (i, &(p, r)) in pairs.iter().enumerate() {
+            if reflects(r) {
+                targets[p as usize].push((r, i));
+            }
+            if reflects(p) {
+                targets[r as usize].push((p, i));
+            }
+        }
+        Shooting {
+            scene,
+            settings,
+            links: vec![None; pairs.len()],
+            pairs,
+            targets,
+            states: scene.surfaces.iter().map(SurfaceState::new).collect(),
+            emitted: scene
+                .surfaces
+                .iter()
+                .map(|s| s.patch.area() * largest(&s.emission))
+                .sum(),
+            steps: 0,
+            times,
+        }
+    }
+
+    /// The surface with the most unshot power (the first of equals), and
+    /// the unshot power of all surfaces relative to the emitted power.
+    fn largest_unshot(&self) -> (usize, f64) {
+        let mut best = (0, 0.0);
+        let mut total = 0.0;
+        for (s, (state, surface)) in self.states.iter().zip(&self.scene.surfaces).enumerate() {
+            let power = surface.patch.area() * largest(&state.unshot[0]);
+            total += power;
+            if power > best.1 {
+                best = (s, power);
+            }
+        }
+        let relative = if self.emitted > 0.0 {
+            total / self.emitted
+        } else {
+            0.0
+        };
+        (best.0, relative)
+    }
+
+    /// Send the unshot radiance of surface `s` to every surface it can light.
+    fn shoot(&mut self, s: usize, tracer: &SceneTracer) {
+        let (scene, settings) = (self.scene, self.settings);
+        let tree = self.states[s].tree.clone();
+        let unshot = std::mem::take(&mut self.states[s].unshot);
+
+        // Kernels: project the pairs light flows through for the first time,
+        // re-test the others. The oracle weighs a link by all the radiance
+        // its source has gathered so far, not this shot's share: a link's
+        // error shows in the receiver's final radiance.
+        let clock = Instant::now();
+        let estimate = (settings.oracle == Oracle::Power).then(|| {
+            LightEstimate::shot(scene, s as u32, tree.clone(), &self.states[s].radiance)
+        });
+        let mut work: Vec<(usize, Option<Vec<Link>>)> = self.targets[s]
+            .iter()
+            .map(|&(_, i)| (i, self.links[i].take()))
+            .collect();
+        work.par_iter_mut().for_each(|(i, links)| {
+            let pair = self.pairs[*i];
+            *links = Some(match (links.take(), &estimate) {
+                (None, e) => refine_pair(scene, tracer, settings.refine, e.as_ref(), pair),
+                (Some(old), Some(e)) => {
+                    refine_links_further(scene, tracer, settings.refine, e, old, &Silent).0
+                }
+                (Some(old), None) => old,
+            });
+        });
+        for (i, links) in work {
+            self.links[i] = links;
+        }
+        self.times.kernels_s += clock.elapsed().as_secs_f64();
+
+        // Receivers gain ρ·F·ΔL; the shooter keeps nothing unshot.
+        let clock = Instant::now();
+        let mut pair_of = vec![None; scene.surfaces.len()];
+        for &(r, i) in &self.targets[s] {
+            pair_of[r as usize] = Some(i);
+        }
+        let links = &self.links;
+        self.states
+            .par_iter_mut()
+            .zip(&pair_of)
+            .enumerate()
+            .for_each(|(r, (state, pair))| {
+                if let Some(i) = *pair {
+                    let links = links[i].as_deref().unwrap_or_default();
+                    let surface = &scene.surfaces[r];
+                    state.receive((r as u32, surface), links, (&tree, &unshot));
+                }
+            });
+        let own_ends = self.targets[s]
+            .iter()
+            .flat_map(|&(_, i)| self.links[i].iter().flatten())
+            .map(|l| if l.p as usize == s { l.a } else { l.c });
+        let state = &mut self.states[s];
+        state.unshot = vec![[0.0; 3]; state.tree.nodes.len()];
+        state.grow(&scene.surfaces[s], own_ends.collect::<Vec<_>>());
+        self.steps += 1;
+        self.times.solve_s += clock.elapsed().as_secs_f64();
+    }
+
+    /// Every link made so far, pair by pair in order.
+    fn links(&self) -> impl Iterator<Item = &Link> {
+        self.links.iter().flatten().flatten()
+    }
+
+    /// Statistics over `trees` and the links so far, after `sweeps`
+    /// finishing Gauss–Seidel sweeps (and their last residual).
+    fn stats(&self, trees: &[ElementTree], sweeps: (u32, f64)) -> Stats {
+        let mut stats = Stats::new(
+            self.scene,
+            self.settings,
+            trees,
+            self.links(),
+            (&[], 0),
+            (sweeps.0, sweeps.1, 1),
+            self.times,
+        );
+        stats.solver = super::Solver::Shoot.to_string();
+        stats.shooting_steps = self.steps;
+        stats.unshot_fraction = self.largest_unshot().1;
+        stats.exchanging_pairs = self.pairs.len();
+        stats.kernel_pairs = self.links.iter().filter(|l| l.is_some()).count();
+        stats
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brdf::Brdf;
+    use crate::scene::Patch;
+    use crate::solve::solve;
+    use glam::DVec3;
+
+    fn wall(patch: Patch, rho: f64, emission: f64) -> Surface {
+        Surface {
+            name: "wall".into(),
+            patch,
+            brdf: Brdf::diffuse([rho; 3]),
+            emission: [emission; 3],
+        }
+    }
+
+    fn settings(oracle: Oracle, max_level: u32) -> SolveSettings {
+        let mut settings = SolveSettings::for_oracle(oracle);
+        settings.refine.max_level = max_level;
+        settings
+    }
+
+    fn shoot(scene: &Scene, settings: &SolveSettings) -> Solution {
+        solve_shooting(scene, settings, &Silent, None).unwrap()
+    }
+
+    /// A box, open on one side, lit by its ceiling, with a tilted panel
+    /// inside that shadows the floor.
+    fn open_box() -> Scene {
+        let mut faces = crate::testing::inward_box(DVec3::ZERO, DVec3::new(1.0, 1.0, 1.0));
+        faces.pop(); // open: one wall missing
+        let mut surfaces: Vec<Surface> = faces
+            .into_iter()
+            .enumerate()
+            .map(|(i, patch)| wall(patch, [0.7, 0.5, 0.6, 0.4, 0.5][i], 0.0))
+            .collect();
+        surfaces[1].emission = [2.0; 3];
+        surfaces.push(wall(
+            Patch::Parallelogram {
+                origin: DVec3::new(0.3, 0.2, 0.3),
+                edge_s: DVec3::new(0.4, 0.0, 0.1),
+                edge_t: DVec3::new(0.0, 0.5, 0.0),
+            },
+            0.6,
+            0.0,
+        ));
+        Scene::from_surfaces(surfaces)
+    }
+
+    #[test]
+    fn shooting_furnace_radiance_is_le_over_one_minus_rho() {
+        let faces =
+            crate::testing::inward_box(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 1.5, 3.0));
+        let scene = Scene::from_surfaces(faces.into_iter().map(|p| wall(p, 0.5, 1.0)).collect());
+        for oracle in [Oracle::Kernel, Oracle::Power] {
+            let solution = shoot(&scene, &settings(oracle, 4));
+            assert!(solution.stats.converged && solution.stats.shooting_steps > 6);
+            for r in &solution.radiance {
+                let error = (r[0][0] - 2.0).abs() / 2.0;
+                assert!(error < 0.015, "{oracle}: surface average {}", r[0][0]);
+            }
+        }
+    }
+
+    #[test]
+    fn shooting_matches_gathering_on_an_open_scene() {
+        let scene = open_box();
+        for (oracle, tolerance) in [(Oracle::Kernel, 1e-3), (Oracle::Power, 0.03)] {
+            let settings = settings(oracle, 4);
+            let shot = shoot(&scene, &settings);
+            let gathered = solve(&scene, &settings, &Silent).unwrap();
+            for (s, (a, b)) in shot.radiance.iter().zip(&gathered.radiance).enumerate() {
+                for ch in 0..3 {
+                    let error = (a[0][ch] - b[0][ch]).abs() / b[0][ch].max(1e-3);
+                    assert!(error < tolerance, "{oracle}: surface {s}: {a:?} vs {b:?}");
+                }
+            }
+        }
+    }
+
+    /// An emitter over a floor, and two squares below the floor facing each
+    /// other: the upper one faces away from both, the lower one sees the
+    /// emitter only through the floor. No light reaches them, so their
+    /// pair's kernel is never projected.
+    #[test]
+    fn kernels_are_projected_only_where_light_flows() {
+        let square = |z: f64, up: bool| Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, z),
+            edge_s: if up { DVec3::X } else { DVec3::Y },
+            edge_t: if up { DVec3::Y } else { DVec3::X },
+        };
+        let scene = Scene::from_surfaces(vec![
+            wall(square(0.0, true), 0.5, 0.0),
+            wall(square(0.5, false), 0.5, 4.0),
+            wall(square(-1.0, false), 0.5, 0.0),
+            wall(square(-2.0, true), 0.5, 0.0),
+        ]);
+        let solution = shoot(&scene, &settings(Oracle::Power, 4));
+        assert_eq!(solution.stats.exchanging_pairs, 3);
+        assert_eq!(solution.stats.kernel_pairs, 2);
+        assert!(solution.interactions.incoming[2].is_empty());
+        assert_eq!(solution.radiance[3][0], [0.0; 3]);
+        let gathered = solve(&scene, &settings(Oracle::Power, 4), &Silent).unwrap();
+        assert_eq!(gathered.stats.kernel_pairs, 3);
+        let (a, b) = (solution.radiance[0][0][0], gathered.radiance[0][0][0]);
+        assert!((a - b).abs() < 0.01 * b, "floor {a} vs {b}");
+    }
+
+    #[test]
+    fn shooting_does_not_depend_on_thread_count() {
+        let scene = open_box();
+        let settings = settings(Oracle::Power, 4);
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let s = shoot(&scene, &settings);
+                (s.radiance, s.trees, s.interactions, s.stats.shooting_steps)
+            })
+        };
+        assert!(run(1) == run(2));
+    }
+
+    #[test]
+    fn progressive_steps_brighten_and_can_stop_early() {
+        let scene = open_box();
+        let mut seen = Vec::new();
+        let mut on_step = |solution: &Solution, step: &Step| {
+            let total: f64 = solution.radiance.iter().map(|r| r[0][0]).sum();
+            seen.push((step.index, step.unshot_fraction, total));
+            if step.index == 5 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        let settings = settings(Oracle::Power, 3);
+        let solution = solve_shooting(&scene, &settings, &Silent, Some(&mut on_step)).unwrap();
+        assert_eq!(solution.stats.shooting_steps, 5);
+        assert_eq!(
+            seen.iter().map(|s| s.0).collect::<Vec<_>>(),
+            [1, 2, 3, 4, 5]
+        );
+        assert!(seen
+            .windows(2)
+            .all(|w| w[1].2 >= w[0].2 && w[1].1 <= w[0].1));
+    }
+
+    #[test]
+    fn glossy_scenes_and_the_importance_oracle_are_clear_errors() {
+        let mut scene = open_box();
+        let err = shoot_err(&scene, Oracle::Importance);
+        assert!(err.contains("kernel and power"), "{err}");
+        scene.surfaces[0].brdf = Brdf::Ward(crate::brdf::Ward::default());
+        let err = shoot_err(&scene, Oracle::Power);
+        assert!(err.contains("diffuse scenes"), "{err}");
+    }
+
+    fn shoot_err(scene: &Scene, oracle: Oracle) -> String {
+        match solve_shooting(scene, &SolveSettings::for_oracle(oracle), &Silent, None) {
+            Err(e) => e.to_string(),
+            Ok(_) => String::new(),
+        }
+    }
+}
