@@ -11,7 +11,7 @@
 
 use crate::brdf::Frame;
 use crate::hierarchy::ElementId;
-use crate::kernel::three_point::{coefficient, GlossyElement};
+use crate::kernel::three_point::{GlossyElement, IncidentLight};
 use crate::kernel::{faces_away, KernelElement};
 use crate::link::{refine_each, RefineSettings};
 use crate::oracle::average_detail;
@@ -96,8 +96,10 @@ impl<'a> TripleRefiner<'a> {
         }
     }
 
-    fn coefficient(&self, c: &Part, a: &Part, b: &Part) -> Rgb {
-        coefficient(
+    /// The light from `c` at the Gauss points of the glossy element `a`,
+    /// which every receiver of the pair shares.
+    fn incident<'s>(&'s self, c: &'s Part, a: &'s Part) -> IncidentLight<'s> {
+        IncidentLight::new(
             self.tracer,
             self.settings.quadrature,
             KernelElement {
@@ -112,8 +114,11 @@ impl<'a> TripleRefiner<'a> {
                 brdf: &self.scene.surfaces[self.p as usize].brdf,
                 frame: self.frame,
             },
-            &b.patch,
         )
+    }
+
+    fn coefficient(&self, c: &Part, a: &Part, b: &Part) -> Rgb {
+        self.incident(c, a).towards(&b.patch)
     }
 
     fn push(&mut self, c: &Part, a: &Part, b: &Part, coefficient: Rgb, detail: f64) {
@@ -153,11 +158,17 @@ impl<'a> TripleRefiner<'a> {
         let mut detail = 0.0f64;
         for split in order {
             let children = parts[split].children();
-            let coefficients = children.map(|child| {
-                let mut t = parts;
-                t[split] = child;
-                self.coefficient(&t[0], &t[1], &t[2])
-            });
+            let coefficients = if split == 2 {
+                // Only the receiver changes: the incident light is shared.
+                let incident = self.incident(&parts[0], &parts[1]);
+                children.map(|child| incident.towards(&child.patch))
+            } else {
+                children.map(|child| {
+                    let mut t = parts;
+                    t[split] = child;
+                    self.coefficient(&t[0], &t[1], &t[2])
+                })
+            };
             let (smooth, d) = self.test(&parts, split, &children, &coefficients);
             detail = detail.max(d);
             if !smooth {

@@ -19,6 +19,7 @@ use super::{form_factor, visible_fraction, KernelElement, Quadrature};
 use crate::brdf::{Brdf, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb};
 use crate::tracing::SceneTracer;
+use glam::DVec3;
 use std::f64::consts::PI;
 
 /// The glossy element of a three-point kernel with its reflection model.
@@ -35,6 +36,9 @@ pub struct GlossyElement<'a> {
 /// R(c, a, b) per channel: light from source element `c` reflected by glossy
 /// element `a` towards receiver element `b` (which may be a hypothetical
 /// receiver outside the scene: it is never traced against).
+///
+/// The same as `IncidentLight::new(tracer, q, c, a).towards(b)`; refinement
+/// that splits only the receiver can build the [`IncidentLight`] once.
 pub fn coefficient(
     tracer: &SceneTracer,
     q: Quadrature,
@@ -42,56 +46,100 @@ pub fn coefficient(
     a: GlossyElement,
     b: &Patch,
 ) -> Rgb {
-    let (n_a, n_c) = (a.element.patch.normal(), c.patch.normal());
-    let polygon = c.patch.vertices();
-    let targets = c.patch.gauss_points(q.rays);
-    let sources = c.patch.gauss_points(q.points);
-    let receivers = b.gauss_points(q.points);
-    let skip = |prim: u32| {
-        let s = tracer.surface_of(prim);
-        s == a.element.surface || s == c.surface
-    };
-    let mut sum = [0.0; 3];
-    for xp in a.element.patch.gauss_points(q.points) {
-        let ff = form_factor::point_to_polygon(xp.position, n_a, &polygon, n_c);
-        if ff <= 0.0 {
-            continue;
-        }
-        let v = visible_fraction(tracer, xp.position, n_a, &targets, skip);
-        if v == 0.0 {
-            continue;
-        }
-        // Incident directions and their geometric weights over c.
-        let incident: Vec<_> = sources
-            .iter()
-            .filter_map(|x| {
-                let d = x.position - xp.position;
-                let r2 = d.length_squared();
-                let w = d.normalize();
-                let g = x.weight * n_a.dot(w) * -n_c.dot(w) / r2;
-                (g > 0.0).then(|| (a.frame.to_local(w), g))
-            })
-            .collect();
-        let g_total: f64 = incident.iter().map(|(_, g)| g).sum();
-        if g_total <= 0.0 {
-            continue;
-        }
-        let scale = xp.weight * PI * ff * v / g_total;
-        for xpp in &receivers {
-            let wo = a.frame.to_local((xpp.position - xp.position).normalize());
-            if wo.z <= 0.0 {
+    IncidentLight::new(tracer, q, c, a).towards(b)
+}
+
+/// What R(c, a, ·) needs of the source element `c`, whatever the receiver:
+/// at each Gauss point x′ on `a`, the incident directions from `c`'s Gauss
+/// points with their weights w_i G_i, and the factor π F V̄ / Σ w_i G_i. It
+/// holds all of the kernel's ray queries and closed-form factors.
+#[derive(Debug, Clone)]
+pub struct IncidentLight<'a> {
+    a: GlossyElement<'a>,
+    q: Quadrature,
+    points: Vec<IncidentPoint>,
+}
+
+#[derive(Debug, Clone)]
+struct IncidentPoint {
+    position: DVec3,
+    /// w′ π F(x′, c) V̄ / Σ_i w_i G_i.
+    scale: f64,
+    /// Incident directions in `a`'s frame and their weights w_i G_i.
+    incident: Vec<(DVec3, f64)>,
+}
+
+impl<'a> IncidentLight<'a> {
+    /// Light from `c` arriving at the Gauss points of glossy element `a`.
+    pub fn new(
+        tracer: &SceneTracer,
+        q: Quadrature,
+        c: KernelElement,
+        a: GlossyElement<'a>,
+    ) -> IncidentLight<'a> {
+        let (n_a, n_c) = (a.element.patch.normal(), c.patch.normal());
+        let polygon = c.patch.vertices();
+        let targets = c.patch.gauss_points(q.rays);
+        let sources = c.patch.gauss_points(q.points);
+        let skip = |prim: u32| {
+            let s = tracer.surface_of(prim);
+            s == a.element.surface || s == c.surface
+        };
+        let mut points = Vec::new();
+        for xp in a.element.patch.gauss_points(q.points) {
+            let ff = form_factor::point_to_polygon(xp.position, n_a, &polygon, n_c);
+            if ff <= 0.0 {
                 continue;
             }
-            let mut f = [0.0; 3];
-            for (wi, g) in &incident {
-                let fi = a.brdf.eval(*wi, wo);
-                (0..3).for_each(|ch| f[ch] += g * fi[ch]);
+            let v = visible_fraction(tracer, xp.position, n_a, &targets, skip);
+            if v == 0.0 {
+                continue;
             }
-            (0..3).for_each(|ch| sum[ch] += scale * xpp.weight * f[ch]);
+            // Incident directions and their geometric weights over c.
+            let incident: Vec<_> = sources
+                .iter()
+                .filter_map(|x| {
+                    let d = x.position - xp.position;
+                    let r2 = d.length_squared();
+                    let w = d.normalize();
+                    let g = x.weight * n_a.dot(w) * -n_c.dot(w) / r2;
+                    (g > 0.0).then(|| (a.frame.to_local(w), g))
+                })
+                .collect();
+            let g_total: f64 = incident.iter().map(|(_, g)| g).sum();
+            if g_total <= 0.0 {
+                continue;
+            }
+            points.push(IncidentPoint {
+                position: xp.position,
+                scale: xp.weight * PI * ff * v / g_total,
+                incident,
+            });
         }
+        IncidentLight { a, q, points }
     }
-    let norm = a.element.patch.area() * b.area();
-    sum.map(|s| s / norm)
+
+    /// R(c, a, b) per channel for receiver element `b`.
+    pub fn towards(&self, b: &Patch) -> Rgb {
+        let (a, receivers) = (&self.a, b.gauss_points(self.q.points));
+        let mut sum = [0.0; 3];
+        for xp in &self.points {
+            for xpp in &receivers {
+                let wo = a.frame.to_local((xpp.position - xp.position).normalize());
+                if wo.z <= 0.0 {
+                    continue;
+                }
+                let mut f = [0.0; 3];
+                for (wi, g) in &xp.incident {
+                    let fi = a.brdf.eval(*wi, wo);
+                    (0..3).for_each(|ch| f[ch] += g * fi[ch]);
+                }
+                (0..3).for_each(|ch| sum[ch] += xp.scale * xpp.weight * f[ch]);
+            }
+        }
+        let norm = a.element.patch.area() * b.area();
+        sum.map(|s| s / norm)
+    }
 }
 
 #[cfg(test)]
@@ -147,6 +195,55 @@ mod tests {
                 r[ch],
                 rho * f
             );
+        }
+    }
+
+    /// Refinement that splits only the receiver reuses the incident light:
+    /// it must give exactly the coefficients of separate evaluations.
+    #[test]
+    fn incident_light_reused_over_receivers_is_bit_identical() {
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(0.2, 0.0, 0.7),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(1.0, 0.0, 0.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::Z,
+        };
+        let scene = Scene::from_surfaces(vec![grey(floor), grey(light), grey(wall)]);
+        let tracer = SceneTracer::new(&scene);
+        let q = Quadrature::default();
+        let brdf = Brdf::Ward(crate::brdf::Ward {
+            variant: crate::brdf::WardVariant::Balanced,
+            alpha_u: 0.1,
+            alpha_v: 0.35,
+            specular_reflectance: [0.15; 3],
+            diffuse_reflectance: [0.6, 0.5, 0.4],
+        });
+        let a = GlossyElement {
+            element: KernelElement {
+                patch: &floor,
+                surface: 0,
+            },
+            brdf: &brdf,
+            frame: Frame::new(floor.normal(), floor.tangent()),
+        };
+        let c = KernelElement {
+            patch: &light,
+            surface: 1,
+        };
+        let incident = IncidentLight::new(&tracer, q, c, a);
+        for b in wall.flipped().subdivide() {
+            let r = coefficient(&tracer, q, c, a, &b);
+            assert!(r[0] > 0.0);
+            assert_eq!(incident.towards(&b), r);
         }
     }
 }
