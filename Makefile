@@ -2,12 +2,13 @@
 #   make example   build the CLI and render the bundled Cornell box
 #   make test      build everything (Rust + Python package) and run every test
 #   make lint      rustfmt, clippy -D warnings, rustdoc, ruff
+#   make bench     wavrad against Mitsuba 3 end to end -> docs/benchmarks.md
 
 VENV   := .venv
 PYTHON := $(VENV)/bin/python
 CARGO  ?= cargo
 
-.PHONY: example build venv python test test-rust test-python lint bench-bvh clean
+.PHONY: example build venv python test test-rust test-python lint bench bench-bvh clean bench-micro profile
 
 example: build
 	mkdir -p out
@@ -42,8 +43,33 @@ lint: venv
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --exclude wavrad-py
 	$(VENV)/bin/pip install --quiet ruff && $(VENV)/bin/ruff check python tests scenes benches
 
+bench: python
+	$(VENV)/bin/pip install --quiet -r benches/requirements.txt
+	$(PYTHON) benches/benchmarks.py
+
 bench-bvh:
 	$(CARGO) run --release --manifest-path benches/bvh-choice/Cargo.toml
 
 clean:
 	rm -rf target out $(VENV)
+
+# Criterion microbenchmarks of wavrad-core (docs/microbenchmarks.md): kernels,
+# occlusion throughput raw vs via kernels, Gauss–Seidel sweep. A few minutes.
+bench-micro:
+	$(CARGO) bench -p wavrad-core --benches
+
+# Sampled CPU profiles (docs/profile.md): the Cornell box render and the
+# glossy Cornell box solve (kernels), with perf; reports go to out/.
+PERF        ?= perf
+PROFILE_BIN := $(or $(CARGO_TARGET_DIR),target)/profiling/wavrad
+PERF_REPORT  = $(PERF) report --no-children --sort symbol --stdio -g none
+
+profile:
+	$(CARGO) build --profile profiling -p wavrad-cli
+	mkdir -p out
+	$(PERF) record -g -o out/perf-cornell-box.data $(PROFILE_BIN) render scenes/cornell-box/scene.xml -o out/profile-cornell-box.exr
+	$(PERF_REPORT) -i out/perf-cornell-box.data > out/profile-cornell-box.txt
+	$(PERF) record -F 999 -g -o out/perf-glossy-cornell-box.data $(PROFILE_BIN) solve scenes/glossy-cornell-box/scene.xml
+	$(PERF_REPORT) -i out/perf-glossy-cornell-box.data > out/profile-glossy-cornell-box.txt
+	grep -m 15 '%' out/profile-cornell-box.txt
+	grep -m 15 '%' out/profile-glossy-cornell-box.txt

@@ -56,9 +56,25 @@ class Solution:
         self,
         mode: Literal["gather", "direct", "smooth", "haar"] | None = None,
         spp: int | None = None,
+        *,
+        origin: npt.ArrayLike | None = None,
+        target: npt.ArrayLike | None = None,
+        up: npt.ArrayLike | None = None,
+        fov: float | None = None,
     ) -> _Image:
-        """Render the scene's sensor as an (height, width, 3) float32 array of
-        linear RGB radiance.
+        """Render the scene's sensor, or any other view of the solution, as an
+        (height, width, 3) float32 array of linear RGB radiance.
+
+        The solution is view-independent: ``origin``, ``target`` and ``up``
+        (three numbers each) aim the sensor as Mitsuba's ``look_at`` does,
+        and ``fov`` sets its field of view in degrees along the same axis as
+        the scene's ``fov_axis``; the film stays the scene's. Anything not
+        given keeps the scene camera's value: its position, its view
+        direction (so a new ``origin`` alone moves the camera without turning
+        it), its up axis, its field of view. Raises ``ValueError`` for a
+        degenerate ``look_at`` (origin = target, up zero or along the view),
+        a point that is not three finite numbers, a ``fov`` outside (0, 180)
+        or a ``fov`` for an orthographic sensor.
 
         ``mode``: ``"gather"`` (final gather, the default and most accurate),
         ``"direct"`` (the solution looked up along view rays: glossy surfaces

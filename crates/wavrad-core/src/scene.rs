@@ -76,10 +76,27 @@ pub enum Projection {
     Perspective {
         /// Horizontal field of view in degrees.
         fov_x_degrees: f64,
+        /// The film axis the scene gave its `fov` along (kept so that a
+        /// changed view can take a field of view in the scene's terms).
+        fov_axis: FovAxis,
     },
     /// Orthographic camera: the camera-space square [-1,1]² (scaled by
     /// `world_from_camera`) maps to the film, x spanning the width.
     Orthographic,
+}
+
+/// The film axis a perspective sensor's `fov` is measured along: Mitsuba's
+/// `fov_axis`, with `smaller` and `larger` resolved for the film's aspect
+/// ratio (conversions in [`crate::render::camera`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FovAxis {
+    /// The film's width (Mitsuba's default).
+    #[default]
+    X,
+    /// The film's height.
+    Y,
+    /// The film's diagonal (how a `focal_length` is converted).
+    Diagonal,
 }
 
 /// A sensor with Mitsuba's conventions: camera space looks along +z, +y is

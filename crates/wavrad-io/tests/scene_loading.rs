@@ -4,7 +4,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use wavrad_core::scene::{Patch, PixelFilter, Projection, Scene};
+use wavrad_core::scene::{FovAxis, Patch, PixelFilter, Projection, Scene};
 use wavrad_io::{load_scene, load_scene_str, load_scene_with};
 
 fn load(xml: &str) -> Scene {
@@ -52,7 +52,7 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
     // Sensor: fov_axis "smaller" on a square film is x.
     let camera = s.camera.expect("camera");
     match camera.projection {
-        Projection::Perspective { fov_x_degrees } => {
+        Projection::Perspective { fov_x_degrees, .. } => {
             assert!((fov_x_degrees - 39.3077).abs() < 1e-9)
         }
         other => panic!("{other:?}"),
@@ -73,10 +73,15 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
     let s = load_scene_with(&path, &o).unwrap();
     assert_eq!(s.hints.samples_per_pixel, Some(16));
     assert_eq!((s.film.width, s.film.height), (512, 256));
-    let Projection::Perspective { fov_x_degrees } = s.camera.unwrap().projection else {
+    let Projection::Perspective {
+        fov_x_degrees,
+        fov_axis,
+    } = s.camera.unwrap().projection
+    else {
         panic!()
     };
     // aspect 2 > 1: "smaller" is y, so tan(fx/2) = 2 tan(fy/2).
+    assert_eq!(fov_axis, FovAxis::Y);
     let expected = 2.0
         * (2.0 * (39.3077f64.to_radians() / 2.0).tan())
             .atan()
@@ -294,7 +299,7 @@ fn perspective(film: &str, fov: &str) -> (f64, Scene) {
             <film type="hdrfilm">{film}</film></sensor>"#
     ));
     match s.camera.unwrap().projection {
-        Projection::Perspective { fov_x_degrees } => (fov_x_degrees, s),
+        Projection::Perspective { fov_x_degrees, .. } => (fov_x_degrees, s),
         other => panic!("{other:?}"),
     }
 }

@@ -10,9 +10,11 @@ mod error;
 
 use std::path::PathBuf;
 
+use glam::DVec3;
 use numpy::ndarray::Array3;
 use numpy::{
-    AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike3, PyArrayLikeDyn, PyUntypedArrayMethods,
+    AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike1, PyArrayLike3, PyArrayLikeDyn,
+    PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -62,23 +64,56 @@ struct Solution(wavrad_core::solve::Solution);
 
 #[pymethods]
 impl Solution {
-    /// Render the scene's sensor; returns an (height, width, 3) float32 array
-    /// of linear RGB radiance.
-    #[pyo3(signature = (mode=None, spp=None))]
+    /// Render the scene's sensor, or another view of the solution (moved by
+    /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
+    /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
+    /// linear RGB radiance.
+    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None))]
+    #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
         py: Python<'py>,
         mode: Option<&str>,
         spp: Option<u32>,
+        origin: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+        target: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+        up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
+        fov: Option<f64>,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
-        let mut settings = RenderSettings::for_scene(&self.0.scene);
+        let scene = &self.0.scene;
+        let mut settings = RenderSettings::for_scene(scene);
         if let Some(mode) = mode {
             settings.mode = reconstruction(mode)?;
         }
         if let Some(spp) = spp {
             settings = settings.with_samples_per_pixel(spp);
         }
-        let image = py.allow_threads(|| self.0.render(&settings))?;
+        let mut camera = scene.camera.ok_or(wavrad_core::Error::NoSensor)?;
+        let (origin, target, up) = (
+            vector("origin", origin)?,
+            vector("target", target)?,
+            vector("up", up)?,
+        );
+        if origin.is_some() || target.is_some() || up.is_some() {
+            camera = camera.with_look_at(origin, target, up).ok_or_else(|| {
+                Error::Argument(
+                    "render: degenerate look_at (origin equals target, or up is zero or \
+                     parallel to the view direction)"
+                        .into(),
+                )
+            })?;
+        }
+        if let Some(fov) = fov {
+            let aspect = f64::from(scene.film.width) / f64::from(scene.film.height);
+            camera = camera.with_fov(fov, aspect).ok_or_else(|| {
+                Error::Argument(if fov > 0.0 && fov < 180.0 {
+                    "render: fov needs a perspective sensor, the scene's is orthographic".into()
+                } else {
+                    format!("render: fov = {fov} is outside (0, 180) degrees")
+                })
+            })?;
+        }
+        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings));
         Ok(pixels(py, image.width, image.height, image.rgb))
     }
 
@@ -101,6 +136,23 @@ impl Solution {
 /// The core reconstruction named by a Python `mode` string.
 fn reconstruction(mode: &str) -> Result<Reconstruction> {
     mode.parse().map_err(Error::Argument)
+}
+
+/// A point or direction given to `render` as three finite numbers.
+fn vector(
+    name: &str,
+    value: Option<PyArrayLike1<'_, f64, AllowTypeChange>>,
+) -> Result<Option<DVec3>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let values: Vec<f64> = value.as_array().iter().copied().collect();
+    match values[..] {
+        [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Some(DVec3::new(x, y, z))),
+        _ => Err(Error::Argument(format!(
+            "render: {name} needs three finite numbers, got {values:?}"
+        ))),
+    }
 }
 
 /// A row-major RGB buffer as an (height, width, 3) array.

@@ -33,7 +33,7 @@
 //! ```
 
 use glam::DMat4;
-use wavrad_core::scene::{Camera, Film, PixelFilter, Projection};
+use wavrad_core::scene::{Camera, Film, FovAxis, PixelFilter, Projection};
 
 use super::params::{Ids, Nested, Object};
 use crate::error::Result;
@@ -104,8 +104,11 @@ pub(crate) fn parse_sensor(sensor: Nested, ids: &Ids) -> Result<Sensor> {
                 "to_world of sensor \"perspective\" must not scale (Mitsuba forbids it too)",
             ));
         }
+        let (fov, fov_axis) = fov(&mut obj, &film)?;
+        let aspect = f64::from(film.width) / f64::from(film.height);
         Projection::Perspective {
-            fov_x_degrees: fov_x(&mut obj, &film)?,
+            fov_x_degrees: fov_axis.fov_x_degrees(fov, aspect),
+            fov_axis,
         }
     } else {
         Projection::Orthographic
@@ -124,9 +127,9 @@ pub(crate) fn parse_sensor(sensor: Nested, ids: &Ids) -> Result<Sensor> {
     })
 }
 
-/// The horizontal field of view in degrees, from `fov` + `fov_axis` or
-/// `focal_length`, as Mitsuba's `parse_fov`.
-fn fov_x(obj: &mut Object, film: &Film) -> Result<f64> {
+/// The field of view in degrees and the axis it is along, from `fov` +
+/// `fov_axis` or `focal_length`, as Mitsuba's `parse_fov`.
+fn fov(obj: &mut Object, film: &Film) -> Result<(f64, FovAxis)> {
     for name in ["principal_point_offset_x", "principal_point_offset_y"] {
         if let Some(v) = obj.float(name)? {
             if v != 0.0 {
@@ -179,18 +182,17 @@ fn fov_x(obj: &mut Object, film: &Film) -> Result<f64> {
         "larger" => "y",
         other => other,
     };
-    let half = (0.5 * fov.to_radians()).tan();
-    let half_x = match axis {
-        "x" => half,
-        "y" => half * aspect,
-        "diagonal" => half / (1.0 + 1.0 / (aspect * aspect)).sqrt(),
+    let axis = match axis {
+        "x" => FovAxis::X,
+        "y" => FovAxis::Y,
+        "diagonal" => FovAxis::Diagonal,
         other => {
             return Err(obj.location_of("fov_axis").error(format!(
                 "unknown fov_axis \"{other}\" (expected x, y, diagonal, smaller or larger)"
             )))
         }
     };
-    Ok(2.0 * half_x.atan().to_degrees())
+    Ok((fov, axis))
 }
 
 /// Mitsuba's `has_scale`: some axis of the linear part is not unit length.

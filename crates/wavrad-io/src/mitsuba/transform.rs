@@ -2,7 +2,8 @@
 //! composed as Mitsuba does — each element left-multiplies what came before,
 //! so `world_from_local = T_last · … · T_first`.
 
-use glam::{DMat3, DMat4, DVec3, DVec4};
+use glam::{DMat3, DMat4, DVec3};
+use wavrad_core::scene::Camera;
 
 use super::document::Element;
 use super::params::{describe, parse_f64, parse_numbers, parse_xyz};
@@ -104,16 +105,9 @@ fn look_at(e: &Element) -> Result<DMat4> {
         Some(_) => point("up")?,
         None => coordinate_system(dir),
     };
-    let left = up.cross(dir).try_normalize().ok_or_else(|| {
+    Camera::look_at(origin, target, up).ok_or_else(|| {
         e.at.error("<lookat> up vector is zero or parallel to the view direction")
-    })?;
-    let new_up = dir.cross(left);
-    Ok(DMat4::from_cols(
-        left.extend(0.0),
-        new_up.extend(0.0),
-        dir.extend(0.0),
-        DVec4::new(origin.x, origin.y, origin.z, 1.0),
-    ))
+    })
 }
 
 /// A unit vector perpendicular to unit `n` (Duff et al. 2017), as Mitsuba
@@ -129,6 +123,7 @@ fn coordinate_system(n: DVec3) -> DVec3 {
 mod tests {
     use super::*;
     use crate::mitsuba::document::read_scene_document;
+    use glam::DVec4;
     use std::path::Path;
 
     fn transform(inner: &str) -> Result<DMat4> {
