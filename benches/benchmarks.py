@@ -373,8 +373,8 @@ def write_report(info: dict, results: dict, walk: dict | None) -> None:
         "",
         "| scene | wavrad config | wavrad relRMSE | wavrad solve | wavrad render | "
         "wavrad total (CPU) | Mitsuba spp for that relRMSE | Mitsuba time (CPU) | "
-        "**Mitsuba / wavrad** | same, CPU time |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "**Mitsuba / wavrad** | same, CPU time | cores busy, wavrad / Mitsuba |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, r in results.items():
         for config, w in r["wavrad"].items():
@@ -387,7 +387,8 @@ def write_report(info: dict, results: dict, walk: dict | None) -> None:
                 f"{w['solve_s']:.2f} s | {w['render_s']:.2f} s | "
                 f"{total:.2f} s ({total_cpu:.1f} s) | {mt['spp']:.0f}{flag} | "
                 f"{mt['time_s']:.2f} s ({mt['cpu_s']:.1f} s) | **{mt['time_s'] / total:.2f}** | "
-                f"{mt['cpu_s'] / total_cpu:.2f} |"
+                f"{mt['cpu_s'] / total_cpu:.2f} | {total_cpu / total:.1f} / "
+                f"{mt['cpu_s'] / mt['time_s']:.1f} |"
             )
     lines += [
         "",
@@ -396,8 +397,10 @@ def write_report(info: dict, results: dict, walk: dict | None) -> None:
         "mode, default camera rays). Mitsuba time = wall clock of its `mi.render` calls "
         "(scene loading excluded), interpolated log-log between the two measured points "
         "of the curve below that bracket wavrad's relRMSE. CPU: user + system time of "
-        "the process over the same calls, every thread (a check on the wall-clock ratio "
-        "when other jobs share the machine: both programs use every core).",
+        "the process over the same calls, every thread. Both programs use every core "
+        f"({m['cpu_count']} here), so \"cores busy\" (CPU time / wall clock) should be "
+        "about the same for both; where it differs, other jobs shared the machine during "
+        "one of them, and the CPU-time ratio is the fairer comparison.",
         "",
         "| scene | config | elements (two-point nodes) | links (two-point interactions) | "
         "three-point nodes | three-point interactions | iterations | kernels | peak memory |",
@@ -481,6 +484,8 @@ def walkthrough_report(walk: dict) -> list[str]:
         f"| Mitsuba / wavrad | | **{mitsuba_total / wavrad_total:.2f}** |",
         f"| {n} views, CPU time | {wavrad_cpu:.1f} s | {mitsuba_cpu:.1f} s "
         f"(ratio {mitsuba_cpu / wavrad_cpu:.2f}) |",
+        f"| cores busy (CPU time / wall clock) | {wavrad_cpu / wavrad_total:.1f} | "
+        f"{mitsuba_cpu / mitsuba_total:.1f} |",
         f"| relRMSE, view 0 (committed reference) | {pct(errors['0']['wavrad'])} | "
         f"{pct(errors['0']['mitsuba'])} (own noise {pct(mt['noise'][0])}) |",
     ]
