@@ -1,25 +1,9 @@
 //! The command line on bad input: a clear message naming the file (and line),
 //! a non-zero exit, no panic, and no output file left behind.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod support;
 
-fn wavrad(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wavrad"))
-        .args(args)
-        .output()
-        .expect("run wavrad")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
-}
+use support::{stderr, wavrad, write};
 
 const SMALL: &str = r#"<scene version="3.0.0">
     <sensor type="perspective">

@@ -1,25 +1,9 @@
 //! `--solver shoot` on the command line: progressive images, one per step,
 //! and clear errors where shooting does not apply.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod support;
 
-fn wavrad(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_wavrad"))
-        .args(args)
-        .output()
-        .expect("run wavrad")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> String {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
-}
+use support::{stderr, wavrad, write};
 
 /// An emitter over a floor, seen by a small sensor; `floor_bsdf` goes into
 /// the floor's shape.

@@ -150,11 +150,9 @@ mod tests {
     use crate::testing::grey;
     use glam::DVec3;
 
-    /// Through a Lambertian p, R(c,a,b) for a receiver b in front of a is
-    /// ρ/π · T(a,c)/|a| · π/π = ρ F(a,c): every direction carries the same
-    /// reflected radiance.
-    #[test]
-    fn lambertian_three_point_kernel_is_rho_times_the_form_factor() {
+    /// A unit floor, a light above it facing down and a wall at its edge,
+    /// with their tracer.
+    fn floor_light_wall() -> ([Patch; 3], SceneTracer) {
         let floor = Patch::Parallelogram {
             origin: DVec3::ZERO,
             edge_s: DVec3::X,
@@ -171,7 +169,15 @@ mod tests {
             edge_t: DVec3::Z,
         };
         let scene = Scene::from_surfaces(vec![grey(floor), grey(light), grey(wall)]);
-        let tracer = SceneTracer::new(&scene);
+        ([floor, light, wall], SceneTracer::new(&scene))
+    }
+
+    /// Through a Lambertian p, R(c,a,b) for a receiver b in front of a is
+    /// ρ/π · T(a,c)/|a| · π/π = ρ F(a,c): every direction carries the same
+    /// reflected radiance.
+    #[test]
+    fn lambertian_three_point_kernel_is_rho_times_the_form_factor() {
+        let ([floor, light, wall], tracer) = floor_light_wall();
         let q = Quadrature::default();
         let brdf = Brdf::diffuse([0.5, 0.25, 0.125]);
         let a = GlossyElement {
@@ -202,23 +208,7 @@ mod tests {
     /// it must give exactly the coefficients of separate evaluations.
     #[test]
     fn incident_light_reused_over_receivers_is_bit_identical() {
-        let floor = Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        };
-        let light = Patch::Parallelogram {
-            origin: DVec3::new(0.2, 0.0, 0.7),
-            edge_s: DVec3::Y,
-            edge_t: DVec3::X,
-        };
-        let wall = Patch::Parallelogram {
-            origin: DVec3::new(1.0, 0.0, 0.0),
-            edge_s: DVec3::Y,
-            edge_t: DVec3::Z,
-        };
-        let scene = Scene::from_surfaces(vec![grey(floor), grey(light), grey(wall)]);
-        let tracer = SceneTracer::new(&scene);
+        let ([floor, light, wall], tracer) = floor_light_wall();
         let q = Quadrature::default();
         let brdf = Brdf::Ward(crate::brdf::Ward {
             variant: crate::brdf::WardVariant::Balanced,
