@@ -359,9 +359,8 @@ impl<'a> Shooting<'a> {
         // its source has gathered so far, not this shot's share: a link's
         // error shows in the receiver's final radiance.
         let clock = Instant::now();
-        let estimate = (settings.oracle == Oracle::Power).then(|| {
-            LightEstimate::shot(scene, s as u32, tree.clone(), &self.states[s].radiance)
-        });
+        let estimate = (settings.oracle == Oracle::Power)
+            .then(|| LightEstimate::shot(scene, s as u32, tree.clone(), &self.states[s].radiance));
         let mut work: Vec<(usize, Option<Vec<Link>>)> = self.targets[s]
             .iter()
             .map(|&(_, i)| (i, self.links[i].take()))
