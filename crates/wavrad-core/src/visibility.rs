@@ -236,9 +236,14 @@ impl Occluder {
         }
         let unit = dir / len;
         let o = origin - unit * self.slack;
+        // obvhs picks a child box's near and far planes from the sign bit of
+        // each direction component but divides by it for the slab distances:
+        // a −0.0 component makes the two disagree and the ray misses boxes it
+        // lies in. Only the sign of a zero changes here.
+        let positive_zero = |x: f64| if x == 0.0 { 0.0 } else { x as f32 };
         let ray = Ray::new(
             [o.x as f32, o.y as f32, o.z as f32].into(),
-            [unit.x as f32, unit.y as f32, unit.z as f32].into(),
+            unit.to_array().map(positive_zero).into(),
             0.0,
             self.cull_tmax(tmax, len),
         );
@@ -320,6 +325,49 @@ mod tests {
         assert!(occ.occluded(DVec3::new(0.0, 0.0, -1e-7), DVec3::new(0.0, 0.0, 1e-7)));
         // Parallel to and in the plane of the quad: no hit.
         assert!(!occ.occluded(DVec3::new(-0.5, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn a_negative_zero_direction_component_hits_like_a_positive_one() {
+        // A room with a box in it, probed from a grid of binary-fraction
+        // points on the floor (where child boxes' planes lie) along
+        // directions with a zero component of either sign.
+        let mut tris = Vec::new();
+        for (lo, hi) in [
+            (DVec3::ZERO, DVec3::splat(2.0)),
+            (DVec3::new(0.5, 0.5, 0.0), DVec3::new(1.5, 1.25, 1.0)),
+        ] {
+            for f in crate::testing::inward_box(lo, hi) {
+                let [a, b, c, d] = <[DVec3; 4]>::try_from(f.vertices()).unwrap();
+                tris.extend([[a, b, c], [a, c, d]]);
+            }
+        }
+        let occ = Occluder::new(&tris);
+        let mut probes = 0;
+        for i in 1..16 {
+            for j in 1..16 {
+                let origin = DVec3::new(f64::from(i) / 8.0, f64::from(j) / 8.0, 0.0);
+                for (x, y) in [(0.0, 0.8), (-0.0, 0.8), (0.8, 0.0), (0.8, -0.0)] {
+                    let dir = DVec3::new(x, y, 0.6);
+                    let flipped = DVec3::new(
+                        if x == 0.0 { -x } else { x },
+                        if y == 0.0 { -y } else { y },
+                        0.6,
+                    );
+                    let t = |d| {
+                        occ.intersect(origin, d, 1e-9, f64::INFINITY)
+                            .map(|h| h.primitive)
+                    };
+                    assert!(
+                        t(dir).is_some(),
+                        "{origin} {dir}: a closed room always has a hit"
+                    );
+                    assert_eq!(t(dir), t(flipped), "{origin} {dir}");
+                    probes += 1;
+                }
+            }
+        }
+        assert_eq!(probes, 15 * 15 * 4);
     }
 
     #[test]
