@@ -23,6 +23,15 @@ fn clip_to_half_space(polygon: &[DVec3], origin: DVec3, normal: DVec3, out: &mut
     }
 }
 
+/// The part of `polygon` in front of the plane through `x` with normal
+/// `n_x` (what a point at `x` can see of it), as a polygon; fewer than three
+/// vertices when nothing is in front.
+pub fn front_part(polygon: &[DVec3], x: DVec3, n_x: DVec3) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(polygon.len() + 2);
+    clip_to_half_space(polygon, x, n_x, &mut out);
+    out
+}
+
 /// Form factor from a differential area at `x` with unit normal `n_x` to the
 /// planar polygon `polygon` (vertices in order, front side given by
 /// `n_polygon`): ∫ cosθ_x cosθ_y / (π r²) dA_y, without occlusion.
@@ -33,8 +42,7 @@ pub fn point_to_polygon(x: DVec3, n_x: DVec3, polygon: &[DVec3], n_polygon: DVec
     if n_polygon.dot(x - polygon[0]) <= 0.0 {
         return 0.0;
     }
-    let mut clipped = Vec::with_capacity(polygon.len() + 2);
-    clip_to_half_space(polygon, x, n_x, &mut clipped);
+    let clipped = front_part(polygon, x, n_x);
     if clipped.len() < 3 {
         return 0.0;
     }

@@ -100,7 +100,9 @@ pub fn throughput_samples(
             if unoccluded_ff <= 0.0 {
                 return 0.0;
             }
-            x.weight * unoccluded_ff * visible_fraction(tracer, x.position, n_outer, &targets, skip)
+            x.weight
+                * unoccluded_ff
+                * visible_fraction(tracer, (x.position, n_outer), (&polygon, &targets), skip)
         })
         .collect();
     OuterSamples {
@@ -110,12 +112,15 @@ pub fn throughput_samples(
 }
 
 /// Fraction of the `targets` in front of (`x`, `n_x`) that `x` sees, the
-/// primitives `skip` accepts never occluding; 0 when none is in front.
+/// primitives `skip` accepts never occluding. The targets lie on the
+/// `polygon` they sample; when none of them is in front of `x` but part of
+/// the polygon is (a large element straddling `x`'s plane, whose front part
+/// Lambert's formula still counts), the centroid of that part stands in for
+/// them. 0 when nothing is in front.
 pub fn visible_fraction(
     tracer: &SceneTracer,
-    x: DVec3,
-    n_x: DVec3,
-    targets: &[AreaSample],
+    (x, n_x): (DVec3, DVec3),
+    (polygon, targets): (&[DVec3], &[AreaSample]),
     skip: impl Fn(u32) -> bool + Copy,
 ) -> f64 {
     let (mut seen, mut total) = (0usize, 0usize);
@@ -128,11 +133,17 @@ pub fn visible_fraction(
             seen += 1;
         }
     }
-    if total == 0 {
-        0.0
-    } else {
-        seen as f64 / total as f64
+    if total > 0 {
+        return seen as f64 / total as f64;
     }
+    let front = form_factor::front_part(polygon, x, n_x);
+    if front.len() < 3 {
+        return 0.0;
+    }
+    let centroid = front.iter().sum::<DVec3>() / front.len() as f64;
+    f64::from(u8::from(
+        !tracer.occluder.occluded_except(x, centroid, skip),
+    ))
 }
 
 /// Geometric throughput T(a,c) with visibility ([`throughput_samples`] summed).

@@ -91,7 +91,7 @@ impl<'a> IncidentLight<'a> {
             if ff <= 0.0 {
                 continue;
             }
-            let v = visible_fraction(tracer, xp.position, n_a, &targets, skip);
+            let v = visible_fraction(tracer, (xp.position, n_a), (&polygon, &targets), skip);
             if v == 0.0 {
                 continue;
             }
