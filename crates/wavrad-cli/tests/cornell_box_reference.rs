@@ -57,8 +57,8 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     let gather = solution.render(&RenderSettings::default()).unwrap();
     let (all, away) = errors(&gather.rgb, &reference, w as usize);
     eprintln!("gather: relRMSE {all:.4}, away from the light {away:.4}");
-    assert!(all < 0.03, "gather relRMSE {all}");
-    assert!(away < 0.03, "gather relRMSE away from the light {away}");
+    assert!(all < 0.021, "gather relRMSE {all}");
+    assert!(away < 0.019, "gather relRMSE away from the light {away}");
 
     let smooth = solution
         .render(&RenderSettings {
@@ -68,8 +68,8 @@ fn cornell_box_matches_mitsuba_path_tracer() {
         .unwrap();
     let (all, away) = errors(&smooth.rgb, &reference, w as usize);
     eprintln!("smooth: relRMSE {all:.4}, away from the light {away:.4}");
-    assert!(all < 0.06, "smooth relRMSE {all}");
-    assert!(away < 0.055, "smooth relRMSE away from the light {away}");
+    assert!(all < 0.05, "smooth relRMSE {all}");
+    assert!(away < 0.048, "smooth relRMSE away from the light {away}");
 }
 
 /// `mi.cornell_box()` written by Mitsuba's own XML writer loads and renders,

@@ -18,7 +18,8 @@ fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
         let gathered = s
             .interactions
             .gather(p, rho, nodes, radiance, &s.directional);
-        radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission);
+        let exposure = Some(&s.interactions.exposure[p][..]);
+        radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure);
     }
 }
 
@@ -68,7 +69,9 @@ fn gauss_seidel(c: &mut Criterion) {
             .gather(busiest, rho, tree.nodes.len(), &s.radiance, &s.directional);
     group.throughput(Throughput::Elements(tree.nodes.len() as u64));
     group.bench_function("push_pull (busiest surface)", |b| {
-        b.iter(|| push_pull(tree, black_box(&gathered), scene.surfaces[busiest].emission))
+        let exposure = Some(&s.interactions.exposure[busiest][..]);
+        let emission = scene.surfaces[busiest].emission;
+        b.iter(|| push_pull(tree, black_box(&gathered), emission, exposure))
     });
     group.finish();
 }

@@ -153,6 +153,17 @@ impl Patch {
         }
     }
 
+    /// Map the unit square onto the parameter domain, uniformly by area
+    /// (for a triangle the square's upper half folds back onto the lower,
+    /// which keeps strata compact).
+    pub fn square_to_param(&self, uv: DVec2) -> DVec2 {
+        match self {
+            Patch::Parallelogram { .. } => uv,
+            Patch::Triangle(_) if uv.x + uv.y > 1.0 => DVec2::new(1.0 - uv.x, 1.0 - uv.y),
+            Patch::Triangle(_) => uv,
+        }
+    }
+
     /// Centroid.
     pub fn centroid(&self) -> DVec3 {
         match self {

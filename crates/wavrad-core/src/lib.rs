@@ -29,6 +29,7 @@ pub mod brdf;
 pub mod directional;
 pub mod element;
 mod error;
+pub mod exposure;
 pub mod haar;
 pub mod hierarchy;
 pub mod kernel;

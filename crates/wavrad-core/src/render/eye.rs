@@ -114,7 +114,7 @@ impl Solution {
         }
         for (p, entry) in surfaces.iter_mut().enumerate() {
             if let Some((tree, radiance)) = entry {
-                *radiance = push_pull(tree, &gathered[p], scene.surfaces[p].emission);
+                *radiance = push_pull(tree, &gathered[p], scene.surfaces[p].emission, None);
             }
         }
         EyeRadiance { surfaces }

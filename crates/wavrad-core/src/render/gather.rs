@@ -67,7 +67,7 @@ pub fn direct_radiance(
                     (i as f64 + r.x) / grid as f64,
                     (j as f64 + r.y) / grid as f64,
                 );
-                let y = light.patch.point_at(square_to_patch(&light.patch, uv));
+                let y = light.patch.point_at(light.patch.square_to_param(uv));
                 if normal.dot(y - x) <= 0.0 {
                     continue;
                 }
@@ -191,7 +191,7 @@ fn area_samples(
                 (i as f64 + r.x) / grid as f64,
                 (j as f64 + r.y) / grid as f64,
             );
-            let y = patch.point_at(square_to_patch(patch, uv));
+            let y = patch.point_at(patch.square_to_param(uv));
             let wi = (y - x).normalize();
             let p = area_pdf(patch, wi, (y - x).length_squared());
             if p.is_finite()
@@ -299,21 +299,6 @@ fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
         DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
         DVec3::new(b, sign + n.y * n.y * a, -n.y),
     )
-}
-
-/// Map the unit square onto a patch's parameter domain, uniformly by area
-/// (the triangle fold keeps strata compact).
-fn square_to_patch(patch: &crate::scene::Patch, uv: DVec2) -> DVec2 {
-    match patch {
-        crate::scene::Patch::Parallelogram { .. } => uv,
-        crate::scene::Patch::Triangle(_) => {
-            if uv.x + uv.y > 1.0 {
-                DVec2::new(1.0 - uv.x, 1.0 - uv.y)
-            } else {
-                uv
-            }
-        }
-    }
 }
 
 #[cfg(test)]

@@ -43,6 +43,14 @@ pub enum Source {
     },
 }
 
+/// The form factor of a link of throughput T(a,c) into an element of area
+/// |a| of which the fraction `exposed` is exposed: T / (|a| · exposed), the
+/// average over the exposed part (the whole element when none is).
+pub fn form_factor(throughput: f64, area: f64, exposed: f64) -> f64 {
+    let exposed = if exposed > 0.0 { exposed } else { 1.0 };
+    throughput / (area * exposed)
+}
+
 /// A two-point link in the direction of a diffuse receiver.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Transfer {
@@ -80,15 +88,18 @@ pub struct Interactions {
     pub incoming_three_point: Vec<Vec<ThreePointTransfer>>,
     /// (node, weight) lists that sources and receivers refer to.
     pub covers: Vec<(u32, f64)>,
+    /// Exposed fraction of every node of every element tree
+    /// ([`crate::exposure`]); radiance is averaged over exposed areas.
+    pub exposure: Vec<Vec<f64>>,
 }
 
 impl Interactions {
     /// Arrange `links` and `three_point` for gathering over the element
-    /// `trees`; `directional` lists every (glossy p, q) pair that gets a
-    /// structure.
+    /// `trees`, whose nodes have the exposed fractions `exposure`;
+    /// `directional` lists every (glossy p, q) pair that gets a structure.
     pub fn new(
         scene: &Scene,
-        trees: &[ElementTree],
+        (trees, exposure): (&[ElementTree], Vec<Vec<f64>>),
         links: &[Link],
         three_point: &[ThreePointLink],
         directional: Vec<Directional>,
@@ -104,6 +115,7 @@ impl Interactions {
             directional,
             structure_of,
             covers: Vec::new(),
+            exposure,
         };
         let node = |s: u32, id| {
             trees[s as usize]
@@ -117,11 +129,12 @@ impl Interactions {
                 }
                 let receiver = node(p, a);
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
+                let exposed = out.exposure[p as usize][receiver as usize];
                 let source = out.source(scene, trees, r, c, p, a);
                 out.incoming[p as usize].push(Transfer {
                     receiver,
                     source,
-                    form_factor: l.throughput / area,
+                    form_factor: form_factor(l.throughput, area, exposed),
                 });
             }
         }

@@ -11,7 +11,9 @@ pub mod push_pull;
 pub mod shoot;
 
 use crate::directional::PairTree;
+use crate::exposure::exposed_fractions;
 use crate::hierarchy::{ElementId, ElementTree};
+use crate::kernel::Quadrature;
 use crate::link::{refine_links, refine_links_further, Link, RefineSettings};
 use crate::oracle::Oracle;
 use crate::scene::{Rgb, Scene};
@@ -24,6 +26,7 @@ use crate::{Error, Result};
 use estimate::LightEstimate;
 use gather::{Directional, Interactions};
 use importance::Importance;
+use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::fmt;
 use std::str::FromStr;
@@ -186,7 +189,14 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     );
     times.kernels_s = clock.elapsed().as_secs_f64();
 
-    let mut system = System::assemble(scene, &triples, &links, &three_point, &mut times);
+    let mut system = System::assemble(
+        scene,
+        (&tracer, settings.refine.quadrature),
+        &triples,
+        &links,
+        &three_point,
+        &mut times,
+    );
     let mut sweeps = system.solve(scene, settings, progress, &mut times);
     let mut passes = 1;
     while settings.oracle.is_weighted() && passes < settings.refine_passes {
@@ -216,7 +226,14 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        system = System::assemble(scene, &triples, &links, &three_point, &mut times);
+        system = System::assemble(
+            scene,
+            (&tracer, settings.refine.quadrature),
+            &triples,
+            &links,
+            &three_point,
+            &mut times,
+        );
         sweeps = system.solve(scene, settings, progress, &mut times);
     }
 
@@ -271,6 +288,7 @@ impl System {
     /// starts at the emission.
     fn assemble(
         scene: &Scene,
+        (tracer, quadrature): (&SceneTracer, Quadrature),
         triples: &[(u32, u32, u32)],
         links: &[Link],
         three_point: &[ThreePointLink],
@@ -310,7 +328,13 @@ impl System {
         for l in three_point {
             directional[index[&(l.p, l.q)]].tree.insert(l.a, l.b);
         }
-        let interactions = Interactions::new(scene, &trees, links, three_point, directional);
+        let exposure = trees
+            .par_iter()
+            .enumerate()
+            .map(|(s, t)| exposed_fractions(scene, tracer, (s as u32, t), quadrature, None))
+            .collect();
+        let interactions =
+            Interactions::new(scene, (&trees, exposure), links, three_point, directional);
         let radiance = scene
             .surfaces
             .iter()
@@ -371,7 +395,9 @@ impl System {
                 if let Some(rho) = surface.brdf.diffuse_reflectance() {
                     let gathered =
                         interactions.gather(p, rho, trees[p].nodes.len(), radiance, directional);
-                    let updated = push_pull::push_pull(&trees[p], &gathered, surface.emission);
+                    let exposure = Some(&interactions.exposure[p][..]);
+                    let updated =
+                        push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);
                     residual = residual.max(change(updated[0], radiance[p][0]) / scale);
                     radiance[p] = updated;
                     continue;
@@ -379,7 +405,7 @@ impl System {
                 for &s in &structures_of[p] {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
-                    let updated = push_pull::push_pull(tree, &gathered, surface.emission);
+                    let updated = push_pull::push_pull(tree, &gathered, surface.emission, None);
                     residual = residual.max(change(updated[0], directional[s][0]) / scale);
                     directional[s] = updated;
                 }

@@ -9,34 +9,61 @@ use crate::scene::Rgb;
 
 /// Given the radiance `gathered` at each node of `tree` and the surface's
 /// emitted radiance, return the new radiance average of every node.
-pub fn push_pull(tree: &impl Hierarchy, gathered: &[Rgb], emission: Rgb) -> Vec<Rgb> {
+///
+/// `exposure`, the exposed fraction of each node's area
+/// ([`crate::exposure`]), makes the averages over exposed areas; without it
+/// they are over whole elements.
+pub fn push_pull(
+    tree: &impl Hierarchy,
+    gathered: &[Rgb],
+    emission: Rgb,
+    exposure: Option<&[f64]>,
+) -> Vec<Rgb> {
     let mut radiance = vec![[0.0; 3]; tree.node_count()];
-    visit(tree, 0, [0.0; 3], gathered, emission, &mut radiance);
+    let mut pass = Pass {
+        tree,
+        gathered,
+        emission,
+        exposure,
+        out: &mut radiance,
+    };
+    pass.visit(0, [0.0; 3]);
     radiance
 }
 
-fn visit(
-    tree: &impl Hierarchy,
-    node: usize,
-    above: Rgb,
-    gathered: &[Rgb],
+struct Pass<'a, T> {
+    tree: &'a T,
+    gathered: &'a [Rgb],
     emission: Rgb,
-    out: &mut [Rgb],
-) -> Rgb {
-    let down = add(above, gathered[node]);
-    let value = match tree.first_child(node) {
-        None => add(emission, down),
-        Some(first) => {
-            // Children have equal areas, so the area-weighted mean is the mean.
-            let mut sum = [0.0; 3];
-            for k in 0..4 {
-                sum = add(sum, visit(tree, first + k, down, gathered, emission, out));
+    exposure: Option<&'a [f64]>,
+    out: &'a mut [Rgb],
+}
+
+impl<T: Hierarchy> Pass<'_, T> {
+    fn visit(&mut self, node: usize, above: Rgb) -> Rgb {
+        let down = add(above, self.gathered[node]);
+        let value = match self.tree.first_child(node) {
+            None => add(self.emission, down),
+            Some(first) => {
+                // Children have equal areas: weigh them by their exposed
+                // fractions, or equally when none is exposed.
+                let weights = self
+                    .exposure
+                    .map(|e| [0, 1, 2, 3].map(|k| e[first + k]))
+                    .filter(|w| w.iter().sum::<f64>() > 0.0)
+                    .unwrap_or([1.0; 4]);
+                let total: f64 = weights.iter().sum();
+                let mut sum = [0.0; 3];
+                for (k, w) in weights.into_iter().enumerate() {
+                    let child = self.visit(first + k, down);
+                    (0..3).for_each(|ch| sum[ch] += w * child[ch]);
+                }
+                sum.map(|x| x / total)
             }
-            sum.map(|x| 0.25 * x)
-        }
-    };
-    out[node] = value;
-    value
+        };
+        self.out[node] = value;
+        value
+    }
 }
 
 fn add(a: Rgb, b: Rgb) -> Rgb {
@@ -64,7 +91,7 @@ mod tests {
         gathered[0] = [1.0, 2.0, 3.0]; // at the root: reaches every leaf
         let deep = tree.index_of(ElementId::ROOT.child(2).child(1)).unwrap() as usize;
         gathered[deep] = [16.0, 0.0, 0.0]; // 1/16 of the area
-        let l = push_pull(&tree, &gathered, [0.5, 0.5, 0.5]);
+        let l = push_pull(&tree, &gathered, [0.5, 0.5, 0.5], None);
         assert_eq!(l[deep], [17.5, 2.5, 3.5]);
         assert_eq!(l[0], [2.5, 2.5, 3.5]);
     }

@@ -54,12 +54,14 @@
 //! ```
 
 use super::estimate::LightEstimate;
-use super::gather::Interactions;
+use super::gather::{form_factor, Interactions};
 use super::{push_pull, Progress, Silent, Solution, SolveSettings, System};
+use crate::exposure::exposed_fractions;
 use crate::hierarchy::{ElementId, ElementTree};
+use crate::kernel::Quadrature;
 use crate::link::{linked_pairs, refine_links_further, refine_pair, Link};
 use crate::oracle::Oracle;
-use crate::scene::{Rgb, Scene, Surface};
+use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
 use crate::tracing::SceneTracer;
 use crate::{Error, Result};
@@ -131,7 +133,7 @@ pub fn solve_shooting(
     let clock = Instant::now();
     let tracer = SceneTracer::new(scene);
     times.visibility_build_s = clock.elapsed().as_secs_f64();
-    let mut shooting = Shooting::new(scene, settings, times);
+    let mut shooting = Shooting::new(scene, &tracer, settings, times);
     let mut solution = Solution {
         scene: scene.clone(),
         tracer,
@@ -175,7 +177,8 @@ pub fn solve_shooting(
     let clock = Instant::now();
     let links: Vec<Link> = shooting.links().copied().collect();
     let trees: Vec<ElementTree> = shooting.states.iter().map(|s| s.tree.clone()).collect();
-    let interactions = Interactions::new(scene, &trees, &links, &[], Vec::new());
+    let exposure = shooting.states.iter().map(|s| s.exposure.clone()).collect();
+    let interactions = Interactions::new(scene, (&trees, exposure), &links, &[], Vec::new());
     shooting.times.hierarchy_s += clock.elapsed().as_secs_f64();
     let mut system = System {
         trees,
@@ -200,15 +203,23 @@ struct SurfaceState {
     /// Elements any link of the surface mentioned (the tree holds them).
     ids: BTreeSet<ElementId>,
     tree: ElementTree,
+    /// Exposed fraction of each node ([`crate::exposure`]) under
+    /// `quadrature`, the kernels' quadrature.
+    exposure: Vec<f64>,
+    quadrature: Quadrature,
     radiance: Vec<Rgb>,
     unshot: Vec<Rgb>,
 }
 
 impl SurfaceState {
-    fn new(surface: &Surface) -> SurfaceState {
+    fn new(scene: &Scene, tracer: &SceneTracer, s: u32, quadrature: Quadrature) -> SurfaceState {
+        let surface = &scene.surfaces[s as usize];
+        let tree = ElementTree::build(&surface.patch, &BTreeSet::new());
         SurfaceState {
             ids: BTreeSet::new(),
-            tree: ElementTree::build(&surface.patch, &BTreeSet::new()),
+            exposure: exposed_fractions(scene, tracer, (s, &tree), quadrature, None),
+            quadrature,
+            tree,
             radiance: vec![surface.emission],
             unshot: vec![surface.emission],
         }
@@ -217,7 +228,11 @@ impl SurfaceState {
     /// Make the tree hold `ids`. New elements inherit the radiance of the
     /// leaf they lie in (radiance is constant over a leaf), so the radiance
     /// represented does not change.
-    fn grow(&mut self, surface: &Surface, ids: impl IntoIterator<Item = ElementId>) {
+    fn grow(
+        &mut self,
+        (scene, tracer, s): (&Scene, &SceneTracer, u32),
+        ids: impl IntoIterator<Item = ElementId>,
+    ) {
         let before = self.ids.len();
         self.ids.extend(
             ids.into_iter()
@@ -226,7 +241,7 @@ impl SurfaceState {
         if self.ids.len() == before {
             return;
         }
-        let tree = ElementTree::build(&surface.patch, &self.ids);
+        let tree = ElementTree::build(&scene.surfaces[s as usize].patch, &self.ids);
         let carry = |values: &[Rgb]| {
             tree.nodes
                 .iter()
@@ -235,6 +250,8 @@ impl SurfaceState {
         };
         self.radiance = carry(&self.radiance);
         self.unshot = carry(&self.unshot);
+        let previous = Some((&self.tree, &self.exposure[..]));
+        self.exposure = exposed_fractions(scene, tracer, (s, &tree), self.quadrature, previous);
         self.tree = tree;
     }
 
@@ -243,24 +260,28 @@ impl SurfaceState {
     /// ρ·F·ΔL at each receiving element, then push–pull.
     fn receive(
         &mut self,
-        (r, surface): (u32, &Surface),
+        (scene, tracer, r): (&Scene, &SceneTracer, u32),
         links: &[Link],
         (tree, unshot): (&ElementTree, &[Rgb]),
     ) {
-        let rho = surface.brdf.diffuse_reflectance().unwrap_or([0.0; 3]);
+        let rho = scene.surfaces[r as usize]
+            .brdf
+            .diffuse_reflectance()
+            .unwrap_or([0.0; 3]);
         let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
-        self.grow(surface, links.iter().map(|l| ends(l).0));
+        self.grow((scene, tracer, r), links.iter().map(|l| ends(l).0));
         let mut gathered = vec![[0.0; 3]; self.tree.nodes.len()];
         for l in links {
             let (a, c) = ends(l);
             let node = self.tree.index_of(a).expect("link element is in its tree") as usize;
-            let form_factor = l.throughput / self.tree.nodes[node].patch.area();
+            let area = self.tree.nodes[node].patch.area();
+            let form_factor = form_factor(l.throughput, area, self.exposure[node]);
             let sent = unshot[tree.node_containing(c) as usize];
             for ch in 0..3 {
                 gathered[node][ch] += rho[ch] * form_factor * sent[ch];
             }
         }
-        let received = push_pull::push_pull(&self.tree, &gathered, [0.0; 3]);
+        let received = push_pull::push_pull(&self.tree, &gathered, [0.0; 3], Some(&self.exposure));
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             for ch in 0..3 {
                 l[ch] += d[ch];
@@ -293,7 +314,12 @@ fn largest(rgb: &Rgb) -> f64 {
 }
 
 impl<'a> Shooting<'a> {
-    fn new(scene: &'a Scene, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
+    fn new(
+        scene: &'a Scene,
+        tracer: &SceneTracer,
+        settings: &'a SolveSettings,
+        times: PhaseTimes,
+    ) -> Self {
         let pairs = linked_pairs(scene);
         let reflects = |s: u32| {
             let surface = &scene.surfaces[s as usize];
@@ -317,7 +343,9 @@ impl<'a> Shooting<'a> {
             links: vec![None; pairs.len()],
             pairs,
             targets,
-            states: scene.surfaces.iter().map(SurfaceState::new).collect(),
+            states: (0..scene.surfaces.len() as u32)
+                .map(|s| SurfaceState::new(scene, tracer, s, settings.refine.quadrature))
+                .collect(),
             emitted: scene
                 .surfaces
                 .iter()
@@ -334,7 +362,7 @@ impl<'a> Shooting<'a> {
         let mut best = (0, 0.0);
         let mut total = 0.0;
         for (s, (state, surface)) in self.states.iter().zip(&self.scene.surfaces).enumerate() {
-            let power = surface.patch.area() * largest(&state.unshot[0]);
+            let power = surface.patch.area() * state.exposure[0] * largest(&state.unshot[0]);
             total += power;
             if power > best.1 {
                 best = (s, power);
@@ -394,8 +422,7 @@ impl<'a> Shooting<'a> {
             .for_each(|(r, (state, pair))| {
                 if let Some(i) = *pair {
                     let links = links[i].as_deref().unwrap_or_default();
-                    let surface = &scene.surfaces[r];
-                    state.receive((r as u32, surface), links, (&tree, &unshot));
+                    state.receive((scene, tracer, r as u32), links, (&tree, &unshot));
                 }
             });
         let own_ends = self.targets[s]
@@ -404,7 +431,7 @@ impl<'a> Shooting<'a> {
             .map(|l| if l.p as usize == s { l.a } else { l.c });
         let state = &mut self.states[s];
         state.unshot = vec![[0.0; 3]; state.tree.nodes.len()];
-        state.grow(&scene.surfaces[s], own_ends.collect::<Vec<_>>());
+        state.grow((scene, tracer, s as u32), own_ends.collect::<Vec<_>>());
         self.steps += 1;
         self.times.solve_s += clock.elapsed().as_secs_f64();
     }
@@ -439,7 +466,7 @@ impl<'a> Shooting<'a> {
 mod tests {
     use super::*;
     use crate::brdf::Brdf;
-    use crate::scene::Patch;
+    use crate::scene::{Patch, Surface};
     use crate::solve::solve;
     use glam::DVec3;
 

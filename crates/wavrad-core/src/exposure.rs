@@ -1,0 +1,178 @@
+//! The exposed part of an element: the points of a surface that can exchange
+//! light at all, as opposed to those buried under a box resting on it, inside
+//! a closed solid, or behind a coincident one-sided surface.
+//!
+//! A floor element straddling the base of a box has a buried part whose
+//! radiance no path can reach or leave. Its links already carry that through
+//! visibility: the throughput T(a,c) of DESIGN.md §1 is zero over the buried
+//! part. Dividing T by the whole area |a| then averages radiance over a
+//! region of which part is dark by construction, and a link that later
+//! *reads* that diluted average darkens its receiver a second time (the
+//! occlusion is counted twice; the Cornell box loses ≈0.6 % of its image
+//! brightness to this, all of it near the boxes' bases). So radiance is
+//! averaged over the exposed part only: a link's form factor is
+//! `T(a,c) / (|a| · exposed(a))` and push–pull weighs children by their
+//! exposed areas. An element with nothing exposed keeps the plain average:
+//! no link reaches it and nothing sees it.
+
+use crate::hierarchy::ElementTree;
+use crate::kernel::Quadrature;
+use crate::scene::Scene;
+use crate::tracing::SceneTracer;
+use glam::DVec3;
+
+/// Probe directions, as (tangent, bitangent, normal) weights: the normal and
+/// four directions 60° from it.
+const PROBES: [(f64, f64, f64); 5] = [
+    (0.0, 0.0, 1.0),
+    (0.866_025_403_784_438_6, 0.0, 0.5),
+    (-0.866_025_403_784_438_6, 0.0, 0.5),
+    (0.0, 0.866_025_403_784_438_6, 0.5),
+    (0.0, -0.866_025_403_784_438_6, 0.5),
+];
+
+/// True when the point `x` of surface `surface` (front normal `normal`) is
+/// buried: every probe ray from it first meets the back of a surface (it is
+/// inside a closed solid, or under a one-sided surface) or a surface within
+/// `coincident` of it (a face lying on it).
+pub fn is_buried(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    surface: u32,
+    x: DVec3,
+    normal: DVec3,
+    coincident: f64,
+) -> bool {
+    let (t, b) = tangents(normal);
+    PROBES.iter().all(|&(u, v, w)| {
+        let dir = (u * t + v * b + w * normal).normalize();
+        match tracer.trace(x, dir, coincident * 1e-3, f64::INFINITY) {
+            None => false,
+            Some(hit) if hit.surface == surface => false,
+            Some(hit) => {
+                let facing = scene.surfaces[hit.surface as usize].patch.normal().dot(dir);
+                hit.distance <= coincident || facing > 0.0
+            }
+        }
+    })
+}
+
+/// Exposed fraction of every node of `tree`, the element tree of `surface`,
+/// as the kernel quadrature `quadrature` sees it: the weight of the node's
+/// own Gauss points (those a link's throughput T samples the element at,
+/// [`crate::kernel::throughput_samples`]) that are not [`is_buried`]. A link
+/// at the node divides T by exactly the part of the element its quadrature
+/// found exposed. `previous`, an earlier tree of the same surface with its
+/// fractions, lends the values of the nodes the two share.
+pub fn exposed_fractions(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    (surface, tree): (u32, &ElementTree),
+    quadrature: Quadrature,
+    previous: Option<(&ElementTree, &[f64])>,
+) -> Vec<f64> {
+    let patch = &scene.surfaces[surface as usize].patch;
+    let normal = patch.normal();
+    let coincident = 1e-7 * patch.area().sqrt();
+    tree.nodes
+        .iter()
+        .map(|node| {
+            let lent = previous.and_then(|(t, v)| Some(v[t.index_of(node.id)? as usize]));
+            lent.unwrap_or_else(|| {
+                let points = node.patch.gauss_points(quadrature.points);
+                let total: f64 = points.iter().map(|p| p.weight).sum();
+                let exposed: f64 = points
+                    .iter()
+                    .filter(|p| !is_buried(scene, tracer, surface, p.position, normal, coincident))
+                    .map(|p| p.weight)
+                    .sum();
+                exposed / total
+            })
+        })
+        .collect()
+}
+
+/// Two unit vectors completing `n` to an orthonormal basis.
+fn tangents(n: DVec3) -> (DVec3, DVec3) {
+    let t = n.any_orthonormal_vector();
+    (t, n.cross(t))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::ElementId;
+    use crate::scene::Patch;
+    use crate::testing::{grey, inward_box};
+    use std::collections::BTreeSet;
+
+    /// A 2×2 floor with a unit cube resting on [0.5, 1.5]², its faces
+    /// pointing out (the bottom one down onto the floor).
+    fn floor_with_a_box() -> Scene {
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X * 2.0,
+            edge_t: DVec3::Y * 2.0,
+        };
+        let cube = inward_box(DVec3::new(0.5, 0.5, 0.0), DVec3::new(1.5, 1.5, 1.0));
+        let mut surfaces = vec![grey(floor)];
+        surfaces.extend(cube.iter().map(|f| grey(f.flipped())));
+        Scene::from_surfaces(surfaces)
+    }
+
+    #[test]
+    fn the_floor_under_a_box_is_buried_and_the_rest_exposed() {
+        let scene = floor_with_a_box();
+        let tracer = SceneTracer::new(&scene);
+        let up = DVec3::Z;
+        for (x, buried) in [
+            (DVec3::new(1.0, 1.0, 0.0), true),
+            (DVec3::new(0.55, 1.45, 0.0), true),
+            (DVec3::new(0.45, 1.0, 0.0), false),
+            (DVec3::new(1.9, 0.1, 0.0), false),
+        ] {
+            assert_eq!(is_buried(&scene, &tracer, 0, x, up, 1e-7), buried, "{x}");
+        }
+        // The cube's top is exposed; its bottom lies on the floor.
+        let top = scene.surfaces[2].patch;
+        assert!(!is_buried(
+            &scene,
+            &tracer,
+            2,
+            top.centroid(),
+            top.normal(),
+            1e-7
+        ));
+    }
+
+    #[test]
+    fn exposed_fractions_count_the_quadrature_points_outside_the_footprint() {
+        let scene = floor_with_a_box();
+        let tracer = SceneTracer::new(&scene);
+        let root = scene.surfaces[0].patch;
+        let ids: BTreeSet<_> = (0..4)
+            .flat_map(|k| (0..4).map(move |j| ElementId::ROOT.child(k).child(j)))
+            .collect();
+        let tree = ElementTree::build(&root, &ids);
+        let q = Quadrature::default();
+        let e = exposed_fractions(&scene, &tracer, (0, &tree), q, None);
+        // The root's 2×2 Gauss points (at 0.42 and 1.58) all miss the
+        // cube; one of each level-1 quadrant's (at 0.21 and 0.79 in it) is
+        // under it.
+        assert_eq!(&e[..5], &[1.0, 0.75, 0.75, 0.75, 0.75]);
+        // Level 2 (0.5 wide): the four under the cube are buried, the
+        // twelve around it exposed.
+        let level2: Vec<f64> = (0..tree.nodes.len())
+            .filter(|&i| tree.nodes[i].id.level == 2)
+            .map(|i| e[i])
+            .collect();
+        assert_eq!(level2.len(), 16);
+        assert_eq!(level2.iter().filter(|&&x| x == 0.0).count(), 4);
+        assert_eq!(level2.iter().filter(|&&x| x == 1.0).count(), 12);
+        // An earlier tree lends the values of the nodes it shares.
+        let coarse = ElementTree::build(&root, &BTreeSet::new());
+        let lent = exposed_fractions(&scene, &tracer, (0, &tree), q, Some((&coarse, &[0.5])));
+        assert_eq!(lent[0], 0.5);
+        assert_eq!(&lent[1..], &e[1..]);
+    }
+}
