@@ -1,9 +1,8 @@
 //! Film: pixel sample positions and the reconstruction filter (Mitsuba 3's
 //! `box` and `gaussian` rfilters), so images compare pixel for pixel.
 
-use crate::render::sampling::{pixel_offsets, pixel_offsets_len};
+use crate::render::sampling::pixel_offsets;
 use crate::scene::{Film, PixelFilter};
-use glam::DVec2;
 use rayon::prelude::*;
 
 /// A linear RGB image, row-major from the top-left pixel.
@@ -82,63 +81,82 @@ impl FilterTable {
     }
 }
 
-/// One developed sample: position in its pixel and radiance.
-type Sample = ([f32; 2], [f32; 3]);
-
-/// Samples held in memory at once (about 20 bytes each).
-const WINDOW_SAMPLES: usize = 1 << 21;
+/// Bytes of partial sums held in memory at once.
+const WINDOW_BYTES: usize = 1 << 25;
 
 /// Render an image: `radiance(x, y, k)` gives the radiance of the film
 /// position (x,y) in pixels for the `k`-th sample of its pixel; samples are
 /// filtered with the film's filter.
 ///
-/// Rows are developed in bands; the samples of a band and of the rows its
-/// filter reaches are kept in a sliding window, so memory stays bounded
-/// whatever the image size and sample count.
+/// The filter is separable, so each pixel's samples are reduced once, as
+/// they are made, to their weighted sums towards every pixel the filter
+/// reaches (`(2r+1)²` of them for reach r); a pixel's value is then the
+/// ratio of the sums its neighbours hold for it. Rows are developed in
+/// bands, and the partial sums of a band and of the rows its filter reaches
+/// are kept in a sliding window, so memory stays bounded whatever the image
+/// size and sample count.
 pub fn develop(
     film: &Film,
     samples_per_pixel: u32,
     radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
 ) -> Image {
-    develop_in_window(film, samples_per_pixel, radiance, WINDOW_SAMPLES)
+    develop_in_window(film, samples_per_pixel, radiance, WINDOW_BYTES)
 }
 
 fn develop_in_window(
     film: &Film,
     samples_per_pixel: u32,
     radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
-    window_samples: usize,
+    window_bytes: usize,
 ) -> Image {
     let (w, h) = (film.width as usize, film.height as usize);
-    let per_pixel = pixel_offsets_len(samples_per_pixel) as usize;
     let table = FilterTable::new(film.filter);
     let reach = (film.filter.radius() - 0.5).ceil().max(0.0) as usize;
-    let band = (window_samples / (w * per_pixel).max(1))
+    let span = 2 * reach + 1;
+    // Per source pixel: for each target offset (dy, dx), Σ w·L (3) and Σ w.
+    let stride = span * span * 4;
+    let band = (window_bytes / (8 * w * stride).max(1))
         .saturating_sub(2 * reach)
         .max(1);
-    // Position in its pixel and radiance of each sample of one row.
-    let sample_row = |y: usize| -> Vec<Sample> {
+    // The partial sums of every pixel of row y, towards the pixels at
+    // offsets (dy − reach, dx − reach) from it.
+    let partial_row = |y: usize| -> Vec<f64> {
         (0..w)
             .into_par_iter()
             .flat_map_iter(|x| {
                 let pixel = (y * w + x) as u64;
-                let corner = DVec2::new(x as f64, y as f64);
-                pixel_offsets(pixel, samples_per_pixel)
+                let mut sums = vec![0.0f64; stride];
+                let (mut wx, mut wy) = (vec![0.0; span], vec![0.0; span]);
+                for (k, o) in pixel_offsets(pixel, samples_per_pixel)
                     .into_iter()
                     .enumerate()
-                    .map(move |(k, o)| (k, o, corner + o))
-            })
-            .map(|(k, o, p)| {
-                (
-                    [o.x as f32, o.y as f32],
-                    radiance(p.x, p.y, k).map(|v| v as f32),
-                )
+                {
+                    let l =
+                        radiance(x as f64 + o.x, y as f64 + o.y, k).map(|v| f64::from(v as f32));
+                    for d in 0..span {
+                        // Target pixel centre at offset d − reach: x + d − reach + 0.5.
+                        let shift = d as f64 - reach as f64 + 0.5;
+                        wx[d] = table.eval(o.x - shift);
+                        wy[d] = table.eval(o.y - shift);
+                    }
+                    for (dy, &fy) in wy.iter().enumerate().filter(|(_, &f)| f != 0.0) {
+                        for (dx, &fx) in wx.iter().enumerate().filter(|(_, &f)| f != 0.0) {
+                            let wt = fy * fx;
+                            let cell = &mut sums[4 * (dy * span + dx)..][..4];
+                            for ch in 0..3 {
+                                cell[ch] += wt * l[ch];
+                            }
+                            cell[3] += wt;
+                        }
+                    }
+                }
+                sums
             })
             .collect()
     };
     let mut rgb = Vec::with_capacity(3 * w * h);
-    // window[i] holds the samples of row first_row + i.
-    let (mut window, mut first_row): (Vec<Vec<Sample>>, usize) = (Vec::new(), 0);
+    // window[i] holds the partial sums of row first_row + i.
+    let (mut window, mut first_row): (Vec<Vec<f64>>, usize) = (Vec::new(), 0);
     for b0 in (0..h).step_by(band) {
         let b1 = (b0 + band).min(h);
         let (lo, hi) = (b0.saturating_sub(reach), (b1 + reach).min(h));
@@ -149,33 +167,25 @@ fn develop_in_window(
             first_row = lo;
         }
         while first_row + window.len() < hi {
-            window.push(sample_row(first_row + window.len()));
+            window.push(partial_row(first_row + window.len()));
         }
-        // Weighted average of the samples within the filter's radius.
+        // Each pixel gathers what its neighbours hold for it.
         let band_rgb: Vec<f32> = (b0 * w..b1 * w)
             .into_par_iter()
             .flat_map_iter(|pixel| {
                 let (px, py) = (pixel % w, pixel / w);
-                let (cx, cy) = (px as f64 + 0.5, py as f64 + 0.5);
-                let (mut sum, mut weight) = ([0.0f64; 3], 0.0f64);
+                let mut sum = [0.0f64; 4];
                 for qy in py.saturating_sub(reach)..=(py + reach).min(h - 1) {
                     let row = &window[qy - first_row];
+                    let dy = py + reach - qy;
                     for qx in px.saturating_sub(reach)..=(px + reach).min(w - 1) {
-                        for (o, s) in &row[qx * per_pixel..(qx + 1) * per_pixel] {
-                            let wy = table.eval(qy as f64 + f64::from(o[1]) - cy);
-                            if wy == 0.0 {
-                                continue;
-                            }
-                            let wt = wy * table.eval(qx as f64 + f64::from(o[0]) - cx);
-                            for ch in 0..3 {
-                                sum[ch] += wt * f64::from(s[ch]);
-                            }
-                            weight += wt;
-                        }
+                        let dx = px + reach - qx;
+                        let cell = &row[qx * stride + 4 * (dy * span + dx)..][..4];
+                        (0..4).for_each(|i| sum[i] += cell[i]);
                     }
                 }
-                let inv = if weight > 0.0 { 1.0 / weight } else { 0.0 };
-                sum.map(|x| (x * inv) as f32)
+                let inv = if sum[3] > 0.0 { 1.0 / sum[3] } else { 0.0 };
+                [sum[0], sum[1], sum[2]].map(|x| (x * inv) as f32)
             })
             .collect();
         rgb.extend(band_rgb);
@@ -228,7 +238,7 @@ mod tests {
             filter: PixelFilter::Gaussian { stddev: 0.5 },
         };
         let f = |x: f64, y: f64, _k: usize| [x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0];
-        let img = develop_in_window(&film, 64, f, 300 * 64 * 7); // bands of 3 rows
+        let img = develop_in_window(&film, 64, f, 8 * 300 * 100 * 7); // bands of 3 rows
         assert_eq!(img, develop(&film, 64, f));
         // Pixel (150, 20) recomputed directly from its neighbourhood.
         let (px, py) = (150usize, 20usize);

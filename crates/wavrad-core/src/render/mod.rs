@@ -16,7 +16,8 @@ use crate::{Error, Result};
 use film::{develop, Image};
 use gather::GatherPoint;
 use glam::{DVec2, DVec3};
-use reconstruct::{radiance_at, Reconstruction};
+use rayon::prelude::*;
+use reconstruct::{radiance_at, Reconstruction, SmoothLookup};
 
 /// How to render a view.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -102,6 +103,7 @@ impl Solution {
         let eye = (!glossy.is_empty() && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
+        let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
         // Every `stride`-th camera ray gathers, weighted by `stride`.
         let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
         let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
@@ -128,7 +130,7 @@ impl Solution {
                 seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(k as u64),
             };
             let outgoing =
-                |q: u32, y: DVec3| self.outgoing_radiance(q, y, hit.surface, hit.position);
+                |q: u32, y: DVec3| self.outgoing_radiance(&smooth, q, y, hit.surface, hit.position);
             if !surface.is_diffuse() {
                 if let Some(eye) = &eye {
                     let mode = match settings.mode {
@@ -150,7 +152,12 @@ impl Solution {
                     outgoing,
                 );
             }
-            let reconstructed = radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode);
+            let reconstructed = match settings.mode {
+                Reconstruction::Haar => {
+                    radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode)
+                }
+                _ => smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
+            };
             if settings.mode != Reconstruction::Gather || k % stride != 0 {
                 return reconstructed;
             }
@@ -186,7 +193,7 @@ impl Solution {
                             &at,
                             (hit.position - y).normalize(),
                             settings.glossy_grid,
-                            |h, z| self.outgoing_radiance(h, z, q, y),
+                            |h, z| self.outgoing_radiance(&smooth, h, z, q, y),
                         )
                     };
                     let e = source.emission;
@@ -240,21 +247,24 @@ impl Solution {
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
-    /// point `x` of surface `s`: the smooth reconstruction for a diffuse `q`;
+    /// point `x` of surface `s`: the smooth reconstruction (`smooth`, one
+    /// lookup per tree) for a diffuse `q`;
     /// for a glossy one the directional radiance L_{q→s} of the element pairs
     /// (a ∋ y, b), smooth over the receiver's elements b around `x` (the
     /// gather integrates over y already, so only x needs the smoothing).
-    pub fn outgoing_radiance(&self, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
+    fn outgoing_radiance(
+        &self,
+        smooth: &[SmoothLookup],
+        q: u32,
+        y: DVec3,
+        s: u32,
+        x: DVec3,
+    ) -> Rgb {
         let surface = &self.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         if surface.is_diffuse() {
             let q = q as usize;
-            return radiance_at(
-                &self.trees[q],
-                &self.radiance[q],
-                uv_y,
-                Reconstruction::Smooth,
-            );
+            return smooth[q].radiance(&self.trees[q], &self.radiance[q], uv_y);
         }
         let Some(&index) = self.interactions.structure_of.get(&(q, s)) else {
             return surface.emission;

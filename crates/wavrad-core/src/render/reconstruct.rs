@@ -12,7 +12,7 @@
 //!   mixed resolutions blend without seams.
 
 use crate::hierarchy::ElementTree;
-use crate::scene::Rgb;
+use crate::scene::{Patch, Rgb};
 use glam::DVec2;
 
 /// How radiance is reconstructed from the Haar coefficients for display.
@@ -83,24 +83,107 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
     }
 }
 
-/// The bilinear ("hat") reconstruction at parameter `uv` from element
-/// averages at `level`: the centres of the four elements of that level's
-/// grid around `uv`, with their weights (zero-weight centres left out).
-pub fn hat_stencil(uv: DVec2, level: u32) -> Vec<(DVec2, f64)> {
+/// The smooth reconstruction of one element tree with its neighbour
+/// lookups done once: for each quadrant of each leaf of a parallelogram the
+/// four nodes the hat stencil blends there (they are the same everywhere in
+/// the quadrant), so that a lookup descends the tree once instead of five
+/// times. Triangle trees, whose leaves do not follow the stencil's square
+/// grid, are looked up as [`radiance_at`] does.
+#[derive(Debug, Clone, Default)]
+pub struct SmoothLookup {
+    /// Per node (leaves only; empty for triangles): per quadrant
+    /// (x ≥ ½) + 2·(y ≥ ½) of the leaf, the nodes at stencil offsets
+    /// (0,0), (1,0), (0,1), (1,1).
+    neighbours: Vec<[[u32; 4]; 4]>,
+}
+
+impl SmoothLookup {
+    /// Look up the stencil neighbours of every leaf of `tree`.
+    pub fn new(tree: &ElementTree) -> SmoothLookup {
+        let root = tree.nodes[0].patch;
+        if !matches!(root, Patch::Parallelogram { .. }) {
+            return SmoothLookup::default();
+        }
+        let neighbours = tree
+            .nodes
+            .iter()
+            .map(|node| {
+                if node.first_child.is_some() {
+                    return [[0; 4]; 4];
+                }
+                [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)].map(|(s, t)| {
+                    let uv = root.param_of(node.patch.point_at(DVec2::new(s, t)));
+                    stencil_centres(uv, node.id.level)
+                        .map(|(centre, _)| tree.locate(root.clamp_param(centre)).0)
+                })
+            })
+            .collect();
+        SmoothLookup { neighbours }
+    }
+
+    /// The smooth radiance of `tree` (the tree this lookup was made for)
+    /// at `uv`: [`radiance_at`] with [`Reconstruction::Smooth`].
+    pub fn radiance(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2) -> Rgb {
+        if self.neighbours.is_empty() {
+            return radiance_at(tree, radiance, uv, Reconstruction::Smooth);
+        }
+        let (leaf, local) = tree.locate(uv);
+        let (qx, qy) = (local.x >= 0.5, local.y >= 0.5);
+        let nodes = self.neighbours[leaf as usize][usize::from(qx) + 2 * usize::from(qy)];
+        // Position within the stencil: half an element past the quadrant's
+        // lower-left centre.
+        let f = DVec2::new(
+            local.x + 0.5 - f64::from(u8::from(qx)),
+            local.y + 0.5 - f64::from(u8::from(qy)),
+        )
+        .clamp(DVec2::ZERO, DVec2::ONE);
+        blend(nodes.map(|n| radiance[n as usize]), f)
+    }
+}
+
+/// Bilinear blend of the values at stencil offsets (0,0), (1,0), (0,1),
+/// (1,1) at fractional position `f`.
+fn blend(values: [Rgb; 4], f: DVec2) -> Rgb {
+    let w = hat_weights(f);
+    let mut out = [0.0; 3];
+    for (v, w) in values.iter().zip(w) {
+        (0..3).for_each(|ch| out[ch] += w * v[ch]);
+    }
+    out
+}
+
+fn hat_weights(f: DVec2) -> [f64; 4] {
+    [
+        (1.0 - f.x) * (1.0 - f.y),
+        f.x * (1.0 - f.y),
+        (1.0 - f.x) * f.y,
+        f.x * f.y,
+    ]
+}
+
+/// The centres of the four elements of `level`'s grid around `uv` (offsets
+/// (0,0), (1,0), (0,1), (1,1) from the lower-left one) and the fractional
+/// position of `uv` between them.
+fn stencil_centres(uv: DVec2, level: u32) -> [(DVec2, f64); 4] {
     let h = 0.5f64.powi(level as i32);
     let g = uv / h - DVec2::splat(0.5);
     let base = g.floor();
     let f = (g - base).clamp(DVec2::ZERO, DVec2::ONE);
-    [
-        (0.0, 0.0, (1.0 - f.x) * (1.0 - f.y)),
-        (1.0, 0.0, f.x * (1.0 - f.y)),
-        (0.0, 1.0, (1.0 - f.x) * f.y),
-        (1.0, 1.0, f.x * f.y),
-    ]
-    .into_iter()
-    .filter(|&(_, _, w)| w > 0.0)
-    .map(|(dx, dy, w)| ((base + DVec2::new(dx, dy) + DVec2::splat(0.5)) * h, w))
-    .collect()
+    let w = hat_weights(f);
+    let centre = |k: usize| {
+        let offset = DVec2::new((k & 1) as f64, (k >> 1) as f64);
+        ((base + offset + DVec2::splat(0.5)) * h, w[k])
+    };
+    [centre(0), centre(1), centre(2), centre(3)]
+}
+
+/// The bilinear ("hat") reconstruction at parameter `uv` from element
+/// averages at `level`: the centres of the four elements of that level's
+/// grid around `uv`, with their weights (zero-weight centres left out).
+pub fn hat_stencil(uv: DVec2, level: u32) -> impl Iterator<Item = (DVec2, f64)> {
+    stencil_centres(uv, level)
+        .into_iter()
+        .filter(|&(_, w)| w > 0.0)
 }
 
 #[cfg(test)]
