@@ -4,7 +4,8 @@ bundled scenes, in one run on one machine. Writes docs/benchmarks.md (tables)
 and docs/benchmarks.json (every raw number), and the walkthrough's images
 under docs/benchmarks/.
 
-For each scene and each wavrad configuration (CONFIGS below):
+For each scene and each wavrad configuration (CONFIGS below, with the
+per-scene additions of SCENE_CONFIGS):
 
 * wavrad: solve (every phase in ``solution.stats["times"]``), render the
   scene's view (gather mode, default camera rays), counts, peak memory and
@@ -46,6 +47,14 @@ import wavrad
 # one is the walkthrough's; add a line to compare another.
 CONFIGS: dict[str, dict[str, object]] = {
     "default": {},
+    # Power-weighted oracle (refine-solve loop), with its own default
+    # thresholds (2e-4 relative radiance error) unless SCENE_CONFIGS says.
+    "power": {"oracle": "power"},
+}
+# Per-scene keyword arguments of a configuration, on top of CONFIGS:
+# configuration -> scene -> keyword arguments.
+SCENE_CONFIGS: dict[str, dict[str, dict[str, object]]] = {
+    "power": {"cornell-box": {"threshold": 1e-4}},
 }
 
 SCENES = ["cornell-box", "glossy-cornell-box"]  # names of scenes/make_references.py
@@ -106,11 +115,16 @@ def cpu_seconds() -> float:
 # wavrad, one process per (scene, configuration)
 
 
+def solve_arguments(scene_name: str, config: str) -> dict[str, object]:
+    """Keyword arguments of wavrad.solve for a configuration on a scene."""
+    return {**CONFIGS[config], **SCENE_CONFIGS.get(config, {}).get(scene_name, {})}
+
+
 def wavrad_worker(scene_name: str, config: str, out: str) -> None:
     xml, exr, _ = scene_files(scene_name)
     scene = wavrad.load_scene(xml)
     clock, cpu = time.perf_counter(), cpu_seconds()
-    solution = wavrad.solve(scene, **CONFIGS[config])
+    solution = wavrad.solve(scene, **solve_arguments(scene_name, config))
     solve_wall, solve_cpu = time.perf_counter() - clock, cpu_seconds() - cpu
     stats = solution.stats
     clock, cpu = time.perf_counter(), cpu_seconds()
@@ -570,7 +584,7 @@ def main() -> None:
         return
 
     start = time.perf_counter()
-    info = {"machine": machine(), "configs": CONFIGS}
+    info = {"machine": machine(), "configs": CONFIGS, "scene_configs": SCENE_CONFIGS}
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         # wavrad first, each configuration in its own process.

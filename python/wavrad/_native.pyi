@@ -92,7 +92,12 @@ class Solution:
         ``two_point_interactions``, ``three_point_nodes``,
         ``three_point_interactions``, ``nodes_per_level``, ``iterations``,
         ``residual``, ``converged``, ``times`` (seconds per phase),
-        ``peak_memory_bytes`` and the settings used."""
+        ``peak_memory_bytes``, the settings used (``oracle``, ``threshold``,
+        ``max_level``, ...), and how it was solved: ``solver``
+        (``"gather"`` or ``"shoot"``), ``refine_passes`` (projections of the
+        weighted oracles' refine-solve loop), ``shooting_steps`` and
+        ``unshot_fraction`` (0 when gathering), ``kernel_pairs`` (surface
+        pairs whose kernels were projected) and ``exchanging_pairs``."""
 
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
@@ -108,15 +113,45 @@ def solve(
     three_point_max_level: int | None = None,
     tolerance: float | None = None,
     max_iterations: int | None = None,
+    oracle: Literal["kernel", "power", "importance"] | None = None,
+    refine_passes: int | None = None,
+    solver: Literal["gather", "shoot"] | None = None,
 ) -> Solution:
-    """Solve ``scene``. ``threshold``: the kernel oracle's threshold (default
-    1e-3; the paper uses 1e-4); ``max_level``: deepest element level
-    (default 5; the paper uses 8); ``three_point_threshold``: the oracle's
-    threshold for three-point (glossy) links (default 1e-4);
-    ``three_point_max_level``: deepest
-    element level of three-point (glossy) links (default 3); ``tolerance``:
-    convergence of the Gauss-Seidel sweeps (default 1e-5); ``max_iterations``:
-    most sweeps (default 200). Raises ``SolveError`` for invalid settings."""
+    """Solve ``scene``; the solve runs without the GIL.
+
+    ``oracle``: the test that decides a link is fine enough: ``"kernel"``
+    (the default and the paper's: Haar details of the kernel alone),
+    ``"power"`` (the kernel's variation weighted by the radiance it carries,
+    after Hanrahan et al. 1991) or ``"importance"`` (as ``"power"``, further
+    weighted by the receiver's importance for the scene's sensor). The
+    weighted oracles run a refine-solve loop of at most ``refine_passes``
+    projections (default 4) and have their own default thresholds, in
+    relative radiance error (2e-4 for ``threshold`` and
+    ``three_point_threshold``); the keyword arguments below override them.
+
+    ``threshold``: the oracle's threshold (kernel oracle: default 1e-3; the
+    paper uses 1e-4); ``max_level``: deepest element level (default 5; the
+    paper uses 8); ``three_point_threshold``: the oracle's threshold for
+    three-point (glossy) links (kernel oracle: default 1e-4);
+    ``three_point_max_level``: deepest element level of three-point (glossy)
+    links (default 3); ``tolerance``: convergence of the Gauss-Seidel sweeps
+    (default 1e-5; when shooting, also the unshot power left, relative to
+    the emitted power); ``max_iterations``: most sweeps (default 200; when
+    shooting, also the most shooting steps).
+
+    ``solver``: ``"gather"`` (the default and the paper's: every kernel
+    projected up front, then Gauss-Seidel gathering) or ``"shoot"``
+    (progressive shooting from the emitters, kernels projected only where
+    light flows, finished by Gauss-Seidel sweeps; diffuse scenes and the
+    kernel and power oracles only). ``stats`` reports both as ``"oracle"``
+    and ``"solver"``, with ``"refine_passes"``, ``"shooting_steps"``,
+    ``"unshot_fraction"`` and ``"kernel_pairs"`` out of
+    ``"exchanging_pairs"``.
+
+    Raises ``ValueError`` for an unknown ``oracle`` or ``solver``, and
+    ``SolveError`` for invalid settings, for the importance oracle on a
+    scene without a sensor, and for the shooting solver on a glossy scene
+    or with the importance oracle."""
 
 def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Relative RMSE of ``a`` against the reference ``b``:

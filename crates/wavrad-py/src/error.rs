@@ -7,8 +7,8 @@
 //!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line)
 //!     └── SolveError   wavrad-core: settings, empty scene, missing sensor
 //! ```
-//! Bad argument values (an unknown render mode, a wrongly shaped image) raise
-//! the built-in `ValueError`.
+//! Bad argument values (an unknown render mode, oracle or solver, a wrongly
+//! shaped image) raise the built-in `ValueError`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};

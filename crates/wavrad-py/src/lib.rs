@@ -9,6 +9,7 @@
 mod error;
 
 use std::path::PathBuf;
+use std::str::FromStr;
 
 use glam::DVec3;
 use numpy::ndarray::Array3;
@@ -18,9 +19,11 @@ use numpy::{
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use wavrad_core::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
-use wavrad_core::solve::{Silent, SolveSettings};
+use wavrad_core::solve::shoot::solve_shooting;
+use wavrad_core::solve::{Silent, SolveSettings, Solver};
 
 use error::{Error, Result, SceneError, SolveError, WavradError};
 
@@ -83,7 +86,7 @@ impl Solution {
         let scene = &self.0.scene;
         let mut settings = RenderSettings::for_scene(scene);
         if let Some(mode) = mode {
-            settings.mode = reconstruction(mode)?;
+            settings.mode = parse::<Reconstruction>(mode)?;
         }
         if let Some(spp) = spp {
             settings = settings.with_samples_per_pixel(spp);
@@ -133,11 +136,6 @@ impl Solution {
     }
 }
 
-/// The core reconstruction named by a Python `mode` string.
-fn reconstruction(mode: &str) -> Result<Reconstruction> {
-    mode.parse().map_err(Error::Argument)
-}
-
 /// A point or direction given to `render` as three finite numbers.
 fn vector(
     name: &str,
@@ -175,9 +173,10 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
     Ok(Scene(scene))
 }
 
-/// Solve `scene`; unset settings keep the core defaults.
+/// Solve `scene`; unset settings keep the defaults of the oracle (the core
+/// defaults for the paper's kernel oracle).
 #[pyfunction]
-#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None))]
+#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
 fn solve(
     py: Python<'_>,
@@ -188,8 +187,13 @@ fn solve(
     three_point_max_level: Option<u32>,
     tolerance: Option<f64>,
     max_iterations: Option<u32>,
+    oracle: Option<&str>,
+    refine_passes: Option<u32>,
+    solver: Option<&str>,
 ) -> Result<Solution> {
-    let mut settings = SolveSettings::default();
+    let oracle: Oracle = oracle.map_or(Ok(Oracle::default()), parse)?;
+    let solver: Solver = solver.map_or(Ok(Solver::default()), parse)?;
+    let mut settings = SolveSettings::for_oracle(oracle);
     if let Some(threshold) = threshold {
         settings.refine.oracle.threshold = threshold;
     }
@@ -208,8 +212,20 @@ fn solve(
     if let Some(max_iterations) = max_iterations {
         settings.max_iterations = max_iterations;
     }
-    let solution = py.allow_threads(|| wavrad_core::solve::solve(&scene.0, &settings, &Silent))?;
+    if let Some(passes) = refine_passes {
+        settings.refine_passes = passes;
+    }
+    let solution = py.allow_threads(|| match solver {
+        Solver::Gather => wavrad_core::solve::solve(&scene.0, &settings, &Silent),
+        Solver::Shoot => solve_shooting(&scene.0, &settings, &Silent, None),
+    })?;
     Ok(Solution(solution))
+}
+
+/// A core enum named by a Python string (`mode`, `oracle`, `solver`); an unknown
+/// name is a `ValueError` listing the valid ones.
+fn parse<T: FromStr<Err = String>>(name: &str) -> Result<T> {
+    name.parse().map_err(Error::Argument)
 }
 
 /// Relative RMSE of `a` against the reference `b` (any shape, same size).

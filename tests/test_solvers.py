@@ -1,0 +1,131 @@
+"""The refinement oracles (``oracle=``) and solvers (``solver=``) of
+``wavrad.solve`` on the bundled Cornell box, solved coarsely (32x32 film,
+level 3) so the file runs in a few seconds."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+import wavrad
+
+SCENES = Path(__file__).resolve().parent.parent / "scenes"
+CORNELL_BOX = SCENES / "cornell-box" / "scene.xml"
+GLOSSY_CORNELL_BOX = SCENES / "glossy-cornell-box" / "scene.xml"
+MAX_LEVEL = 3
+# The weighted oracles' default threshold (SolveSettings::for_oracle).
+WEIGHTED_THRESHOLD = 2e-4
+
+
+@pytest.fixture(scope="module")
+def scene() -> wavrad.Scene:
+    return wavrad.load_scene(CORNELL_BOX, res=32)
+
+
+@pytest.fixture(scope="module")
+def kernel(scene: wavrad.Scene) -> wavrad.Solution:
+    return wavrad.solve(scene, max_level=MAX_LEVEL)
+
+
+@pytest.fixture(scope="module")
+def power(scene: wavrad.Scene) -> wavrad.Solution:
+    return wavrad.solve(scene, max_level=MAX_LEVEL, oracle="power")
+
+
+# Oracles
+
+
+def test_power_oracle_converges_with_fewer_links_than_the_kernel_oracle(
+    kernel: wavrad.Solution, power: wavrad.Solution
+) -> None:
+    assert kernel.stats["oracle"] == "kernel"
+    assert power.stats["oracle"] == "power"
+    assert power.stats["converged"]
+    assert 0 < power.stats["two_point_interactions"] < kernel.stats["two_point_interactions"]
+
+
+def test_power_oracle_gives_the_kernel_oracles_image(
+    kernel: wavrad.Solution, power: wavrad.Solution
+) -> None:
+    a, b = kernel.render("gather", spp=4), power.render("gather", spp=4)
+    assert abs(b.mean() / a.mean() - 1.0) < 0.02
+
+
+def test_weighted_oracles_have_their_own_default_threshold(
+    kernel: wavrad.Solution, power: wavrad.Solution
+) -> None:
+    assert kernel.stats["threshold"] == 1e-3
+    assert power.stats["threshold"] == WEIGHTED_THRESHOLD
+    assert power.stats["three_point_threshold"] == WEIGHTED_THRESHOLD
+
+
+def test_threshold_and_refine_passes_override_the_oracles_defaults(
+    scene: wavrad.Scene,
+) -> None:
+    solution = wavrad.solve(
+        scene, max_level=MAX_LEVEL, oracle="power", threshold=1e-3, refine_passes=1
+    )
+    assert solution.stats["threshold"] == 1e-3
+    assert solution.stats["refine_passes"] == 1
+
+
+def test_zero_refine_passes_is_a_solve_error(scene: wavrad.Scene) -> None:
+    with pytest.raises(wavrad.SolveError, match="refine passes"):
+        wavrad.solve(scene, oracle="power", refine_passes=0)
+
+
+def test_unknown_oracle_is_a_value_error_naming_the_choices(scene: wavrad.Scene) -> None:
+    message = "unknown oracle 'nope' (expected one of: kernel, power, importance)"
+    with pytest.raises(ValueError, match=re.escape(message)):
+        wavrad.solve(scene, oracle="nope")  # type: ignore[arg-type]
+
+
+def test_importance_oracle_without_a_sensor_is_a_solve_error(tmp_path: Path) -> None:
+    path = tmp_path / "scene.xml"
+    path.write_text('<scene version="3.0.0">\n  <shape type="cube"/>\n</scene>\n')
+    scene = wavrad.load_scene(path)
+    with pytest.raises(wavrad.SolveError, match="needs a sensor"):
+        wavrad.solve(scene, oracle="importance")
+
+
+# Solvers
+
+
+def test_shooting_matches_gathering_on_a_diffuse_scene(
+    scene: wavrad.Scene, kernel: wavrad.Solution
+) -> None:
+    shot = wavrad.solve(scene, max_level=MAX_LEVEL, solver="shoot")
+    assert kernel.stats["solver"] == "gather"
+    assert kernel.stats["shooting_steps"] == 0
+    assert shot.stats["solver"] == "shoot"
+    assert shot.stats["shooting_steps"] > 0
+    assert shot.stats["converged"]
+    a, b = kernel.render("gather", spp=4), shot.render("gather", spp=4)
+    assert abs(b.mean() / a.mean() - 1.0) < 0.02
+
+
+def test_shooting_with_the_power_oracle(scene: wavrad.Scene, power: wavrad.Solution) -> None:
+    shot = wavrad.solve(scene, max_level=MAX_LEVEL, oracle="power", solver="shoot")
+    assert (shot.stats["solver"], shot.stats["oracle"]) == ("shoot", "power")
+    assert shot.stats["kernel_pairs"] <= shot.stats["exchanging_pairs"]
+    a, b = power.render("gather", spp=4), shot.render("gather", spp=4)
+    assert abs(b.mean() / a.mean() - 1.0) < 0.02
+
+
+def test_shooting_a_glossy_scene_is_a_solve_error() -> None:
+    scene = wavrad.load_scene(GLOSSY_CORNELL_BOX, res=16)
+    with pytest.raises(wavrad.SolveError, match="glossy"):
+        wavrad.solve(scene, solver="shoot")
+
+
+def test_shooting_with_the_importance_oracle_is_a_solve_error(scene: wavrad.Scene) -> None:
+    with pytest.raises(wavrad.SolveError, match="kernel and power oracles"):
+        wavrad.solve(scene, oracle="importance", solver="shoot")
+
+
+def test_unknown_solver_is_a_value_error_naming_the_choices(scene: wavrad.Scene) -> None:
+    message = "unknown solver 'nope' (expected one of: gather, shoot)"
+    with pytest.raises(ValueError, match=re.escape(message)):
+        wavrad.solve(scene, solver="nope")  # type: ignore[arg-type]
