@@ -81,8 +81,10 @@ class Solution:
         from their directional radiance towards the eye), ``"smooth"``
         (bilinear reconstruction of the Haar solution) or ``"haar"`` (the
         piecewise-constant projection). ``spp``: camera rays
-        per pixel (default 512, or the scene sampler's sample_count if
-        larger; a quarter of them final-gather). Raises
+        per pixel where an edge or a glossy surface shows (default 512, or
+        the scene sampler's sample_count if larger; pixels that show one
+        diffuse surface get an eighth, and a quarter of a pixel's camera rays
+        final-gather). Raises
         ``ValueError`` for an unknown mode and ``SolveError`` when the scene
         has no sensor.
         """

@@ -37,13 +37,16 @@ enum Command {
         /// How radiance is reconstructed on surfaces (default: the most accurate).
         #[arg(long, value_enum, default_value_t = Mode::Gather)]
         mode: Mode,
-        /// Camera rays per pixel [default: 512, or the scene sampler's
-        /// sample_count if larger].
+        /// Camera rays per pixel where an edge or a glossy surface shows
+        /// [default: 512, or the scene sampler's sample_count if larger];
+        /// pixels that show one diffuse surface (as do their neighbours)
+        /// get an eighth.
         #[arg(long)]
         spp: Option<u32>,
-        /// Of those, camera rays per pixel that also final-gather, each with 4
-        /// shadow rays per emitter and 4 indirect rays (gather mode) [default:
-        /// a quarter].
+        /// Of an interior pixel's camera rays, how many also final-gather,
+        /// each with 4 shadow rays per emitter and 32 indirect rays (gather
+        /// mode) [default: a quarter]; other pixels gather in the same
+        /// proportion, with fewer indirect rays each.
         #[arg(long)]
         gather_spp: Option<u32>,
     },

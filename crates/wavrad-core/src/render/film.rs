@@ -84,9 +84,13 @@ impl FilterTable {
 /// Bytes of partial sums held in memory at once.
 const WINDOW_BYTES: usize = 1 << 25;
 
-/// Render an image: `radiance(x, y, k)` gives the radiance of the film
-/// position (x,y) in pixels for the `k`-th sample of its pixel; samples are
-/// filtered with the film's filter.
+/// Render an image: pixel (x, y) gets `samples(x, y)` samples (rounded up
+/// to a square, [`pixel_offsets`]) and `radiance(x, y, k, n)` gives the
+/// radiance of the film position (x, y) in pixels for the `k`-th of the `n`
+/// samples of its pixel. Samples are filtered with the film's filter, each
+/// pixel's samples weighing as much in total as any other pixel's whatever
+/// their number (a pixel's contribution to a neighbour is the mean over its
+/// own samples), so that sample counts may differ between pixels.
 ///
 /// The filter is separable, so each pixel's samples are reduced once, as
 /// they are made, to their weighted sums towards every pixel the filter
@@ -97,16 +101,16 @@ const WINDOW_BYTES: usize = 1 << 25;
 /// size and sample count.
 pub fn develop(
     film: &Film,
-    samples_per_pixel: u32,
-    radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
+    samples: impl Fn(usize, usize) -> u32 + Sync,
+    radiance: impl Fn(f64, f64, usize, usize) -> [f64; 3] + Sync,
 ) -> Image {
-    develop_in_window(film, samples_per_pixel, radiance, WINDOW_BYTES)
+    develop_in_window(film, samples, radiance, WINDOW_BYTES)
 }
 
 fn develop_in_window(
     film: &Film,
-    samples_per_pixel: u32,
-    radiance: impl Fn(f64, f64, usize) -> [f64; 3] + Sync,
+    samples: impl Fn(usize, usize) -> u32 + Sync,
+    radiance: impl Fn(f64, f64, usize, usize) -> [f64; 3] + Sync,
     window_bytes: usize,
 ) -> Image {
     let (w, h) = (film.width as usize, film.height as usize);
@@ -127,12 +131,11 @@ fn develop_in_window(
                 let pixel = (y * w + x) as u64;
                 let mut sums = vec![0.0f64; stride];
                 let (mut wx, mut wy) = (vec![0.0; span], vec![0.0; span]);
-                for (k, o) in pixel_offsets(pixel, samples_per_pixel)
-                    .into_iter()
-                    .enumerate()
-                {
+                let offsets = pixel_offsets(pixel, samples(x, y));
+                let n = offsets.len();
+                for (k, o) in offsets.into_iter().enumerate() {
                     let l =
-                        radiance(x as f64 + o.x, y as f64 + o.y, k).map(|v| f64::from(v as f32));
+                        radiance(x as f64 + o.x, y as f64 + o.y, k, n).map(|v| f64::from(v as f32));
                     for d in 0..span {
                         // Target pixel centre at offset d − reach: x + d − reach + 0.5.
                         let shift = d as f64 - reach as f64 + 0.5;
@@ -150,6 +153,8 @@ fn develop_in_window(
                         }
                     }
                 }
+                let mean = 1.0 / n as f64;
+                sums.iter_mut().for_each(|v| *v *= mean);
                 sums
             })
             .collect()
@@ -237,9 +242,10 @@ mod tests {
             height: 40,
             filter: PixelFilter::Gaussian { stddev: 0.5 },
         };
-        let f = |x: f64, y: f64, _k: usize| [x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0];
-        let img = develop_in_window(&film, 64, f, 8 * 300 * 100 * 7); // bands of 3 rows
-        assert_eq!(img, develop(&film, 64, f));
+        let f =
+            |x: f64, y: f64, _k: usize, _n: usize| [x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0];
+        let img = develop_in_window(&film, |_, _| 64, f, 8 * 300 * 100 * 7); // bands of 3 rows
+        assert_eq!(img, develop(&film, |_, _| 64, f));
         // Pixel (150, 20) recomputed directly from its neighbourhood.
         let (px, py) = (150usize, 20usize);
         let (mut sum, mut weight) = (0.0, 0.0);
@@ -249,7 +255,7 @@ mod tests {
                     let (x, y) = (qx as f64 + o.x, qy as f64 + o.y);
                     let wt = film.filter.eval(x - px as f64 - 0.5)
                         * film.filter.eval(y - py as f64 - 0.5);
-                    sum += wt * f64::from(f(x, y, 0)[0] as f32);
+                    sum += wt * f64::from(f(x, y, 0, 64)[0] as f32);
                     weight += wt;
                 }
             }
@@ -264,7 +270,7 @@ mod tests {
             height: 5,
             filter: PixelFilter::Gaussian { stddev: 0.5 },
         };
-        let img = develop(&film, 4, |_, _, _| [1.0, 2.0, 3.0]);
+        let img = develop(&film, |x, _| 1 + x as u32, |_, _, _, _| [1.0, 2.0, 3.0]);
         assert_eq!(img.rgb.len(), 7 * 5 * 3);
         for px in img.rgb.chunks(3) {
             assert!((px[0] - 1.0).abs() < 1e-6 && (px[2] - 3.0).abs() < 1e-6);

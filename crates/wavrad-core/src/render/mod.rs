@@ -24,18 +24,30 @@ use reconstruct::{radiance_at, Reconstruction, SmoothLookup};
 pub struct RenderSettings {
     /// Reconstruction of radiance on surfaces.
     pub mode: Reconstruction,
-    /// Camera rays per pixel (rounded up to a square).
+    /// Camera rays per pixel (rounded up to a square) where a pixel needs
+    /// them: where it shows more than one surface (an edge, the outline of a
+    /// light), or a glossy one.
     pub samples_per_pixel: u32,
-    /// In [`Reconstruction::Gather`], how many of the camera rays of a pixel
-    /// also gather (the others use the smooth solution, and the gathering
-    /// ones carry the correction for them: a control variate, so that edges
-    /// get many camera rays and the costly gather only a few).
+    /// Camera rays per pixel in the others, whose 4×4 probe rays all meet
+    /// one diffuse surface: radiance varies smoothly there, and the final
+    /// gather, not the camera rays, resolves its shadows.
+    pub interior_samples_per_pixel: u32,
+    /// In [`Reconstruction::Gather`], how many of the camera rays of an
+    /// interior pixel also gather (the others use the smooth solution, and
+    /// the gathering ones carry the correction for them: a control variate,
+    /// so that the costly gather runs only for a few rays). Pixels with
+    /// more camera rays gather in the same proportion: at an edge the
+    /// correction jumps, and its coverage needs as many rays as the
+    /// solution's.
     pub gather_samples_per_pixel: u32,
-    /// Shadow rays per emitter, and area samples per glossy surface, for
-    /// each gathering camera ray: a `gather_grid` × `gather_grid` jittered
-    /// grid.
+    /// Shadow rays per emitter for each gathering camera ray: a
+    /// `gather_grid` × `gather_grid` jittered grid. Bright surfaces (glossy
+    /// ones and strongly lit diffuse ones) get a grid of about as many area
+    /// samples as the gathering ray has indirect rays, and at least this.
     pub gather_grid: u32,
-    /// Indirect gather rays per gathering camera ray.
+    /// Indirect gather rays per gathering camera ray of an interior pixel;
+    /// in a pixel with more gathering rays, as many indirect rays in total
+    /// (at least 4 per gathering ray).
     pub gather_rays: u32,
     /// On glossy surfaces in [`Reconstruction::Gather`], where every camera
     /// ray gathers: `glossy_grid` × `glossy_grid` light samples per emitter
@@ -48,9 +60,10 @@ impl Default for RenderSettings {
         RenderSettings {
             mode: Reconstruction::default(),
             samples_per_pixel: 512,
-            gather_samples_per_pixel: 128,
+            interior_samples_per_pixel: 64,
+            gather_samples_per_pixel: 16,
             gather_grid: 2,
-            gather_rays: 4,
+            gather_rays: 32,
             glossy_grid: 1,
         }
     }
@@ -69,15 +82,72 @@ impl RenderSettings {
         }
     }
 
-    /// The same settings with `n` camera rays per pixel, a quarter of which
-    /// gather (the default proportion).
+    /// How many of a pixel's `n` camera rays gather.
+    fn gathers_among(&self, n: usize) -> u32 {
+        let interior = sampling::pixel_offsets_len(self.interior_samples_per_pixel) as usize;
+        let share = self.gather_samples_per_pixel as f64 / interior as f64;
+        ((n as f64 * share).round() as u32).max(1)
+    }
+
+    /// The same settings with `n` camera rays per pixel, an eighth of them
+    /// in interior pixels and a thirty-second gathering (the default
+    /// proportions).
     pub fn with_samples_per_pixel(self, n: u32) -> RenderSettings {
         let n = n.max(1);
         RenderSettings {
             samples_per_pixel: n,
-            gather_samples_per_pixel: (n / 4).max(1),
+            interior_samples_per_pixel: (n / 8).max(1),
+            gather_samples_per_pixel: (n / 32).max(1),
             ..self
         }
+    }
+}
+
+/// Which of a pixel's `n` camera rays (a √n × √n stratified grid, row by
+/// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
+/// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
+/// near √n/φ), so that they spread over the whole pixel at any ratio.
+struct GatheringRays {
+    side: usize,
+    gathers: usize,
+    step: usize,
+}
+
+impl GatheringRays {
+    fn new(n: usize, gathers: u32) -> GatheringRays {
+        let side = ((n as f64).sqrt().round() as usize).max(1);
+        let gathers = (gathers as usize).clamp(1, side * side);
+        let coprime = |p: usize| {
+            (1..=p.min(side))
+                .rev()
+                .all(|d| d == 1 || p % d != 0 || side % d != 0)
+        };
+        let step = (((side as f64) * 0.618).round() as usize..)
+            .find(|&p| coprime(p))
+            .unwrap_or(1);
+        GatheringRays {
+            side,
+            gathers,
+            step,
+        }
+    }
+
+    fn contains(&self, k: usize) -> bool {
+        let (row, col) = (k / self.side, k % self.side);
+        let first = |r: usize| (r * self.gathers).div_ceil(self.side);
+        (first(row)..first(row + 1)).any(|j| (j * self.step) % self.side == col)
+    }
+
+    /// The control variate's weight: rays per gathering ray.
+    fn weight(&self) -> f64 {
+        (self.side * self.side) as f64 / self.gathers as f64
+    }
+
+    /// Indirect rays per gathering ray: the pixel's share of `settings`'
+    /// total for an interior pixel.
+    fn rays(&self, settings: &RenderSettings) -> u32 {
+        let total = settings.gather_rays * settings.gather_samples_per_pixel;
+        (total / self.gathers as u32).clamp(settings.gather_rays.min(4), settings.gather_rays)
     }
 }
 
@@ -104,10 +174,24 @@ impl Solution {
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
-        // Every `stride`-th camera ray gathers, weighted by `stride`.
-        let total = sampling::pixel_offsets_len(settings.samples_per_pixel);
-        let stride = (total / settings.gather_samples_per_pixel.clamp(1, total)).max(1) as usize;
-        let mut image = develop(film, settings.samples_per_pixel, |x, y, k| {
+        // Pixels showing one diffuse surface, as do their eight neighbours
+        // (an edge slipping between a pixel's probes shows in a neighbour's),
+        // get fewer camera rays.
+        let shown = self.surface_shown(camera, film);
+        let (wi, hi) = (film.width as usize, film.height as usize);
+        let samples = |px: usize, py: usize| {
+            let centre = shown[py * wi + px];
+            let uniform = centre.is_some()
+                && (py.saturating_sub(1)..(py + 2).min(hi)).all(|qy| {
+                    (px.saturating_sub(1)..(px + 2).min(wi)).all(|qx| shown[qy * wi + qx] == centre)
+                });
+            if uniform {
+                settings.interior_samples_per_pixel
+            } else {
+                settings.samples_per_pixel
+            }
+        };
+        let mut image = develop(film, samples, |x, y, k, n| {
             let ray = camera.ray(DVec2::new(x / w, y / h), aspect);
             let Some(hit) = self
                 .tracer
@@ -158,18 +242,22 @@ impl Solution {
                 }
                 _ => smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
             };
-            if settings.mode != Reconstruction::Gather || k % stride != 0 {
+            let gathering = GatheringRays::new(n, settings.gathers_among(n));
+            if settings.mode != Reconstruction::Gather || !gathering.contains(k) {
                 return reconstructed;
             }
             let point = GatherPoint {
                 seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1),
                 ..point
             };
+            // Bright surfaces get about as many area samples as cosine rays.
+            let rays = gathering.rays(settings);
+            let bright_grid = ((f64::from(rays).sqrt().round()) as u32).max(settings.gather_grid);
             let indirect = gather::indirect_radiance(
                 &self.scene,
                 &self.tracer,
                 &point,
-                (settings.gather_rays, &bright, settings.gather_grid),
+                (rays, &bright, bright_grid),
                 |q, y| {
                     let source = &self.scene.surfaces[q as usize];
                     let l = if source.is_diffuse() {
@@ -208,8 +296,8 @@ impl Solution {
                 settings.gather_grid,
             );
             let gathered = [0, 1, 2].map(|ch| surface.emission[ch] + direct[ch] + indirect[ch]);
-            [0, 1, 2]
-                .map(|ch| reconstructed[ch] + stride as f64 * (gathered[ch] - reconstructed[ch]))
+            let weight = gathering.weight();
+            [0, 1, 2].map(|ch| reconstructed[ch] + weight * (gathered[ch] - reconstructed[ch]))
         });
         // The control variate is unbiased but, with few gathering rays in a
         // pixel, can undershoot below zero; radiance cannot, so such pixels
@@ -218,6 +306,39 @@ impl Solution {
             *v = v.max(0.0);
         }
         image
+    }
+
+    /// For each pixel of `film`, the diffuse surface that all 4×4 of its
+    /// probe rays meet, if they meet one.
+    fn surface_shown(&self, camera: &Camera, film: &Film) -> Vec<Option<u32>> {
+        let (w, h) = (film.width as usize, film.height as usize);
+        let aspect = w as f64 / h as f64;
+        (0..w * h)
+            .into_par_iter()
+            .map(|pixel| {
+                let (px, py) = ((pixel % w) as f64, (pixel / w) as f64);
+                let mut seen = None;
+                for k in 0..16 {
+                    let at = DVec2::new(
+                        (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
+                        (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
+                    );
+                    let ray = camera.ray(at, aspect);
+                    let hit = self
+                        .tracer
+                        .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
+                        .map(|hit| hit.surface);
+                    match (hit, seen) {
+                        (Some(s), None) if self.scene.surfaces[s as usize].is_diffuse() => {
+                            seen = Some(s)
+                        }
+                        (Some(s), Some(t)) if s == t => {}
+                        _ => return None,
+                    }
+                }
+                seen
+            })
+            .collect()
     }
 
     /// The surfaces a diffuse point's final gather samples by area besides
@@ -294,6 +415,31 @@ mod tests {
     use super::*;
 
     #[test]
+    fn gathering_rays_are_as_many_as_asked_and_spread_over_rows_and_columns() {
+        for (n, gathers) in [
+            (529, 16),
+            (1024, 16),
+            (64, 16),
+            (64, 64),
+            (64, 200),
+            (1, 4),
+            (256, 7),
+        ] {
+            let g = GatheringRays::new(n, gathers);
+            let chosen: Vec<usize> = (0..n).filter(|&k| g.contains(k)).collect();
+            let expect = (gathers as usize).min(n);
+            assert_eq!(chosen.len(), expect, "n {n} gathers {gathers}");
+            assert_eq!(g.weight() * expect as f64, n as f64);
+            // No two in one column while there are columns to spare.
+            let side = (n as f64).sqrt() as usize;
+            let mut columns: Vec<usize> = chosen.iter().map(|k| k % side).collect();
+            columns.sort_unstable();
+            columns.dedup();
+            assert_eq!(columns.len(), expect.min(side), "n {n} gathers {gathers}");
+        }
+    }
+
+    #[test]
     fn scene_sample_count_only_raises_the_camera_rays() {
         let mut scene = Scene::from_surfaces(Vec::new());
         let default = RenderSettings::default();
@@ -302,8 +448,12 @@ mod tests {
         scene.hints.samples_per_pixel = Some(4096);
         let s = RenderSettings::for_scene(&scene);
         assert_eq!(
-            (s.samples_per_pixel, s.gather_samples_per_pixel),
-            (4096, 1024)
+            (
+                s.samples_per_pixel,
+                s.interior_samples_per_pixel,
+                s.gather_samples_per_pixel
+            ),
+            (4096, 512, 128)
         );
         assert_eq!(s.mode, default.mode);
     }
