@@ -57,6 +57,19 @@ def test_direct_and_gather_agree_on_the_glossy_box(glossy: wavrad.Solution) -> N
     assert abs(direct.mean() / gather.mean() - 1.0) < 0.05
 
 
+def test_the_view_independent_lookup_agrees_with_the_eye(glossy: wavrad.Solution) -> None:
+    # eye=False reads glossy surfaces from the solution's receivers (the
+    # surfaces beyond the eye, or the enclosure) instead of a per-view eye.
+    eye = glossy.render("direct", spp=16)
+    lookup = glossy.render("direct", spp=16, eye=False)
+    assert np.isfinite(lookup).all() and lookup.min() >= 0.0
+    assert abs(lookup.mean() / eye.mean() - 1.0) < 0.05
+    # A view from outside the box's open side, where glossy directions
+    # leave the scene past the camera, reads the enclosure.
+    moved = glossy.render("direct", spp=4, origin=[0.3, 0.2, 4.5], eye=False)
+    assert moved.mean() > 0.0
+
+
 def test_negative_three_point_threshold_is_a_solve_error() -> None:
     scene = wavrad.load_scene(SCENES / "figure3" / "specular.xml", res=8)
     with pytest.raises(wavrad.SolveError, match="three-point threshold"):

@@ -61,6 +61,7 @@ class Solution:
         target: npt.ArrayLike | None = None,
         up: npt.ArrayLike | None = None,
         fov: float | None = None,
+        eye: bool = True,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
@@ -84,7 +85,12 @@ class Solution:
         per pixel where an edge or a glossy surface shows (default 512, or
         the scene sampler's sample_count if larger; pixels that show one
         diffuse surface get an eighth, and a quarter of a pixel's camera rays
-        final-gather). Raises
+        final-gather). ``eye``: outside ``"gather"``, glossy surfaces show
+        their radiance gathered once into the eye as a hypothetical receiver
+        (``True``), or read from the view-independent solution alone
+        (``False``: the directional radiance towards what the view ray meets
+        beyond the eye, or towards an enclosure receiver around the scene; no
+        per-view work, softer highlights). Raises
         ``ValueError`` for an unknown mode and ``SolveError`` when the scene
         has no sensor.
         """

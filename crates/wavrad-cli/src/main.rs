@@ -49,6 +49,13 @@ enum Command {
         /// proportion, with fewer indirect rays each.
         #[arg(long)]
         gather_spp: Option<u32>,
+        /// Outside gather mode, read glossy surfaces' radiance from the
+        /// view-independent solution (directional radiance towards what the
+        /// view ray meets beyond the eye, or towards an enclosure receiver
+        /// around the scene) instead of gathering once into the eye: no
+        /// per-view work, softer highlights.
+        #[arg(long)]
+        no_eye: bool,
     },
     /// Solve the scene (view-independent) and report statistics, without an image.
     Solve {
@@ -204,6 +211,7 @@ fn run(cli: Cli) -> Result<(), String> {
             mode,
             spp,
             gather_spp,
+            no_eye,
         } => {
             check_output_extension(&output)?;
             let mut solution = load_and_solve(&args, &progress)?;
@@ -214,6 +222,7 @@ fn run(cli: Cli) -> Result<(), String> {
             if let Some(n) = gather_spp {
                 settings.gather_samples_per_pixel = n.max(1);
             }
+            settings.eye = !no_eye;
             settings.mode = match mode {
                 Mode::Haar => Reconstruction::Haar,
                 Mode::Smooth => Reconstruction::Smooth,

@@ -135,6 +135,48 @@ pub struct Scene {
 }
 
 impl Patch {
+    /// The six faces of the axis-aligned box [min, max], normals pointing inward
+    /// (a closed enclosure, as in a furnace test).
+    pub fn inward_box(min: DVec3, max: DVec3) -> [Patch; 6] {
+        let d = max - min;
+        let (x, y, z) = (DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z);
+        [
+            // Floor (z = min) facing +z, ceiling facing −z.
+            Patch::Parallelogram {
+                origin: min,
+                edge_s: x,
+                edge_t: y,
+            },
+            Patch::Parallelogram {
+                origin: min + z,
+                edge_s: y,
+                edge_t: x,
+            },
+            // y = min facing +y, y = max facing −y.
+            Patch::Parallelogram {
+                origin: min,
+                edge_s: z,
+                edge_t: x,
+            },
+            Patch::Parallelogram {
+                origin: min + y,
+                edge_s: x,
+                edge_t: z,
+            },
+            // x = min facing +x, x = max facing −x.
+            Patch::Parallelogram {
+                origin: min,
+                edge_s: y,
+                edge_t: z,
+            },
+            Patch::Parallelogram {
+                origin: min + x,
+                edge_s: z,
+                edge_t: y,
+            },
+        ]
+    }
+
     /// Vertices in parameter order: (0,0), (1,0), (1,1), (0,1) for a
     /// parallelogram; v0, v1, v2 for a triangle.
     pub fn vertices(&self) -> Vec<DVec3> {

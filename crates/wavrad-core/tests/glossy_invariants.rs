@@ -137,3 +137,65 @@ fn glossy_box_with_albedo_below_one_gains_no_energy() {
     let s = solution.interactions.structure_of[&(1, 2)] as usize;
     assert!(solution.directional[s][0][0] > 0.05);
 }
+
+#[test]
+fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
+    // A Lambertian Ward floor (solved as glossy) lit by a square light, with
+    // a wall on one side and open elsewhere: its radiance towards any
+    // direction, the wall's or one leaving the scene (the enclosure
+    // receiver's), is its diffuse radiance. Averaged over the floor for a
+    // fixed direction, it must match the diffuse solve's floor average.
+    let floor = Patch::Parallelogram {
+        origin: DVec3::ZERO,
+        edge_s: DVec3::X,
+        edge_t: DVec3::Y,
+    };
+    let light = Patch::Parallelogram {
+        origin: DVec3::new(0.1, 0.2, 0.8),
+        edge_s: DVec3::Y * 0.5,
+        edge_t: DVec3::X * 0.5,
+    };
+    let wall = Patch::Parallelogram {
+        origin: DVec3::new(1.0, 0.0, 0.0),
+        edge_s: DVec3::Z,
+        edge_t: DVec3::Y,
+    };
+    let scene = |floor_brdf: Brdf| {
+        Scene::from_surfaces(vec![
+            surface(floor, floor_brdf, [0.0; 3]),
+            surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
+            surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
+        ])
+    };
+    let diffuse = solve(&scene(Brdf::diffuse([0.6; 3])), &settings(3), &Silent).unwrap();
+    let glossy = solve(&scene(lambertian_ward(0.6)), &settings(3), &Silent).unwrap();
+    let expect = diffuse.radiance[0][0][0];
+    let n = 24;
+    for (d, what) in [
+        (DVec3::new(-1.0, 0.3, 0.4), "out of the open side"),
+        (DVec3::new(0.2, -0.9, 0.5), "out of the open side"),
+        (DVec3::new(1.0, 0.1, 0.3), "towards the wall"),
+    ] {
+        let d = d.normalize();
+        let mut sum = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                let y = DVec3::new(
+                    (i as f64 + 0.5) / n as f64,
+                    (j as f64 + 0.5) / n as f64,
+                    0.0,
+                );
+                sum += glossy.glossy_radiance_towards(0, y, d)[0];
+            }
+        }
+        let mean = sum / (n * n) as f64;
+        assert!(
+            (mean - expect).abs() / expect < 0.03,
+            "{what} {d}: {mean} against the diffuse solve's {expect}"
+        );
+    }
+    // The enclosure receives from the floor through the open sides only.
+    let enclosure = glossy.enclosure();
+    assert!(!enclosure.structures.is_empty());
+    assert!(enclosure.structures.keys().all(|&(p, _)| p == 0));
+}

@@ -71,7 +71,7 @@ impl Solution {
     /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
     /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
     /// linear RGB radiance.
-    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None))]
+    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, eye=true))]
     #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
@@ -82,9 +82,11 @@ impl Solution {
         target: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         fov: Option<f64>,
+        eye: bool,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
         let scene = &self.0.scene;
         let mut settings = RenderSettings::for_scene(scene);
+        settings.eye = eye;
         if let Some(mode) = mode {
             settings.mode = parse::<Reconstruction>(mode)?;
         }

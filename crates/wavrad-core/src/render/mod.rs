@@ -3,6 +3,7 @@
 //! film ([`film`]).
 
 pub mod camera;
+pub mod enclosure;
 pub mod eye;
 pub mod film;
 pub mod gather;
@@ -49,6 +50,14 @@ pub struct RenderSettings {
     /// in a pixel with more gathering rays, as many indirect rays in total
     /// (at least 4 per gathering ray).
     pub gather_rays: u32,
+    /// Outside [`Reconstruction::Gather`], glossy surfaces show their
+    /// radiance towards the eye, gathered once per view into the eye as a
+    /// hypothetical receiver (the paper's §6; `true`), or read from the
+    /// view-independent solution alone: the directional radiance towards the
+    /// surface beyond the eye, or towards the enclosure receiver where there
+    /// is none ([`enclosure`]; `false`, no per-view gather, softer
+    /// highlights).
+    pub eye: bool,
     /// On glossy surfaces in [`Reconstruction::Gather`], where every camera
     /// ray gathers: `glossy_grid` × `glossy_grid` light samples per emitter
     /// and as many BRDF samples per ray.
@@ -65,6 +74,7 @@ impl Default for RenderSettings {
             gather_grid: 2,
             gather_rays: 32,
             glossy_grid: 1,
+            eye: true,
         }
     }
 }
@@ -120,7 +130,7 @@ impl GatheringRays {
         let coprime = |p: usize| {
             (1..=p.min(side))
                 .rev()
-                .all(|d| d == 1 || p % d != 0 || side % d != 0)
+                .all(|d| d == 1 || !p.is_multiple_of(d) || !side.is_multiple_of(d))
         };
         let step = (((side as f64) * 0.618).round() as usize..)
             .find(|&p| coprime(p))
@@ -170,7 +180,7 @@ impl Solution {
         let glossy: Vec<u32> = (0..self.scene.surfaces.len() as u32)
             .filter(|&s| !self.scene.surfaces[s as usize].is_diffuse())
             .collect();
-        let eye = (!glossy.is_empty() && settings.mode != Reconstruction::Gather)
+        let eye = (settings.eye && !glossy.is_empty() && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
@@ -216,6 +226,9 @@ impl Solution {
             let outgoing =
                 |q: u32, y: DVec3| self.outgoing_radiance(&smooth, q, y, hit.surface, hit.position);
             if !surface.is_diffuse() {
+                if !settings.eye && settings.mode != Reconstruction::Gather {
+                    return self.glossy_radiance_towards(hit.surface, hit.position, -ray.direction);
+                }
                 if let Some(eye) = &eye {
                     let mode = match settings.mode {
                         Reconstruction::Smooth => Reconstruction::Smooth,
@@ -382,11 +395,21 @@ impl Solution {
         x: DVec3,
     ) -> Rgb {
         let surface = &self.scene.surfaces[q as usize];
-        let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         if surface.is_diffuse() {
+            let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
             let q = q as usize;
             return smooth[q].radiance(&self.trees[q], &self.radiance[q], uv_y);
         }
+        self.directional_radiance(q, y, s, x)
+    }
+
+    /// The directional radiance L_{q→s} that glossy surface `q` sends from
+    /// its point `y` towards point `x` of surface `s`: the values of the
+    /// element pairs (a ∋ y, b), smooth over the receiver's elements b
+    /// around `x`; `q`'s emission where the solve made no structure (q, s).
+    pub fn directional_radiance(&self, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
+        let surface = &self.scene.surfaces[q as usize];
+        let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let Some(&index) = self.interactions.structure_of.get(&(q, s)) else {
             return surface.emission;
         };

@@ -137,6 +137,9 @@ pub struct Solution {
     pub settings: SolveSettings,
     /// What it took (paper §5 quantities, times, memory).
     pub stats: Stats,
+    /// Glossy radiance towards the enclosure receiver, gathered the first
+    /// time a view asks for it ([`Solution::enclosure`]).
+    pub enclosure: std::sync::OnceLock<crate::render::enclosure::EnclosureRadiance>,
 }
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
@@ -257,6 +260,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         directional: system.directional,
         settings: *settings,
         stats,
+        enclosure: Default::default(),
     })
 }
 

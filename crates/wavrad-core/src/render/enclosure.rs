@@ -1,0 +1,205 @@
+//! A hypothetical enclosure receiver (paper §6, generalising its eye): the
+//! six inward faces of a box around the scene, which receive light through
+//! three-point links but neither occlude nor reflect. Gathering into it once,
+//! after the solve, gives every glossy surface p its directional radiance
+//! L_{p→E} towards the directions that leave the scene, so that with the
+//! directional structures L_{p→q} of the solve every direction leaving a
+//! glossy point has a receiver: [`Solution::glossy_radiance_towards`] looks
+//! radiance up in any direction without a per-view gather.
+
+use crate::directional::PairTree;
+use crate::hierarchy::ElementId;
+use crate::kernel::faces_away;
+use crate::scene::{Patch, Rgb, Scene};
+use crate::solve::estimate::LightEstimate;
+use crate::solve::{push_pull::push_pull, Progress, Solution};
+use crate::three_point::{refine_three_point_links, surface_triples};
+use glam::DVec3;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Radiance of every glossy surface towards the enclosure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnclosureRadiance {
+    /// The enclosure: the inward faces of the scene's bounding box grown by
+    /// 1 % of its diagonal.
+    pub faces: [Patch; 6],
+    /// For each (glossy surface p, face k) that can exchange light: the
+    /// element pairs (a on p, b on face k) and their average radiance
+    /// L_{a→b}.
+    pub structures: BTreeMap<(u32, u32), (PairTree, Vec<Rgb>)>,
+    /// Element level to which points are located in the pair trees.
+    depth: u32,
+}
+
+impl EnclosureRadiance {
+    /// Radiance leaving point `y` of glossy surface `p` along the unit
+    /// direction `d`, read where the ray from `y` leaves the enclosure (the
+    /// enclosure does not occlude: this is radiance that leaves the scene,
+    /// or reaches a surface beyond which the ray would go on). Zero where
+    /// `p` has no structure towards that face.
+    pub fn radiance(&self, scene: &Scene, p: u32, y: DVec3, d: DVec3) -> Rgb {
+        let Some((k, z)) = exit(&self.faces, y, d) else {
+            return [0.0; 3];
+        };
+        let Some((tree, values)) = self.structures.get(&(p, k)) else {
+            return [0.0; 3];
+        };
+        let source = &scene.surfaces[p as usize].patch;
+        let face = &self.faces[k as usize];
+        let path_y = path(source, y, self.depth);
+        let path_z = path(face, z, self.depth);
+        values[tree.leaf_at(|l| path_y[l as usize], |l| path_z[l as usize]) as usize]
+    }
+}
+
+/// The elements of `patch` containing point `x` at levels 0..=depth.
+fn path(patch: &Patch, x: DVec3, depth: u32) -> Vec<ElementId> {
+    ElementId::path_to(patch, patch.clamp_param(patch.param_of(x)), depth)
+}
+
+/// Face of the box `faces` (inward normals) through which the ray from `y`
+/// inside it along `d` leaves, and the point where it does.
+fn exit(faces: &[Patch; 6], y: DVec3, d: DVec3) -> Option<(u32, DVec3)> {
+    faces
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| {
+            let n = f.normal();
+            let toward = n.dot(d);
+            // Leaving through face k: moving against its inward normal.
+            (toward < 0.0).then(|| (k as u32, n.dot(f.vertices()[0] - y) / toward))
+        })
+        .filter(|&(_, t)| t >= 0.0)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(k, t)| (k, y + t * d))
+}
+
+/// The inward faces of the box around `scene`, grown by 1 % of its diagonal.
+pub fn enclosure_faces(scene: &Scene) -> [Patch; 6] {
+    let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+    for s in &scene.surfaces {
+        for v in s.patch.vertices() {
+            (lo, hi) = (lo.min(v), hi.max(v));
+        }
+    }
+    let pad = DVec3::splat(0.01 * (hi - lo).length().max(1e-9));
+    Patch::inward_box(lo - pad, hi + pad)
+}
+
+impl Solution {
+    /// Gather the solution once into the enclosure (three-point links
+    /// r → p → face for every glossy p and every face it sees).
+    pub fn enclosure_radiance(&self, progress: &dyn Progress) -> EnclosureRadiance {
+        let scene = &self.scene;
+        let faces = enclosure_faces(scene);
+        let n = scene.surfaces.len() as u32;
+        let sources: BTreeSet<(u32, u32)> = surface_triples(scene)
+            .into_iter()
+            .map(|(r, p, _)| (r, p))
+            .collect();
+        let triples: Vec<(u32, u32, u32)> = sources
+            .into_iter()
+            .flat_map(|(r, p)| (0..6u32).map(move |k| (r, p, n + k)))
+            .filter(|&(_, p, q)| {
+                !faces_away(&scene.surfaces[p as usize].patch, &faces[(q - n) as usize])
+            })
+            .collect();
+        let estimate = self.settings.oracle.is_weighted().then(|| {
+            LightEstimate::from_solution(
+                scene,
+                self.trees.clone(),
+                &self.radiance,
+                &self.interactions,
+                &self.directional,
+                None,
+            )
+        });
+        let links = refine_three_point_links(
+            scene,
+            &self.tracer,
+            self.settings.three_point_refine(),
+            estimate.as_ref(),
+            &triples,
+            |q| faces[(q - n) as usize],
+            progress,
+        );
+        let mut trees: BTreeMap<(u32, u32), PairTree> = BTreeMap::new();
+        for l in &links {
+            trees.entry((l.p, l.q - n)).or_default().insert(l.a, l.b);
+        }
+        let mut gathered: BTreeMap<(u32, u32), Vec<Rgb>> = trees
+            .iter()
+            .map(|(&key, tree)| (key, vec![[0.0; 3]; tree.nodes.len()]))
+            .collect();
+        for l in &links {
+            let key = (l.p, l.q - n);
+            let source = self.radiance_from(l.r, l.c, l.p, l.a);
+            let add = [0, 1, 2].map(|ch| l.coefficient[ch] * source[ch]);
+            let g = gathered.get_mut(&key).expect("a tree per linked pair");
+            for (node, _) in trees[&key].overlaps(l.a, l.b) {
+                (0..3).for_each(|ch| g[node as usize][ch] += add[ch]);
+            }
+        }
+        let structures = trees
+            .into_iter()
+            .map(|((p, k), tree)| {
+                let emission = scene.surfaces[p as usize].emission;
+                let values = push_pull(&tree, &gathered[&(p, k)], emission, None);
+                ((p, k), (tree, values))
+            })
+            .collect();
+        EnclosureRadiance {
+            faces,
+            structures,
+            depth: self.settings.three_point_max_level,
+        }
+    }
+
+    /// The enclosure's radiance, gathered on first use.
+    pub fn enclosure(&self) -> &EnclosureRadiance {
+        self.enclosure
+            .get_or_init(|| self.enclosure_radiance(&crate::solve::Silent))
+    }
+
+    /// Radiance leaving point `y` of glossy surface `p` in the unit
+    /// direction `d`, from the view-independent solution alone: the
+    /// directional radiance L_{p→q} towards the surface q the direction
+    /// meets, or the `enclosure`'s where it meets none.
+    pub fn glossy_radiance_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
+        match self.tracer.trace(y, d, 1e-7, f64::INFINITY) {
+            Some(hit) if hit.surface != p => {
+                self.directional_radiance(p, y, hit.surface, hit.position)
+            }
+            _ => self.enclosure().radiance(&self.scene, p, y, d),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_leave_the_box_through_the_face_they_meet_first() {
+        let faces = Patch::inward_box(DVec3::ZERO, DVec3::new(2.0, 1.0, 1.0));
+        let centre = DVec3::new(1.0, 0.5, 0.5);
+        for d in [
+            DVec3::X,
+            -DVec3::X,
+            DVec3::Y,
+            -DVec3::Z,
+            DVec3::new(1.0, 0.2, 0.1).normalize(),
+        ] {
+            let (k, z) = exit(&faces, centre, d).expect("inside the box");
+            let f = &faces[k as usize];
+            // On the face's plane, within the face, and along the ray.
+            assert!(f.normal().dot(z - f.vertices()[0]).abs() < 1e-12, "{d}");
+            let uv = f.param_of(z);
+            assert!(
+                uv.min_element() >= -1e-12 && uv.max_element() <= 1.0 + 1e-12,
+                "{d}"
+            );
+            assert!((z - centre).normalize().dot(d) > 1.0 - 1e-12, "{d}");
+        }
+    }
+}
