@@ -15,11 +15,14 @@
 //! exposed areas. An element with nothing exposed keeps the plain average:
 //! no link reaches it and nothing sees it.
 
-use crate::hierarchy::ElementTree;
+use crate::hierarchy::{ElementId, ElementTree};
 use crate::kernel::Quadrature;
+use crate::scene::Patch;
 use crate::scene::Scene;
 use crate::tracing::SceneTracer;
 use glam::DVec3;
+use rayon::prelude::*;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Probe directions, as (tangent, bitangent, normal) weights: the normal and
 /// four directions 60° from it.
@@ -71,25 +74,72 @@ pub fn exposed_fractions(
     quadrature: Quadrature,
     previous: Option<(&ElementTree, &[f64])>,
 ) -> Vec<f64> {
-    let patch = &scene.surfaces[surface as usize].patch;
-    let normal = patch.normal();
-    let coincident = 1e-7 * patch.area().sqrt();
     tree.nodes
         .iter()
         .map(|node| {
             let lent = previous.and_then(|(t, v)| Some(v[t.index_of(node.id)? as usize]));
-            lent.unwrap_or_else(|| {
-                let points = node.patch.gauss_points(quadrature.points);
-                let total: f64 = points.iter().map(|p| p.weight).sum();
-                let exposed: f64 = points
-                    .iter()
-                    .filter(|p| !is_buried(scene, tracer, surface, p.position, normal, coincident))
-                    .map(|p| p.weight)
-                    .sum();
-                exposed / total
-            })
+            lent.unwrap_or_else(|| fraction(scene, tracer, (surface, &node.patch), quadrature))
         })
         .collect()
+}
+
+/// Exposed fraction of `element` (a part of `surface`) at the Gauss points
+/// of `quadrature`.
+fn fraction(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    (surface, element): (u32, &Patch),
+    quadrature: Quadrature,
+) -> f64 {
+    let root = &scene.surfaces[surface as usize].patch;
+    let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
+    let points = element.gauss_points(quadrature.points);
+    let total: f64 = points.iter().map(|p| p.weight).sum();
+    let exposed: f64 = points
+        .iter()
+        .filter(|p| !is_buried(scene, tracer, surface, p.position, normal, coincident))
+        .map(|p| p.weight)
+        .sum();
+    exposed / total
+}
+
+/// Exposed fractions of the elements of the directional structures' pairs,
+/// for the three-point links of glossy surfaces: a pair (a, b) averages
+/// radiance over exposed points of both a and b.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PairExposure {
+    of: BTreeMap<(u32, ElementId), f64>,
+}
+
+impl PairExposure {
+    /// The exposed fraction of every element of `pairs`, each pair a
+    /// (surface, element) couple on the sending and receiving sides.
+    pub fn new(
+        scene: &Scene,
+        tracer: &SceneTracer,
+        pairs: impl Iterator<Item = [(u32, ElementId); 2]>,
+        quadrature: Quadrature,
+    ) -> PairExposure {
+        let wanted: BTreeSet<(u32, ElementId)> = pairs
+            .flatten()
+            .filter(|&(s, _)| (s as usize) < scene.surfaces.len())
+            .collect();
+        let of = wanted
+            .into_par_iter()
+            .map(|(s, id)| {
+                let patch = id.patch(&scene.surfaces[s as usize].patch);
+                ((s, id), fraction(scene, tracer, (s, &patch), quadrature))
+            })
+            .collect();
+        PairExposure { of }
+    }
+
+    /// Exposed fraction of the pair (a on p, b on q): the product of the
+    /// two (1 for an element not listed, such as a hypothetical receiver's).
+    pub fn of(&self, (p, a): (u32, ElementId), (q, b): (u32, ElementId)) -> f64 {
+        let get = |key| self.of.get(&key).copied().unwrap_or(1.0);
+        get((p, a)) * get((q, b))
+    }
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis.
@@ -101,8 +151,6 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hierarchy::ElementId;
-    use crate::scene::Patch;
     use crate::testing::{grey, inward_box};
     use std::collections::BTreeSet;
 

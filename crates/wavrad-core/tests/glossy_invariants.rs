@@ -71,6 +71,40 @@ fn closed_glossy_box_furnace_radiance_is_le_over_one_minus_rho() {
 }
 
 #[test]
+fn a_box_resting_on_a_glossy_floor_leaves_the_furnace_exact() {
+    // As for a diffuse floor (closed_box_furnace.rs): the floor under the
+    // box is buried, and the floor's directional radiance is averaged over
+    // its exposed part, so the furnace identity holds for it too.
+    let (rho, le) = (0.5, 1.0);
+    let room = inward_box(DVec3::ZERO, DVec3::splat(2.0));
+    let cube = inward_box(DVec3::new(0.55, 0.6, 0.0), DVec3::new(1.3, 1.45, 0.9));
+    let mut surfaces = vec![surface(room[0], lambertian_ward(rho), [le; 3])];
+    surfaces.extend(
+        room[1..]
+            .iter()
+            .map(|&p| surface(p, Brdf::diffuse([rho; 3]), [le; 3])),
+    );
+    // The cube without its bottom face, which would only face the floor.
+    surfaces.extend(
+        cube[1..]
+            .iter()
+            .map(|p| surface(p.flipped(), Brdf::diffuse([rho; 3]), [le; 3])),
+    );
+    let solution = solve(&Scene::from_surfaces(surfaces), &settings(3), &Silent).unwrap();
+    assert!(solution.stats.converged);
+    let expect = le / (1.0 - rho);
+    for (d, values) in solution
+        .interactions
+        .directional
+        .iter()
+        .zip(&solution.directional)
+    {
+        let e = (values[0][0] - expect).abs() / expect;
+        assert!(e < 0.03, "L_{}→{} = {} vs {expect}", d.p, d.q, values[0][0]);
+    }
+}
+
+#[test]
 fn glossy_path_of_a_lambertian_brdf_matches_the_diffuse_path() {
     // A floor lit by a square light, seen by a wall: the floor once diffuse,
     // once a Ward surface with no specular lobe (three-point links).

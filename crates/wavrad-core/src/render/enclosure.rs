@@ -8,6 +8,7 @@
 //! radiance up in any direction without a per-view gather.
 
 use crate::directional::PairTree;
+use crate::exposure::PairExposure;
 use crate::hierarchy::ElementId;
 use crate::kernel::faces_away;
 use crate::scene::{Patch, Rgb, Scene};
@@ -127,6 +128,17 @@ impl Solution {
         for l in &links {
             trees.entry((l.p, l.q - n)).or_default().insert(l.a, l.b);
         }
+        // Radiance is averaged over the exposed part of each element pair.
+        let exposure = PairExposure::new(
+            scene,
+            &self.tracer,
+            trees.iter().flat_map(|(&(p, k), tree)| {
+                tree.nodes
+                    .iter()
+                    .map(move |node| [(p, node.a), (n + k, node.b)])
+            }),
+            self.settings.refine.quadrature,
+        );
         let mut gathered: BTreeMap<(u32, u32), Vec<Rgb>> = trees
             .iter()
             .map(|(&key, tree)| (key, vec![[0.0; 3]; tree.nodes.len()]))
@@ -134,7 +146,9 @@ impl Solution {
         for l in &links {
             let key = (l.p, l.q - n);
             let source = self.radiance_from(l.r, l.c, l.p, l.a);
-            let add = [0, 1, 2].map(|ch| l.coefficient[ch] * source[ch]);
+            let e = exposure.of((l.p, l.a), (l.q, l.b));
+            let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
+            let add = [0, 1, 2].map(|ch| scale * l.coefficient[ch] * source[ch]);
             let g = gathered.get_mut(&key).expect("a tree per linked pair");
             for (node, _) in trees[&key].overlaps(l.a, l.b) {
                 (0..3).for_each(|ch| g[node as usize][ch] += add[ch]);
@@ -144,7 +158,12 @@ impl Solution {
             .into_iter()
             .map(|((p, k), tree)| {
                 let emission = scene.surfaces[p as usize].emission;
-                let values = push_pull(&tree, &gathered[&(p, k)], emission, None);
+                let weights: Vec<f64> = tree
+                    .nodes
+                    .iter()
+                    .map(|node| exposure.of((p, node.a), (n + k, node.b)))
+                    .collect();
+                let values = push_pull(&tree, &gathered[&(p, k)], emission, Some(&weights));
                 ((p, k), (tree, values))
             })
             .collect();

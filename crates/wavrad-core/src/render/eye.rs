@@ -8,6 +8,7 @@
 //! behind it along the view axis, so that every point sees it along the view
 //! direction) and is never subdivided.
 
+use crate::exposure::PairExposure;
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
 use crate::solve::estimate::LightEstimate;
@@ -103,18 +104,36 @@ impl Solution {
                 surfaces[p as usize] = Some((tree, Vec::new()));
             }
         }
+        // Radiance is averaged over the exposed part of each element.
+        let exposure = PairExposure::new(
+            scene,
+            &self.tracer,
+            surfaces.iter().enumerate().flat_map(|(p, entry)| {
+                let nodes = entry.as_ref().map_or(&[][..], |(tree, _)| &tree.nodes[..]);
+                nodes
+                    .iter()
+                    .map(move |n| [(p as u32, n.id), (eye_index, ElementId::ROOT)])
+            }),
+            self.settings.refine.quadrature,
+        );
+        let exposed = |p: u32, a: ElementId| exposure.of((p, a), (eye_index, ElementId::ROOT));
         for l in &links {
             let Some((tree, _)) = &surfaces[l.p as usize] else {
                 continue;
             };
             let node = tree.index_of(l.a).expect("linked element is in the tree");
             let source = self.radiance_from(l.r, l.c, l.p, l.a);
+            let e = exposed(l.p, l.a);
+            let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
             let g = &mut gathered[l.p as usize][node as usize];
-            (0..3).for_each(|ch| g[ch] += l.coefficient[ch] * source[ch]);
+            (0..3).for_each(|ch| g[ch] += scale * l.coefficient[ch] * source[ch]);
         }
         for (p, entry) in surfaces.iter_mut().enumerate() {
             if let Some((tree, radiance)) = entry {
-                *radiance = push_pull(tree, &gathered[p], scene.surfaces[p].emission, None);
+                let weights: Vec<f64> =
+                    tree.nodes.iter().map(|n| exposed(p as u32, n.id)).collect();
+                let emission = scene.surfaces[p].emission;
+                *radiance = push_pull(tree, &gathered[p], emission, Some(&weights));
             }
         }
         EyeRadiance { surfaces }

@@ -5,6 +5,7 @@
 //! diffuse, and its directional radiance towards the receiver when glossy.
 
 use crate::directional::PairTree;
+use crate::exposure::PairExposure;
 use crate::hierarchy::ElementTree;
 use crate::link::Link;
 use crate::scene::{Rgb, Scene};
@@ -91,17 +92,21 @@ pub struct Interactions {
     /// Exposed fraction of every node of every element tree
     /// ([`crate::exposure`]); radiance is averaged over exposed areas.
     pub exposure: Vec<Vec<f64>>,
+    /// Exposed fraction of every node (a, b) of every directional
+    /// structure: directional radiance is averaged over exposed pairs.
+    pub pair_exposure: Vec<Vec<f64>>,
 }
 
 impl Interactions {
     /// Arrange `links` and `three_point` for gathering over the element
     /// `trees`, whose nodes have the exposed fractions `exposure`;
-    /// `directional` lists every (glossy p, q) pair that gets a structure.
+    /// `directional` lists every (glossy p, q) pair that gets a structure,
+    /// `pairs` the exposed fractions of the elements of their pairs.
     pub fn new(
         scene: &Scene,
         (trees, exposure): (&[ElementTree], Vec<Vec<f64>>),
         links: &[Link],
-        three_point: &[ThreePointLink],
+        (three_point, pairs): (&[ThreePointLink], &PairExposure),
         directional: Vec<Directional>,
     ) -> Interactions {
         let structure_of = directional
@@ -116,7 +121,19 @@ impl Interactions {
             structure_of,
             covers: Vec::new(),
             exposure,
+            pair_exposure: Vec::new(),
         };
+        out.pair_exposure = out
+            .directional
+            .iter()
+            .map(|d| {
+                d.tree
+                    .nodes
+                    .iter()
+                    .map(|n| pairs.of((d.p, n.a), (d.q, n.b)))
+                    .collect()
+            })
+            .collect();
         let node = |s: u32, id| {
             trees[s as usize]
                 .index_of(id)
@@ -143,10 +160,14 @@ impl Interactions {
             let cover = out.directional[s as usize].tree.overlaps(l.a, l.b);
             let receivers = out.push_cover(cover);
             let source = out.source(scene, trees, l.r, l.c, l.p, l.a);
+            // R averages over the whole pair; radiance is the average over
+            // its exposed part.
+            let exposed = pairs.of((l.p, l.a), (l.q, l.b));
+            let scale = if exposed > 0.0 { 1.0 / exposed } else { 1.0 };
             out.incoming_three_point[s as usize].push(ThreePointTransfer {
                 receivers,
                 source,
-                coefficient: l.coefficient,
+                coefficient: l.coefficient.map(|k| k * scale),
             });
         }
         for list in &mut out.incoming {

@@ -11,7 +11,7 @@ pub mod push_pull;
 pub mod shoot;
 
 use crate::directional::PairTree;
-use crate::exposure::exposed_fractions;
+use crate::exposure::{exposed_fractions, PairExposure};
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::kernel::Quadrature;
 use crate::link::{refine_links, refine_links_further, Link, RefineSettings};
@@ -337,8 +337,22 @@ impl System {
             .enumerate()
             .map(|(s, t)| exposed_fractions(scene, tracer, (s as u32, t), quadrature, None))
             .collect();
-        let interactions =
-            Interactions::new(scene, (&trees, exposure), links, three_point, directional);
+        let pairs = PairExposure::new(
+            scene,
+            tracer,
+            directional
+                .iter()
+                .flat_map(|d| d.tree.nodes.iter().map(move |n| [(d.p, n.a), (d.q, n.b)]))
+                .chain(three_point.iter().map(|l| [(l.p, l.a), (l.q, l.b)])),
+            quadrature,
+        );
+        let interactions = Interactions::new(
+            scene,
+            (&trees, exposure),
+            links,
+            (three_point, &pairs),
+            directional,
+        );
         let radiance = scene
             .surfaces
             .iter()
@@ -409,7 +423,8 @@ impl System {
                 for &s in &structures_of[p] {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
-                    let updated = push_pull::push_pull(tree, &gathered, surface.emission, None);
+                    let exposure = Some(&interactions.pair_exposure[s][..]);
+                    let updated = push_pull::push_pull(tree, &gathered, surface.emission, exposure);
                     residual = residual.max(change(updated[0], directional[s][0]) / scale);
                     directional[s] = updated;
                 }

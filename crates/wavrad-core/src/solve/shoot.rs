@@ -179,7 +179,13 @@ pub fn solve_shooting(
     let links: Vec<Link> = shooting.links().copied().collect();
     let trees: Vec<ElementTree> = shooting.states.iter().map(|s| s.tree.clone()).collect();
     let exposure = shooting.states.iter().map(|s| s.exposure.clone()).collect();
-    let interactions = Interactions::new(scene, (&trees, exposure), &links, &[], Vec::new());
+    let interactions = Interactions::new(
+        scene,
+        (&trees, exposure),
+        &links,
+        (&[], &Default::default()),
+        Vec::new(),
+    );
     shooting.times.hierarchy_s += clock.elapsed().as_secs_f64();
     let mut system = System {
         trees,
