@@ -5,7 +5,11 @@
 //! L_{p→E} towards the directions that leave the scene, so that with the
 //! directional structures L_{p→q} of the solve every direction leaving a
 //! glossy point has a receiver: [`Solution::glossy_radiance_towards`] looks
-//! radiance up in any direction without a per-view gather.
+//! radiance up in any direction without a per-view gather (rendering with
+//! [`crate::render::RenderSettings::eye`] off). The receivers' elements are
+//! coarser in direction than the eye's single point, so highlights come out
+//! softer: on the glossy Cornell box `direct` mode gives 6.2 % instead of
+//! the eye's 4.5 %.
 
 use crate::directional::PairTree;
 use crate::exposure::PairExposure;
