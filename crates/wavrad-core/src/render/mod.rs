@@ -27,11 +27,13 @@ pub struct RenderSettings {
     pub mode: Reconstruction,
     /// Camera rays per pixel (rounded up to a square) where a pixel needs
     /// them: where it shows more than one surface (an edge, the outline of a
-    /// light), or a glossy one.
+    /// light).
     pub samples_per_pixel: u32,
     /// Camera rays per pixel in the others, whose 4×4 probe rays all meet
-    /// one diffuse surface: radiance varies smoothly there, and the final
-    /// gather, not the camera rays, resolves its shadows.
+    /// one surface, as do their neighbours': radiance varies smoothly there,
+    /// and the final gather, not the camera rays, resolves its shadows (on
+    /// a glossy surface, each camera ray takes proportionally more light and
+    /// BRDF samples).
     pub interior_samples_per_pixel: u32,
     /// In [`Reconstruction::Gather`], how many of the camera rays of an
     /// interior pixel also gather (the others use the smooth solution, and
@@ -60,7 +62,8 @@ pub struct RenderSettings {
     pub eye: bool,
     /// On glossy surfaces in [`Reconstruction::Gather`], where every camera
     /// ray gathers: `glossy_grid` × `glossy_grid` light samples per emitter
-    /// and as many BRDF samples per ray.
+    /// and as many BRDF samples per ray of a pixel with all its camera rays
+    /// (more in interior pixels, in proportion).
     pub glossy_grid: u32,
 }
 
@@ -184,7 +187,7 @@ impl Solution {
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
-        // Pixels showing one diffuse surface, as do their eight neighbours
+        // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays.
         let shown = self.surface_shown(camera, film);
@@ -200,6 +203,11 @@ impl Solution {
             } else {
                 settings.samples_per_pixel
             }
+        };
+        // A pixel with fewer camera rays takes as many glossy samples in all.
+        let glossy_grid = |n: usize| {
+            let ratio = (settings.samples_per_pixel as f64 / n as f64).max(1.0);
+            ((f64::from(settings.glossy_grid) * ratio.sqrt()).round() as u32).max(1)
         };
         let mut image = develop(film, samples, |x, y, k, n| {
             let ray = camera.ray(DVec2::new(x / w, y / h), aspect);
@@ -245,7 +253,7 @@ impl Solution {
                     &emitters,
                     &point,
                     -ray.direction,
-                    settings.glossy_grid,
+                    glossy_grid(n),
                     outgoing,
                 );
             }
@@ -321,8 +329,8 @@ impl Solution {
         image
     }
 
-    /// For each pixel of `film`, the diffuse surface that all 4×4 of its
-    /// probe rays meet, if they meet one.
+    /// For each pixel of `film`, the surface that all 4×4 of its probe rays
+    /// meet, if they meet one.
     fn surface_shown(&self, camera: &Camera, film: &Film) -> Vec<Option<u32>> {
         let (w, h) = (film.width as usize, film.height as usize);
         let aspect = w as f64 / h as f64;
@@ -342,9 +350,7 @@ impl Solution {
                         .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
                         .map(|hit| hit.surface);
                     match (hit, seen) {
-                        (Some(s), None) if self.scene.surfaces[s as usize].is_diffuse() => {
-                            seen = Some(s)
-                        }
+                        (Some(s), None) => seen = Some(s),
                         (Some(s), Some(t)) if s == t => {}
                         _ => return None,
                     }
