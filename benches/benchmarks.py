@@ -532,7 +532,8 @@ def walkthrough_report(walk: dict) -> list[str]:
         "",
         f"So the walkthrough's assumption does not hold here: on views {refs} wavrad's "
         f"error is {min(ratios):.1f}–{max(ratios):.1f}× Mitsuba's at {mt['spp']} spp "
-        "(Mitsuba's noise falls once the camera is inside the box, wavrad's error grows), "
+        "(Mitsuba's noise falls once the camera is inside the box, wavrad's error does "
+        "not), "
         "and the comparison at the scene view's spp overstates Mitsuba's time for equal "
         "error on those views; the last column of the rows above estimates the time it "
         "would need for wavrad's error there."
