@@ -129,3 +129,50 @@ def test_unknown_solver_is_a_value_error_naming_the_choices(scene: wavrad.Scene)
     message = "unknown solver 'nope' (expected one of: gather, shoot)"
     with pytest.raises(ValueError, match=re.escape(message)):
         wavrad.solve(scene, solver="nope")  # type: ignore[arg-type]
+
+
+# Progressive shooting: a callback after every step
+
+
+def test_on_step_sees_every_step_with_a_preview_image(scene: wavrad.Scene) -> None:
+    steps: list[dict] = []
+    means: list[float] = []
+
+    def on_step(step: dict, image) -> None:
+        steps.append(step)
+        assert image.shape == (32, 32, 3)
+        means.append(float(image.mean()))
+
+    shot = wavrad.solve(scene, max_level=MAX_LEVEL, solver="shoot", on_step=on_step)
+    assert [s["index"] for s in steps] == list(range(1, len(steps) + 1))
+    assert len(steps) == shot.stats["shooting_steps"]
+    assert set(steps[0]) == {"index", "shooter", "unshot_fraction", "kernel_pairs", "links"}
+    # Light only accumulates: the unshot power falls, the image brightens.
+    unshot = [s["unshot_fraction"] for s in steps]
+    assert unshot[-1] < unshot[0]
+    assert means[-1] > means[0] > 0.0
+
+
+def test_on_step_returning_false_stops_shooting(scene: wavrad.Scene) -> None:
+    seen: list[int] = []
+
+    def on_step(step: dict, image) -> bool:
+        seen.append(step["index"])
+        return step["index"] < 3
+
+    shot = wavrad.solve(scene, max_level=MAX_LEVEL, solver="shoot", on_step=on_step)
+    assert seen == [1, 2, 3]
+    assert shot.stats["shooting_steps"] == 3
+
+
+def test_an_exception_in_on_step_is_raised_from_solve(scene: wavrad.Scene) -> None:
+    def on_step(step: dict, image) -> None:
+        raise KeyError("stop here")
+
+    with pytest.raises(KeyError, match="stop here"):
+        wavrad.solve(scene, max_level=MAX_LEVEL, solver="shoot", on_step=on_step)
+
+
+def test_on_step_needs_the_shooting_solver(scene: wavrad.Scene) -> None:
+    with pytest.raises(ValueError, match="solver=\"shoot\""):
+        wavrad.solve(scene, max_level=MAX_LEVEL, on_step=lambda step, image: None)

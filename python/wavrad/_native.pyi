@@ -1,5 +1,6 @@
 """Type stubs of the native module ``wavrad._native`` (PyO3)."""
 
+from collections.abc import Callable
 from os import PathLike
 from typing import Any, Literal, final
 
@@ -124,6 +125,7 @@ def solve(
     oracle: Literal["kernel", "power", "importance"] | None = None,
     refine_passes: int | None = None,
     solver: Literal["gather", "shoot"] | None = None,
+    on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
 ) -> Solution:
     """Solve ``scene``; the solve runs without the GIL.
 
@@ -156,7 +158,17 @@ def solve(
     ``"unshot_fraction"`` and ``"kernel_pairs"`` out of
     ``"exchanging_pairs"``.
 
-    Raises ``ValueError`` for an unknown ``oracle`` or ``solver``, and
+    ``on_step``: with ``solver="shoot"``, called after every shooting step
+    as ``on_step(step, image)``: ``step`` a dict with ``"index"`` (1, 2,
+    ...), ``"shooter"`` (the surface shot), ``"unshot_fraction"``,
+    ``"kernel_pairs"`` and ``"links"``; ``image`` the solution so far as a
+    quick preview of the scene's sensor (smooth reconstruction, 4 camera
+    rays per pixel; None without a sensor). Returning ``False`` stops
+    shooting early (the Gauss-Seidel sweeps still finish the solution); an
+    exception it raises stops shooting and is raised from ``solve``.
+
+    Raises ``ValueError`` for an unknown ``oracle`` or ``solver`` or an
+    ``on_step`` without ``solver="shoot"``, and
     ``SolveError`` for invalid settings, for the importance oracle on a
     scene without a sensor, and for the shooting solver on a glossy scene
     or with the importance oracle."""

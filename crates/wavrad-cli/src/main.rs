@@ -306,11 +306,7 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
 /// One progressive image: the solution after `step`, smoothly reconstructed
 /// with few camera rays.
 fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Result<(), String> {
-    let settings = RenderSettings {
-        mode: Reconstruction::Smooth,
-        ..RenderSettings::default().with_samples_per_pixel(4)
-    };
-    let image = solution.render(&settings).map_err(|e| e.to_string())?;
+    let image = solution.preview().map_err(|e| e.to_string())?;
     let path = dir.join(format!("step-{:04}.exr", step.index));
     wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
 }

@@ -19,10 +19,11 @@ use numpy::{
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::ops::ControlFlow;
 use wavrad_core::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
-use wavrad_core::solve::shoot::solve_shooting;
+use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{Silent, SolveSettings, Solver};
 
 use error::{Error, Result, SceneError, SolveError, WavradError};
@@ -178,7 +179,7 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
 /// Solve `scene`; unset settings keep the defaults of the oracle (the core
 /// defaults for the paper's kernel oracle).
 #[pyfunction]
-#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None))]
+#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None, on_step=None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
 fn solve(
     py: Python<'_>,
@@ -192,6 +193,7 @@ fn solve(
     oracle: Option<&str>,
     refine_passes: Option<u32>,
     solver: Option<&str>,
+    on_step: Option<PyObject>,
 ) -> Result<Solution> {
     let oracle: Oracle = oracle.map_or(Ok(Oracle::default()), parse)?;
     let solver: Solver = solver.map_or(Ok(Solver::default()), parse)?;
@@ -217,11 +219,66 @@ fn solve(
     if let Some(passes) = refine_passes {
         settings.refine_passes = passes;
     }
+    if on_step.is_some() && solver != Solver::Shoot {
+        return Err(Error::Argument(
+            "solve: on_step is called after each shooting step; it needs solver=\"shoot\"".into(),
+        ));
+    }
+    // The callback runs with the GIL taken back; an exception it raises
+    // stops shooting and is raised again here.
+    let mut raised: Option<PyErr> = None;
+    let mut step_callback = on_step.map(|callback| {
+        let raised = &mut raised;
+        move |solution: &wavrad_core::solve::Solution, step: &Step| {
+            Python::with_gil(|py| match call_on_step(py, &callback, solution, step) {
+                Ok(true) => ControlFlow::Continue(()),
+                Ok(false) => ControlFlow::Break(()),
+                Err(e) => {
+                    *raised = Some(e);
+                    ControlFlow::Break(())
+                }
+            })
+        }
+    });
     let solution = py.allow_threads(|| match solver {
         Solver::Gather => wavrad_core::solve::solve(&scene.0, &settings, &Silent),
-        Solver::Shoot => solve_shooting(&scene.0, &settings, &Silent, None),
+        Solver::Shoot => solve_shooting(
+            &scene.0,
+            &settings,
+            &Silent,
+            step_callback
+                .as_mut()
+                .map(|f| f as wavrad_core::solve::shoot::OnStep<'_>),
+        ),
     })?;
+    if let Some(e) = raised {
+        return Err(Error::Python(e));
+    }
     Ok(Solution(solution))
+}
+
+/// Call `on_step(step, image)` after a shooting step: `step` a dict of the
+/// step's numbers, `image` the solution so far as a quick preview of the
+/// scene's sensor (None without one). Shooting goes on unless it returns
+/// False.
+fn call_on_step(
+    py: Python<'_>,
+    callback: &PyObject,
+    solution: &wavrad_core::solve::Solution,
+    step: &Step,
+) -> PyResult<bool> {
+    let info = PyDict::new(py);
+    info.set_item("index", step.index)?;
+    info.set_item("shooter", step.shooter)?;
+    info.set_item("unshot_fraction", step.unshot_fraction)?;
+    info.set_item("kernel_pairs", step.kernel_pairs)?;
+    info.set_item("links", step.links)?;
+    let image = match solution.preview() {
+        Ok(image) => pixels(py, image.width, image.height, image.rgb).into_any(),
+        Err(_) => py.None().into_bound(py),
+    };
+    let answer = callback.call1(py, (info, image))?;
+    Ok(!answer.bind(py).is(pyo3::types::PyBool::new(py, false)))
 }
 
 /// A core enum named by a Python string (`mode`, `oracle`, `solver`); an unknown

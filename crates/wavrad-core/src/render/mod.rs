@@ -171,6 +171,16 @@ impl Solution {
         Ok(self.render_view(camera, &self.scene.film, settings))
     }
 
+    /// A quick image of the scene's sensor: the smooth reconstruction with 4
+    /// camera rays per pixel (what a progressive solve shows after each
+    /// step).
+    pub fn preview(&self) -> Result<Image> {
+        self.render(&RenderSettings {
+            mode: Reconstruction::Smooth,
+            ..RenderSettings::default().with_samples_per_pixel(4)
+        })
+    }
+
     /// Render any view of the solution (it is view-independent).
     pub fn render_view(&self, camera: &Camera, film: &Film, settings: &RenderSettings) -> Image {
         let (w, h) = (film.width as f64, film.height as f64);
