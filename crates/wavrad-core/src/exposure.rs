@@ -13,12 +13,12 @@
 //! averaged over the exposed part only: a link's form factor is
 //! `T(a,c) / (|a| · exposed(a))` and push–pull weighs children by their
 //! exposed areas. An element with nothing exposed keeps the plain average:
-//! no link reaches it and nothing sees it.
+//! no link reaches it and nothing sees it. Directional radiance of glossy
+//! surfaces does the same over element pairs ([`PairExposure`]).
 
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::kernel::Quadrature;
-use crate::scene::Patch;
-use crate::scene::Scene;
+use crate::scene::{Patch, Scene};
 use crate::tracing::SceneTracer;
 use glam::DVec3;
 use rayon::prelude::*;
