@@ -38,6 +38,31 @@ fn surface(patch: Patch, brdf: Brdf, emission: Rgb) -> Surface {
     }
 }
 
+/// A unit floor with `floor_brdf`, lit by a square light above it and seen
+/// by a grey wall along one edge; open elsewhere.
+fn floor_light_wall(floor_brdf: Brdf) -> Scene {
+    let floor = Patch::Parallelogram {
+        origin: DVec3::ZERO,
+        edge_s: DVec3::X,
+        edge_t: DVec3::Y,
+    };
+    let light = Patch::Parallelogram {
+        origin: DVec3::new(0.1, 0.2, 0.8),
+        edge_s: DVec3::Y * 0.5,
+        edge_t: DVec3::X * 0.5,
+    };
+    let wall = Patch::Parallelogram {
+        origin: DVec3::new(1.0, 0.0, 0.0),
+        edge_s: DVec3::Z,
+        edge_t: DVec3::Y,
+    };
+    Scene::from_surfaces(vec![
+        surface(floor, floor_brdf, [0.0; 3]),
+        surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
+        surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
+    ])
+}
+
 /// Every directional radiance value of the solution.
 fn directional_values(solution: &Solution) -> impl Iterator<Item = f64> + '_ {
     solution.directional.iter().flatten().flat_map(|l| *l)
@@ -108,30 +133,18 @@ fn a_box_resting_on_a_glossy_floor_leaves_the_furnace_exact() {
 fn glossy_path_of_a_lambertian_brdf_matches_the_diffuse_path() {
     // A floor lit by a square light, seen by a wall: the floor once diffuse,
     // once a Ward surface with no specular lobe (three-point links).
-    let floor = Patch::Parallelogram {
-        origin: DVec3::ZERO,
-        edge_s: DVec3::X,
-        edge_t: DVec3::Y,
-    };
-    let light = Patch::Parallelogram {
-        origin: DVec3::new(0.1, 0.2, 0.8),
-        edge_s: DVec3::Y * 0.5,
-        edge_t: DVec3::X * 0.5,
-    };
-    let wall = Patch::Parallelogram {
-        origin: DVec3::new(1.0, 0.0, 0.0),
-        edge_s: DVec3::Z,
-        edge_t: DVec3::Y,
-    };
-    let scene = |floor_brdf: Brdf| {
-        Scene::from_surfaces(vec![
-            surface(floor, floor_brdf, [0.0; 3]),
-            surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
-            surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
-        ])
-    };
-    let diffuse = solve(&scene(Brdf::diffuse([0.6; 3])), &settings(4), &Silent).unwrap();
-    let glossy = solve(&scene(lambertian_ward(0.6)), &settings(4), &Silent).unwrap();
+    let diffuse = solve(
+        &floor_light_wall(Brdf::diffuse([0.6; 3])),
+        &settings(4),
+        &Silent,
+    )
+    .unwrap();
+    let glossy = solve(
+        &floor_light_wall(lambertian_ward(0.6)),
+        &settings(4),
+        &Silent,
+    )
+    .unwrap();
     assert_eq!(diffuse.stats.three_point_interactions, 0);
     assert!(glossy.stats.three_point_interactions > 0);
     // The wall's light, all of it via the floor.
@@ -179,30 +192,18 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
     // direction, the wall's or one leaving the scene (the enclosure
     // receiver's), is its diffuse radiance. Averaged over the floor for a
     // fixed direction, it must match the diffuse solve's floor average.
-    let floor = Patch::Parallelogram {
-        origin: DVec3::ZERO,
-        edge_s: DVec3::X,
-        edge_t: DVec3::Y,
-    };
-    let light = Patch::Parallelogram {
-        origin: DVec3::new(0.1, 0.2, 0.8),
-        edge_s: DVec3::Y * 0.5,
-        edge_t: DVec3::X * 0.5,
-    };
-    let wall = Patch::Parallelogram {
-        origin: DVec3::new(1.0, 0.0, 0.0),
-        edge_s: DVec3::Z,
-        edge_t: DVec3::Y,
-    };
-    let scene = |floor_brdf: Brdf| {
-        Scene::from_surfaces(vec![
-            surface(floor, floor_brdf, [0.0; 3]),
-            surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
-            surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
-        ])
-    };
-    let diffuse = solve(&scene(Brdf::diffuse([0.6; 3])), &settings(3), &Silent).unwrap();
-    let glossy = solve(&scene(lambertian_ward(0.6)), &settings(3), &Silent).unwrap();
+    let diffuse = solve(
+        &floor_light_wall(Brdf::diffuse([0.6; 3])),
+        &settings(3),
+        &Silent,
+    )
+    .unwrap();
+    let glossy = solve(
+        &floor_light_wall(lambertian_ward(0.6)),
+        &settings(3),
+        &Silent,
+    )
+    .unwrap();
     let expect = diffuse.radiance[0][0][0];
     let n = 24;
     for (d, what) in [

@@ -15,12 +15,11 @@ use crate::directional::PairTree;
 use crate::exposure::PairExposure;
 use crate::hierarchy::ElementId;
 use crate::kernel::faces_away;
+use crate::render::eye::glossy_sources;
 use crate::scene::{Patch, Rgb, Scene};
-use crate::solve::estimate::LightEstimate;
 use crate::solve::{push_pull::push_pull, Progress, Solution};
-use crate::three_point::{refine_three_point_links, surface_triples};
 use glam::DVec3;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 
 /// Radiance of every glossy surface towards the enclosure.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,36 +97,14 @@ impl Solution {
         let scene = &self.scene;
         let faces = enclosure_faces(scene);
         let n = scene.surfaces.len() as u32;
-        let sources: BTreeSet<(u32, u32)> = surface_triples(scene)
-            .into_iter()
-            .map(|(r, p, _)| (r, p))
-            .collect();
-        let triples: Vec<(u32, u32, u32)> = sources
+        let triples: Vec<(u32, u32, u32)> = glossy_sources(scene)
             .into_iter()
             .flat_map(|(r, p)| (0..6u32).map(move |k| (r, p, n + k)))
             .filter(|&(_, p, q)| {
                 !faces_away(&scene.surfaces[p as usize].patch, &faces[(q - n) as usize])
             })
             .collect();
-        let estimate = self.settings.oracle.is_weighted().then(|| {
-            LightEstimate::from_solution(
-                scene,
-                self.trees.clone(),
-                &self.radiance,
-                &self.interactions,
-                &self.directional,
-                None,
-            )
-        });
-        let links = refine_three_point_links(
-            scene,
-            &self.tracer,
-            self.settings.three_point_refine(),
-            estimate.as_ref(),
-            &triples,
-            |q| faces[(q - n) as usize],
-            progress,
-        );
+        let links = self.receiver_links(&triples, |q| faces[(q - n) as usize], progress);
         let mut trees: BTreeMap<(u32, u32), PairTree> = BTreeMap::new();
         for l in &links {
             trees.entry((l.p, l.q - n)).or_default().insert(l.a, l.b);

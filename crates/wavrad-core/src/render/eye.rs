@@ -13,7 +13,7 @@ use crate::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
 use crate::solve::estimate::LightEstimate;
 use crate::solve::{push_pull::push_pull, Progress, Solution};
-use crate::three_point::refine_three_point_links;
+use crate::three_point::{refine_three_point_links, ThreePointLink};
 use glam::DVec3;
 use std::collections::BTreeSet;
 
@@ -52,6 +52,15 @@ pub fn eye_patch(scene: &Scene, camera: &Camera) -> Patch {
     }
 }
 
+/// The (source r, glossy p) surface pairs through which light reaches a
+/// receiver from a glossy surface, in order.
+pub(crate) fn glossy_sources(scene: &Scene) -> BTreeSet<(u32, u32)> {
+    crate::three_point::surface_triples(scene)
+        .into_iter()
+        .map(|(r, p, _)| (r, p))
+        .collect()
+}
+
 impl Solution {
     /// Gather the solution once into the eye at `camera` (three-point links
     /// r → p → eye for every glossy p that faces it).
@@ -60,10 +69,7 @@ impl Solution {
         let eye = eye_patch(scene, camera);
         let eye_index = scene.surfaces.len() as u32;
         let at = eye.centroid();
-        let triples: Vec<(u32, u32, u32)> = crate::three_point::surface_triples(scene)
-            .into_iter()
-            .map(|(r, p, _)| (r, p))
-            .collect::<BTreeSet<_>>()
+        let triples: Vec<(u32, u32, u32)> = glossy_sources(scene)
             .into_iter()
             .filter(|&(_, p)| {
                 let patch = &scene.surfaces[p as usize].patch;
@@ -71,26 +77,7 @@ impl Solution {
             })
             .map(|(r, p)| (r, p, eye_index))
             .collect();
-        // The weighted oracles weigh the eye's links by the solved light.
-        let estimate = self.settings.oracle.is_weighted().then(|| {
-            LightEstimate::from_solution(
-                scene,
-                self.trees.clone(),
-                &self.radiance,
-                &self.interactions,
-                &self.directional,
-                None,
-            )
-        });
-        let links = refine_three_point_links(
-            scene,
-            &self.tracer,
-            self.settings.three_point_refine(),
-            estimate.as_ref(),
-            &triples,
-            |_| eye,
-            progress,
-        );
+        let links = self.receiver_links(&triples, |_| eye, progress);
         let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
         for l in &links {
             ids[l.p as usize].insert(l.a);
@@ -137,6 +124,37 @@ impl Solution {
             }
         }
         EyeRadiance { surfaces }
+    }
+
+    /// The three-point links r → p → q into hypothetical receivers q (the
+    /// eye, the enclosure's faces), whose geometry `receiver(q)` gives,
+    /// projected after the solve; the weighted oracles weigh them by the
+    /// solved light.
+    pub(crate) fn receiver_links(
+        &self,
+        triples: &[(u32, u32, u32)],
+        receiver: impl Fn(u32) -> Patch + Sync,
+        progress: &dyn Progress,
+    ) -> Vec<ThreePointLink> {
+        let estimate = self.settings.oracle.is_weighted().then(|| {
+            LightEstimate::from_solution(
+                &self.scene,
+                self.trees.clone(),
+                &self.radiance,
+                &self.interactions,
+                &self.directional,
+                None,
+            )
+        });
+        refine_three_point_links(
+            &self.scene,
+            &self.tracer,
+            self.settings.three_point_refine(),
+            estimate.as_ref(),
+            triples,
+            receiver,
+            progress,
+        )
     }
 
     /// L_{c→a}: the average radiance leaving element `c` of surface `r`
