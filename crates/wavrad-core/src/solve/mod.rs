@@ -192,15 +192,22 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     );
     times.kernels_s = clock.elapsed().as_secs_f64();
 
-    let mut system = System::assemble(
-        scene,
-        (&tracer, settings.refine.quadrature),
-        &triples,
-        &links,
-        &three_point,
-        &mut times,
-    );
-    let mut sweeps = system.solve(scene, settings, progress, &mut times);
+    // Arrange the links and solve the system they make.
+    let assemble_and_solve =
+        |links: &[Link], three_point: &[ThreePointLink], times: &mut PhaseTimes| {
+            let quadrature = settings.refine.quadrature;
+            let mut system = System::assemble(
+                scene,
+                (&tracer, quadrature),
+                &triples,
+                links,
+                three_point,
+                times,
+            );
+            let sweeps = system.solve(scene, settings, progress, times);
+            (system, sweeps)
+        };
+    let (mut system, mut sweeps) = assemble_and_solve(&links, &three_point, &mut times);
     let mut passes = 1;
     while settings.oracle.is_weighted() && passes < settings.refine_passes {
         let clock = Instant::now();
@@ -229,15 +236,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        system = System::assemble(
-            scene,
-            (&tracer, settings.refine.quadrature),
-            &triples,
-            &links,
-            &three_point,
-            &mut times,
-        );
-        sweeps = system.solve(scene, settings, progress, &mut times);
+        (system, sweeps) = assemble_and_solve(&links, &three_point, &mut times);
     }
 
     let mut stats = Stats::new(
