@@ -144,7 +144,7 @@ def solve(
     paper uses 8); ``three_point_threshold``: the oracle's threshold for
     three-point (glossy) links (kernel oracle: default 1e-4);
     ``three_point_max_level``: deepest element level of three-point (glossy)
-    links (default 3); ``tolerance``: convergence of the Gauss-Seidel sweeps
+    links (default 2); ``tolerance``: convergence of the Gauss-Seidel sweeps
     (default 1e-5; when shooting, also the unshot power left, relative to
     the emitted power); ``max_iterations``: most sweeps (default 200; when
     shooting, also the most shooting steps).

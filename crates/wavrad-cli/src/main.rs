@@ -107,7 +107,7 @@ struct SolveArgs {
     #[arg(long)]
     max_level: Option<u32>,
     /// Maximum subdivision level of the elements of three-point (glossy)
-    /// links [default: 3].
+    /// links [default: 2].
     #[arg(long)]
     three_point_max_level: Option<u32>,
     /// Oracle threshold of three-point (glossy) links [default: 1e-4].

@@ -151,7 +151,7 @@ impl Solution {
         EnclosureRadiance {
             faces,
             structures,
-            depth: self.settings.three_point_max_level,
+            depth: self.settings.receiver_refine().max_level,
         }
     }
 

@@ -149,7 +149,7 @@ impl Solution {
         refine_three_point_links(
             &self.scene,
             &self.tracer,
-            self.settings.three_point_refine(),
+            self.settings.receiver_refine(),
             estimate.as_ref(),
             triples,
             receiver,

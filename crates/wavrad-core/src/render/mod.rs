@@ -35,6 +35,13 @@ pub struct RenderSettings {
     /// a glossy surface, each camera ray takes proportionally more light and
     /// BRDF samples).
     pub interior_samples_per_pixel: u32,
+    /// Camera rays per pixel at the outline of an emitter (a pixel whose
+    /// probe rays, or a neighbour's, meet an emitter and something else).
+    /// An emitter outshines what surrounds it a hundredfold, so the sampling
+    /// noise of its coverage of a pixel dominates an image's error; the
+    /// extra rays cost a lookup each, because these pixels gather no more
+    /// often than any other edge pixel.
+    pub emitter_edge_samples_per_pixel: u32,
     /// In [`Reconstruction::Gather`], how many of the camera rays of an
     /// interior pixel also gather (the others use the smooth solution, and
     /// the gathering ones carry the correction for them: a control variate,
@@ -73,6 +80,7 @@ impl Default for RenderSettings {
             mode: Reconstruction::default(),
             samples_per_pixel: 512,
             interior_samples_per_pixel: 64,
+            emitter_edge_samples_per_pixel: 4096,
             gather_samples_per_pixel: 16,
             gather_grid: 2,
             gather_rays: 32,
@@ -95,21 +103,24 @@ impl RenderSettings {
         }
     }
 
-    /// How many of a pixel's `n` camera rays gather.
+    /// How many of a pixel's `n` camera rays gather: in proportion to `n`,
+    /// as in an interior pixel, up to as many as an edge pixel's.
     fn gathers_among(&self, n: usize) -> u32 {
+        let n = n.min(sampling::pixel_offsets_len(self.samples_per_pixel) as usize);
         let interior = sampling::pixel_offsets_len(self.interior_samples_per_pixel) as usize;
         let share = self.gather_samples_per_pixel as f64 / interior as f64;
         ((n as f64 * share).round() as u32).max(1)
     }
 
     /// The same settings with `n` camera rays per pixel, an eighth of them
-    /// in interior pixels and a thirty-second gathering (the default
-    /// proportions).
+    /// in interior pixels, a thirty-second gathering and eight times as
+    /// many at an emitter's outline (the default proportions).
     pub fn with_samples_per_pixel(self, n: u32) -> RenderSettings {
         let n = n.max(1);
         RenderSettings {
             samples_per_pixel: n,
             interior_samples_per_pixel: (n / 8).max(1),
+            emitter_edge_samples_per_pixel: n.saturating_mul(8),
             gather_samples_per_pixel: (n / 32).max(1),
             ..self
         }
@@ -120,6 +131,15 @@ impl RenderSettings {
 /// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
 /// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
 /// near √n/φ), so that they spread over the whole pixel at any ratio.
+/// What the probe rays through a pixel meet.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PixelProbe {
+    /// The surface all of them meet, if they meet one.
+    surface: Option<u32>,
+    /// Some meet an emitter, and some something else.
+    emitter_edge: bool,
+}
+
 struct GatheringRays {
     side: usize,
     gathers: usize,
@@ -199,17 +219,24 @@ impl Solution {
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
-        // get fewer camera rays.
-        let shown = self.surface_shown(camera, film);
+        // get fewer camera rays; those near an emitter's outline, more.
+        let probes = &self.probe(camera, film);
         let (wi, hi) = (film.width as usize, film.height as usize);
         let samples = |px: usize, py: usize| {
-            let centre = shown[py * wi + px];
-            let uniform = centre.is_some()
-                && (py.saturating_sub(1)..(py + 2).min(hi)).all(|qy| {
-                    (px.saturating_sub(1)..(px + 2).min(wi)).all(|qx| shown[qy * wi + qx] == centre)
-                });
+            let centre = probes[py * wi + px].surface;
+            let neighbours = (py.saturating_sub(1)..(py + 2).min(hi)).flat_map(|qy| {
+                (px.saturating_sub(1)..(px + 2).min(wi)).map(move |qx| &probes[qy * wi + qx])
+            });
+            let mut uniform = centre.is_some();
+            let mut emitter_edge = false;
+            for p in neighbours {
+                uniform &= p.surface == centre;
+                emitter_edge |= p.emitter_edge;
+            }
             if uniform {
                 settings.interior_samples_per_pixel
+            } else if emitter_edge {
+                settings.emitter_edge_samples_per_pixel
             } else {
                 settings.samples_per_pixel
             }
@@ -241,8 +268,18 @@ impl Solution {
                 normal: patch.normal(),
                 seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(k as u64),
             };
-            let outgoing =
-                |q: u32, y: DVec3| self.outgoing_radiance(&smooth, q, y, hit.surface, hit.position);
+            // What a gather ray from this point finds: glossy surfaces lit
+            // per point (their highlights are finer than their elements).
+            let seen = |q: u32, z: DVec3| {
+                let to = (hit.surface, hit.position);
+                self.radiance_leaving(
+                    &smooth,
+                    &emitters,
+                    (q, z),
+                    to,
+                    (point.seed, settings.glossy_grid),
+                )
+            };
             if !surface.is_diffuse() {
                 if !settings.eye && settings.mode != Reconstruction::Gather {
                     return self.glossy_radiance_towards(hit.surface, hit.position, -ray.direction);
@@ -264,7 +301,7 @@ impl Solution {
                     &point,
                     -ray.direction,
                     glossy_grid(n),
-                    outgoing,
+                    seen,
                 );
             }
             let reconstructed = match settings.mode {
@@ -290,32 +327,8 @@ impl Solution {
                 &point,
                 (rays, &bright, bright_grid),
                 |q, y| {
-                    let source = &self.scene.surfaces[q as usize];
-                    let l = if source.is_diffuse() {
-                        outgoing(q, y)
-                    } else {
-                        // The glossy bounce before this diffuse point is
-                        // evaluated per point: emitters reflected exactly
-                        // (a highlight's sharp edge on a wall is finer than
-                        // the pair tree's elements), the rest from the
-                        // solution.
-                        let at = GatherPoint {
-                            surface: q,
-                            position: y,
-                            normal: source.patch.normal(),
-                            seed: point.seed.rotate_left(17) ^ u64::from(q),
-                        };
-                        gather::glossy_radiance(
-                            &self.scene,
-                            &self.tracer,
-                            &emitters,
-                            &at,
-                            (hit.position - y).normalize(),
-                            settings.glossy_grid,
-                            |h, z| self.outgoing_radiance(&smooth, h, z, q, y),
-                        )
-                    };
-                    let e = source.emission;
+                    let l = seen(q, y);
+                    let e = self.scene.surfaces[q as usize].emission;
                     [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
                 },
             );
@@ -339,33 +352,33 @@ impl Solution {
         image
     }
 
-    /// For each pixel of `film`, the surface that all 4×4 of its probe rays
-    /// meet, if they meet one.
-    fn surface_shown(&self, camera: &Camera, film: &Film) -> Vec<Option<u32>> {
+    /// What 4×4 probe rays through each pixel of `film` meet.
+    fn probe(&self, camera: &Camera, film: &Film) -> Vec<PixelProbe> {
         let (w, h) = (film.width as usize, film.height as usize);
         let aspect = w as f64 / h as f64;
         (0..w * h)
             .into_par_iter()
             .map(|pixel| {
                 let (px, py) = ((pixel % w) as f64, (pixel / w) as f64);
-                let mut seen = None;
-                for k in 0..16 {
+                let hits = (0..16).map(|k| {
                     let at = DVec2::new(
                         (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
                         (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
                     );
                     let ray = camera.ray(at, aspect);
-                    let hit = self
-                        .tracer
+                    self.tracer
                         .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
-                        .map(|hit| hit.surface);
-                    match (hit, seen) {
-                        (Some(s), None) => seen = Some(s),
-                        (Some(s), Some(t)) if s == t => {}
-                        _ => return None,
-                    }
+                        .map(|hit| hit.surface)
+                });
+                let hits: Vec<Option<u32>> = hits.collect();
+                let one = hits.iter().all(|&s| s == hits[0]);
+                let emitter = |s: &Option<u32>| {
+                    s.is_some_and(|s| self.scene.surfaces[s as usize].is_emitter())
+                };
+                PixelProbe {
+                    surface: if one { hits[0] } else { None },
+                    emitter_edge: !one && hits.iter().any(emitter),
                 }
-                seen
             })
             .collect()
     }
@@ -394,6 +407,44 @@ impl Solution {
         out.extend(lit.iter().filter(|l| l.1 > 4.0 * mean).map(|l| l.0));
         out.sort_unstable();
         out
+    }
+
+    /// Radiance leaving point `y` of surface `q` towards point `x` of surface
+    /// `s`, as a gather ray from `x` sees it: the solution's for a diffuse
+    /// `q`; for a glossy one, the light its BRDF reflects there evaluated per
+    /// point (emitters exactly, the rest from the solution, `grid` × `grid`
+    /// samples of each; [`gather::glossy_radiance`]), because a highlight's
+    /// sharp edge, and the light near a contact line, are finer than the
+    /// pair tree's elements.
+    fn radiance_leaving(
+        &self,
+        smooth: &[SmoothLookup],
+        emitters: &[u32],
+        (q, y): (u32, DVec3),
+        (s, x): (u32, DVec3),
+        (seed, grid): (u64, u32),
+    ) -> Rgb {
+        let source = &self.scene.surfaces[q as usize];
+        if source.is_diffuse() {
+            return self.outgoing_radiance(smooth, q, y, s, x);
+        }
+        // Decorrelated per point y: every ray of one gather has its own.
+        let bits = y.x.to_bits() ^ y.y.to_bits().rotate_left(21) ^ y.z.to_bits().rotate_left(42);
+        let at = GatherPoint {
+            surface: q,
+            position: y,
+            normal: source.patch.normal(),
+            seed: seed.rotate_left(17) ^ u64::from(q) ^ bits,
+        };
+        gather::glossy_radiance(
+            &self.scene,
+            &self.tracer,
+            emitters,
+            &at,
+            (x - y).normalize(),
+            grid,
+            |h, z| self.outgoing_radiance(smooth, h, z, q, y),
+        )
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards

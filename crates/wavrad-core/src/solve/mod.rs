@@ -43,8 +43,10 @@ pub struct SolveSettings {
     pub refine: RefineSettings,
     /// Deepest element level of three-point links (each of the three
     /// elements). Their count grows with the cube of the elements per
-    /// surface, so they stop coarser than two-point links by default; the
-    /// paper uses 8 for both.
+    /// surface, so they stop coarser than two-point links by default (2:
+    /// the final gather lights glossy surfaces per point, so on the glossy
+    /// Cornell box level 3 buys little error for many times the links; the
+    /// `level-3` rows of `docs/benchmarks.md`); the paper uses 8 for both.
     pub three_point_max_level: u32,
     /// Oracle threshold of three-point links (the paper's orthonormal
     /// normalisation). Glossy lobes concentrate light that the kernel-only
@@ -463,6 +465,18 @@ impl SolveSettings {
         }
     }
 
+    /// The refinement settings of three-point links into a hypothetical
+    /// receiver (the eye, the enclosure): one level deeper than the solve's.
+    /// Such a receiver is gathered once, after the solve, so its links
+    /// refine the source elements further at a cost the solve's (three
+    /// surfaces' worth of elements per link) could not afford.
+    pub fn receiver_refine(&self) -> RefineSettings {
+        RefineSettings {
+            max_level: self.three_point_max_level + 1,
+            ..self.three_point_refine()
+        }
+    }
+
     /// Check the settings make sense.
     pub fn validate(&self) -> Result<()> {
         let r = &self.refine;
@@ -516,7 +530,7 @@ impl Default for SolveSettings {
                 max_level: 5,
                 quadrature: crate::kernel::Quadrature::default(),
             },
-            three_point_max_level: 3,
+            three_point_max_level: 2,
             three_point_threshold: 1e-4,
             tolerance: 1e-5,
             max_iterations: 200,
