@@ -127,10 +127,6 @@ impl RenderSettings {
     }
 }
 
-/// Which of a pixel's `n` camera rays (a √n × √n stratified grid, row by
-/// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
-/// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
-/// near √n/φ), so that they spread over the whole pixel at any ratio.
 /// What the probe rays through a pixel meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PixelProbe {
@@ -140,6 +136,10 @@ struct PixelProbe {
     emitter_edge: bool,
 }
 
+/// Which of a pixel's `n` camera rays (a √n × √n stratified grid, row by
+/// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
+/// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
+/// near √n/φ), so that they spread over the whole pixel at any ratio.
 struct GatheringRays {
     side: usize,
     gathers: usize,
