@@ -137,6 +137,16 @@ impl Patch {
         }
     }
 
+    /// Whether parameter `uv` lies in the patch's domain (its point on the
+    /// patch's plane is on the patch).
+    pub fn contains_param(&self, uv: DVec2) -> bool {
+        let inside = uv.min_element() >= 0.0;
+        match self {
+            Patch::Parallelogram { .. } => inside && uv.max_element() <= 1.0,
+            Patch::Triangle(_) => inside && uv.x + uv.y <= 1.0,
+        }
+    }
+
     /// Clamp a parameter into the patch's domain.
     pub fn clamp_param(&self, uv: DVec2) -> DVec2 {
         let c = uv.clamp(DVec2::ZERO, DVec2::ONE);

@@ -11,6 +11,7 @@
 
 use crate::brdf::BrdfModel;
 use crate::kernel::form_factor::point_to_polygon;
+use crate::render::mirror::MirrorImage;
 use crate::render::sampling::hash2;
 use crate::scene::{Rgb, Scene};
 use crate::tracing::SceneTracer;
@@ -87,18 +88,33 @@ pub fn direct_radiance(
     out
 }
 
+/// Where a final gather looks for concentrated light besides its cosine
+/// rays: `grid` × `grid` points by area on each of the `bright` surfaces
+/// (glossy ones, whose reflected light is concentrated, and unusually bright
+/// diffuse ones: a small mirror-like surface lighting a wall is found by few
+/// cosine rays), and as many through each of the `mirrors` (the specular
+/// reflection points of an emitter on a planar glossy surface).
+#[derive(Debug, Clone, Copy)]
+pub struct GatherSources<'a> {
+    /// Surfaces sampled by area.
+    pub bright: &'a [u32],
+    /// Emitters' images through glossy surfaces.
+    pub mirrors: &'a [MirrorImage],
+    /// Samples per side of each surface's or image's stratified grid.
+    pub grid: u32,
+}
+
 /// Indirect radiance reflected at the diffuse `point` from the solution,
 /// each sample looking up `outgoing(surface, point)`, the solution's radiance
 /// leaving the point it reaches minus its emission: `rays` cosine-distributed
-/// gather rays (stratified), and `grid` × `grid` points by area on each of
-/// the `bright` surfaces (glossy ones, whose reflected light is
-/// concentrated: a small mirror-like surface lighting a wall is found by few
-/// cosine rays), combined with the balance heuristic (Veach 1997).
+/// gather rays (stratified) and the `sources`' samples, combined with the
+/// balance heuristic (Veach 1997).
 pub fn indirect_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
-    (rays, bright, grid): (u32, &[u32], u32),
+    rays: u32,
+    sources: GatherSources,
     outgoing: impl Fn(u32, DVec3) -> Rgb,
 ) -> Rgb {
     let GatherPoint {
@@ -107,23 +123,63 @@ pub fn indirect_radiance(
         normal,
         seed,
     } = *point;
+    let GatherSources {
+        bright,
+        mirrors,
+        grid,
+    } = sources;
     let rho = diffuse_reflectance(scene, surface);
     let (t, b) = orthonormal_basis(normal);
-    let (n_cos, n_area) = (f64::from(rays), f64::from(grid * grid));
+    let (n_cos, n_grid) = (f64::from(rays), f64::from(grid * grid));
+    // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
+    // whose ray first meets surface q at y.
+    let density = |q: u32, wi: DVec3, y: DVec3| {
+        let mut d = n_cos * normal.dot(wi) * std::f64::consts::FRAC_1_PI;
+        if bright.contains(&q) {
+            let patch = &scene.surfaces[q as usize].patch;
+            d += n_grid * area_pdf(patch, wi, (y - x).length_squared());
+        }
+        for m in mirrors.iter().filter(|m| m.surface == q) {
+            d += n_grid * m.pdf(x, wi, (y - x).length());
+        }
+        d
+    };
     let mut sum = [0.0; 3];
-    // Area sampling of the bright surfaces.
+    // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
+    let mut add = |q: u32, wi: DVec3, y: DVec3| {
+        let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
+        let l = outgoing(q, y);
+        (0..3).for_each(|ch| sum[ch] += weight * l[ch]);
+    };
     for &q in bright {
         if q == surface {
             continue;
         }
-        for (wi, y, p_area) in area_samples(scene, tracer, point, q, grid, 0x3c6e_f372) {
-            let cos = normal.dot(wi);
-            let p_cos = cos * std::f64::consts::FRAC_1_PI;
-            let w = n_area * p_area / (n_area * p_area + n_cos * p_cos);
-            let l = outgoing(q, y);
-            // f·cos/pdf with f = ρ/π, over n_area samples (ρ applied below).
-            let weight = w * p_cos / p_area / n_area;
-            (0..3).for_each(|ch| sum[ch] += weight * l[ch]);
+        for (wi, y, _) in area_samples(scene, tracer, point, q, grid, 0x3c6e_f372) {
+            add(q, wi, y);
+        }
+    }
+    for (index, m) in mirrors.iter().enumerate() {
+        if m.surface == surface {
+            continue;
+        }
+        let patch = &scene.surfaces[m.surface as usize].patch;
+        let skip = |prim: u32| {
+            let h = tracer.surface_of(prim);
+            h == m.surface || h == surface
+        };
+        for k in 0..grid * grid {
+            let r = hash2(seed ^ 0x6a09_e667, (index as u64) << 32 | u64::from(k));
+            let u = DVec2::new(
+                (f64::from(k % grid) + r.x) / f64::from(grid),
+                (f64::from(k / grid) + r.y) / f64::from(grid),
+            );
+            let Some((wi, y, _)) = m.sample(patch, x, u) else {
+                continue;
+            };
+            if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
+                add(m.surface, wi, y);
+            }
         }
     }
     for k in 0..rays {
@@ -142,14 +198,7 @@ pub fn indirect_radiance(
         if hit_patch.normal().dot(dir) >= 0.0 {
             continue; // back of a one-sided surface: black
         }
-        let mut w = 1.0 / n_cos;
-        if bright.contains(&hit.surface) {
-            let p_area = area_pdf(hit_patch, dir, (hit.position - x).length_squared());
-            let p_cos = local.z * std::f64::consts::FRAC_1_PI;
-            w = p_cos / (n_area * p_area + n_cos * p_cos);
-        }
-        let l = outgoing(hit.surface, hit.position);
-        (0..3).for_each(|ch| sum[ch] += w * l[ch]);
+        add(hit.surface, dir, hit.position);
     }
     [0, 1, 2].map(|ch| rho[ch] * sum[ch])
 }
@@ -342,8 +391,120 @@ mod tests {
             normal: n,
             seed: 3,
         };
-        let l = indirect_radiance(&scene, &tracer, &point, (64, &[], 1), |_, _| [2.0; 3]);
+        let sources = GatherSources {
+            bright: &[],
+            mirrors: &[],
+            grid: 1,
+        };
+        let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| [2.0; 3]);
         assert!((l[0] - 1.0).abs() < 1e-12, "{}", l[0]);
+    }
+
+    #[test]
+    fn mirror_and_area_samples_leave_the_gather_unbiased() {
+        // A wall point facing a sharp glossy floor lit from above: light
+        // leaving the floor in a bump where it mirrors the light towards the
+        // point. Cosine rays, area samples of the floor and the light's
+        // mirror image, combined, must integrate it as a fine midpoint rule
+        // over the floor does.
+        let unit = |origin: DVec3, s: DVec3, t: DVec3| Patch::Parallelogram {
+            origin,
+            edge_s: s,
+            edge_t: t,
+        };
+        let surface = |patch, brdf, emission| Surface {
+            name: "s".into(),
+            patch,
+            brdf,
+            emission,
+        };
+        let aluminium = crate::brdf::Brdf::Ward(crate::brdf::ward::Ward {
+            variant: crate::brdf::ward::WardVariant::Ward,
+            alpha_u: 0.04,
+            alpha_v: 0.09,
+            specular_reflectance: [0.21; 3],
+            diffuse_reflectance: [0.10; 3],
+        });
+        let diffuse = crate::brdf::Brdf::diffuse([0.5; 3]);
+        let scene = Scene::from_surfaces(vec![
+            surface(unit(DVec3::ZERO, DVec3::X, DVec3::Y), aluminium, [0.0; 3]),
+            surface(
+                unit(DVec3::new(0.2, 0.3, 1.0), DVec3::Y * 0.4, DVec3::X * 0.5),
+                diffuse.clone(),
+                [1.0; 3],
+            ),
+            surface(
+                unit(DVec3::new(1.2, 0.0, 0.0), DVec3::Z, DVec3::Y),
+                diffuse,
+                [0.0; 3],
+            ),
+        ]);
+        let tracer = SceneTracer::new(&scene);
+        let x = DVec3::new(1.2, 0.5, 0.4);
+        let normal = scene.surfaces[2].patch.normal();
+        assert!((normal + DVec3::X).length() < 1e-12);
+        // The light's centre mirrored through the floor, seen from x, is
+        // at (0.986, 0.5, 0): the bump sits where the floor reflects it.
+        let centre = DVec3::new(0.95, 0.5, 0.0);
+        let bump = |y: DVec3| (-(y - centre).length_squared() / 0.005).exp();
+        let outgoing = |q: u32, y: DVec3| [if q == 0 { bump(y) } else { 0.0 }; 3];
+        let mirrors = MirrorImage::of_scene(&scene, &[0], &[1]);
+        assert_eq!(mirrors.len(), 1);
+        // Mean and standard error over `runs` seeds.
+        let estimate = |mirrors: &[MirrorImage]| {
+            let sources = GatherSources {
+                bright: &[0],
+                mirrors,
+                grid: 3,
+            };
+            let runs = 1000;
+            let (mut sum, mut sq) = (0.0, 0.0);
+            for seed in 0..runs {
+                let point = GatherPoint {
+                    surface: 2,
+                    position: x,
+                    normal,
+                    seed,
+                };
+                let v = indirect_radiance(&scene, &tracer, &point, 16, sources, outgoing)[0];
+                (sum, sq) = (sum + v, sq + v * v);
+            }
+            let mean = sum / runs as f64;
+            (
+                mean,
+                ((sq / runs as f64 - mean * mean) / runs as f64).sqrt(),
+            )
+        };
+        // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor.
+        let n = 1000;
+        let mut expect = 0.0;
+        for j in 0..n {
+            for i in 0..n {
+                let y = DVec3::new(
+                    (i as f64 + 0.5) / n as f64,
+                    (j as f64 + 0.5) / n as f64,
+                    0.0,
+                );
+                let d = y - x;
+                let r2 = d.length_squared();
+                let cos_x = normal.dot(d) / r2.sqrt();
+                let cos_y = -d.z / r2.sqrt();
+                expect += bump(y) * cos_x * cos_y / r2 / (n * n) as f64;
+            }
+        }
+        expect *= 0.5 / std::f64::consts::PI;
+        let (area_only, area_error) = estimate(&[]);
+        let (mirrored, mirror_error) = estimate(&mirrors);
+        for (mean, error) in [(area_only, area_error), (mirrored, mirror_error)] {
+            assert!(
+                (mean - expect).abs() < 4.0 * error,
+                "{mean} ± {error} vs {expect}"
+            );
+        }
+        assert!(
+            mirror_error < 0.6 * area_error,
+            "mirror images leave the noise at {mirror_error}, area samples alone {area_error}"
+        );
     }
 
     #[test]

@@ -7,6 +7,7 @@ pub mod enclosure;
 pub mod eye;
 pub mod film;
 pub mod gather;
+pub mod mirror;
 pub mod reconstruct;
 pub mod sampling;
 
@@ -17,6 +18,7 @@ use crate::{Error, Result};
 use film::{develop, Image};
 use gather::GatherPoint;
 use glam::{DVec2, DVec3};
+use mirror::MirrorImage;
 use rayon::prelude::*;
 use reconstruct::{radiance_at, Reconstruction, SmoothLookup};
 
@@ -216,6 +218,7 @@ impl Solution {
         let eye = (settings.eye && !glossy.is_empty() && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
+        let mirrors = MirrorImage::of_scene(&self.scene, &glossy, &emitters);
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
@@ -318,14 +321,20 @@ impl Solution {
                 seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1),
                 ..point
             };
-            // Bright surfaces get about as many area samples as cosine rays.
+            // Bright surfaces and mirror images get about as many samples
+            // each as there are cosine rays.
             let rays = gathering.rays(settings);
-            let bright_grid = ((f64::from(rays).sqrt().round()) as u32).max(settings.gather_grid);
+            let sources = gather::GatherSources {
+                bright: &bright,
+                mirrors: &mirrors,
+                grid: ((f64::from(rays).sqrt().round()) as u32).max(settings.gather_grid),
+            };
             let indirect = gather::indirect_radiance(
                 &self.scene,
                 &self.tracer,
                 &point,
-                (rays, &bright, bright_grid),
+                rays,
+                sources,
                 |q, y| {
                     let l = seen(q, y);
                     let e = self.scene.surfaces[q as usize].emission;
