@@ -45,7 +45,9 @@ enum Command {
         /// Of an interior pixel's camera rays, how many also final-gather,
         /// each with 4 shadow rays per emitter and 32 indirect rays (gather
         /// mode) [default: a quarter]; other pixels gather in the same
-        /// proportion, with fewer indirect rays each.
+        /// proportion, with fewer indirect rays each, and a caustic's
+        /// receivers (diffuse surfaces facing a sharp glossy surface that
+        /// mirrors an emitter) four times as much.
         #[arg(long)]
         gather_spp: Option<u32>,
         /// Outside gather mode, read glossy surfaces' radiance from the

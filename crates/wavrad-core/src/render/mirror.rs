@@ -59,6 +59,17 @@ impl MirrorImage {
         out
     }
 
+    /// Whether this image can light surface `s` by way of the glossy
+    /// surface: `s` is diffuse and faces it.
+    pub fn lights(&self, scene: &Scene, s: u32) -> bool {
+        let receiver = &scene.surfaces[s as usize];
+        let plane = &scene.surfaces[self.surface as usize].patch;
+        s != self.surface
+            && s != self.emitter
+            && receiver.is_diffuse()
+            && !faces_away(&receiver.patch, plane)
+    }
+
     /// The direction from `x` towards the image of the emitter's point at
     /// `u` ∈ \[0,1\]² (uniform by area), if that line crosses the glossy
     /// surface (`patch`, the surface's) from the front before reaching the
@@ -166,6 +177,31 @@ mod tests {
             surface("floor", floor, aluminium(), [0.0; 3]),
             surface("light", light, Brdf::diffuse([0.5; 3]), [1.0; 3]),
         ])
+    }
+
+    #[test]
+    fn an_image_lights_the_diffuse_surfaces_facing_its_reflector() {
+        let mut scene = floor_and_light();
+        let wall = |origin: DVec3, s: DVec3| Surface {
+            name: "wall".into(),
+            patch: Patch::Parallelogram {
+                origin,
+                edge_s: s,
+                edge_t: DVec3::Z,
+            },
+            brdf: Brdf::diffuse([0.5; 3]),
+            emission: [0.0; 3],
+        };
+        // Facing the floor (normal −x), then behind the floor's plane.
+        scene
+            .surfaces
+            .push(wall(DVec3::new(1.2, 1.0, 0.0), -DVec3::Y));
+        scene
+            .surfaces
+            .push(wall(DVec3::new(0.0, 0.0, -2.0), -DVec3::Y));
+        let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
+        let lit: Vec<bool> = (0..4).map(|s| image.lights(&scene, s)).collect();
+        assert_eq!(lit, [false, false, true, false]);
     }
 
     #[test]

@@ -52,6 +52,13 @@ pub struct RenderSettings {
     /// correction jumps, and its coverage needs as many rays as the
     /// solution's.
     pub gather_samples_per_pixel: u32,
+    /// How many times as many camera rays gather on a caustic's receiver: a
+    /// diffuse surface that sees a sharp glossy surface mirror an emitter
+    /// ([`mirror::is_sharp`]). All of that light reaches it through its
+    /// gathers, each sample of which evaluates the glossy reflection at one
+    /// point, so its gathers are noisier than any other surface's (Figure
+    /// 3's receiver gets nothing else).
+    pub caustic_gathers: u32,
     /// Shadow rays per emitter for each gathering camera ray: a
     /// `gather_grid` × `gather_grid` jittered grid. Bright surfaces (glossy
     /// ones and strongly lit diffuse ones) get a grid of about as many area
@@ -84,6 +91,7 @@ impl Default for RenderSettings {
             interior_samples_per_pixel: 64,
             emitter_edge_samples_per_pixel: 4096,
             gather_samples_per_pixel: 16,
+            caustic_gathers: 4,
             gather_grid: 2,
             gather_rays: 32,
             glossy_grid: 1,
@@ -219,6 +227,15 @@ impl Solution {
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
         let bright = self.secondary_sources(&glossy);
         let mirrors = MirrorImage::of_scene(&self.scene, &glossy, &emitters);
+        let caustic: Vec<bool> = (0..self.scene.surfaces.len())
+            .map(|s| mirrors.iter().any(|m| m.lights(&self.scene, s as u32)))
+            .collect();
+        let caustic_settings = RenderSettings {
+            gather_samples_per_pixel: settings
+                .gather_samples_per_pixel
+                .saturating_mul(settings.caustic_gathers),
+            ..*settings
+        };
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
@@ -313,7 +330,12 @@ impl Solution {
                 }
                 _ => smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
             };
-            let gathering = GatheringRays::new(n, settings.gathers_among(n));
+            let local = if caustic[s] {
+                &caustic_settings
+            } else {
+                settings
+            };
+            let gathering = GatheringRays::new(n, local.gathers_among(n));
             if settings.mode != Reconstruction::Gather || !gathering.contains(k) {
                 return reconstructed;
             }
@@ -323,7 +345,7 @@ impl Solution {
             };
             // Bright surfaces and mirror images get about as many samples
             // each as there are cosine rays.
-            let rays = gathering.rays(settings);
+            let rays = gathering.rays(local);
             let sources = gather::GatherSources {
                 bright: &bright,
                 mirrors: &mirrors,
