@@ -8,7 +8,7 @@ VENV   := .venv
 PYTHON := $(VENV)/bin/python
 CARGO  ?= cargo
 
-.PHONY: example build venv python test test-rust test-python lint bench bench-bvh clean bench-micro profile
+.PHONY: example build venv python test test-rust test-python lint llvm bench bench-bvh clean bench-micro profile
 
 example: build
 	mkdir -p out
@@ -43,7 +43,15 @@ lint: venv
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --exclude wavrad-py
 	$(VENV)/bin/pip install --quiet ruff && $(VENV)/bin/ruff check python tests scenes benches
 
-bench: python
+# Mitsuba's llvm_ad_rgb variant (the one a user would time) needs libLLVM >= 17;
+# Debian bookworm's is libllvm19 (as root, or set APT to "sudo apt-get").
+APT ?= apt-get
+llvm:
+	@ls /usr/lib/*/libLLVM-1[7-9]*.so* /usr/lib/*/libLLVM.so.[2-9]* >/dev/null 2>&1 \
+		|| $(APT) install -y --no-install-recommends libllvm19 \
+		|| ($(APT) update && $(APT) install -y --no-install-recommends libllvm19)
+
+bench: python llvm
 	$(VENV)/bin/pip install --quiet -r benches/requirements.txt
 	$(PYTHON) benches/benchmarks.py
 

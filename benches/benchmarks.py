@@ -197,6 +197,11 @@ class Mitsuba:
 
         self.mi, self.dr = mi, dr
         self.variant = make_references.pick_variant(mi, "auto")
+        if self.variant != "llvm_ad_rgb":
+            # scalar_rgb is many times slower than what a user would run:
+            # timing it would flatter wavrad.
+            sys.exit("benchmarks.py: Mitsuba's llvm_ad_rgb variant is unavailable (it needs "
+                     "libLLVM >= 17: `make llvm` installs Debian's libllvm19)")
         import ward_bsdf
 
         ward_bsdf.register()
