@@ -47,7 +47,7 @@ lint: venv
 # Debian bookworm's is libllvm19 (as root, or set APT to "sudo apt-get").
 APT ?= apt-get
 llvm:
-	@ls /usr/lib/*/libLLVM-1[7-9]*.so* /usr/lib/*/libLLVM.so.[2-9]* >/dev/null 2>&1 \
+	@ls /usr/lib/*/libLLVM* 2>/dev/null | grep -Eq 'libLLVM(-|\.so\.)(1[7-9]|[2-9][0-9])' \
 		|| $(APT) install -y --no-install-recommends libllvm19 \
 		|| ($(APT) update && $(APT) install -y --no-install-recommends libllvm19)
 
