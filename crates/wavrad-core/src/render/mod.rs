@@ -37,8 +37,9 @@ pub struct RenderSettings {
     /// a glossy surface, each camera ray takes proportionally more light and
     /// BRDF samples).
     pub interior_samples_per_pixel: u32,
-    /// Camera rays per pixel at the outline of an emitter (a pixel whose
-    /// probe rays, or a neighbour's, meet an emitter and something else).
+    /// Camera rays per pixel at the outline of an emitter (a pixel that
+    /// shows more than one surface, in its probe rays or its neighbours',
+    /// where some of them meet an emitter).
     /// An emitter outshines what surrounds it a hundredfold, so the sampling
     /// noise of its coverage of a pixel dominates an image's error; the
     /// extra rays cost a lookup each, because these pixels gather no more
@@ -142,8 +143,39 @@ impl RenderSettings {
 struct PixelProbe {
     /// The surface all of them meet, if they meet one.
     surface: Option<u32>,
-    /// Some meet an emitter, and some something else.
-    emitter_edge: bool,
+    /// Some meet an emitter.
+    emitter: bool,
+}
+
+/// Camera rays for pixel `(px, py)` of `film`, from what the `probes` of it
+/// and its eight neighbours meet: few where all of them show one surface,
+/// many at an edge, most at an emitter's outline.
+fn camera_rays(
+    probes: &[PixelProbe],
+    film: &Film,
+    (px, py): (usize, usize),
+    settings: &RenderSettings,
+) -> u32 {
+    let (w, h) = (film.width as usize, film.height as usize);
+    let centre = probes[py * w + px].surface;
+    let neighbours = (py.saturating_sub(1)..(py + 2).min(h))
+        .flat_map(|qy| (px.saturating_sub(1)..(px + 2).min(w)).map(move |qx| &probes[qy * w + qx]));
+    // An edge pixel is at an emitter's outline when it or a neighbour sees
+    // the emitter: the outline may run along a pixel boundary, between the
+    // probes of the pixels on either side.
+    let mut uniform = centre.is_some();
+    let mut emitter_edge = false;
+    for p in neighbours {
+        uniform &= p.surface == centre;
+        emitter_edge |= p.emitter;
+    }
+    if uniform {
+        settings.interior_samples_per_pixel
+    } else if emitter_edge {
+        settings.emitter_edge_samples_per_pixel
+    } else {
+        settings.samples_per_pixel
+    }
 }
 
 /// Which of a pixel's `n` camera rays (a √n × √n stratified grid, row by
@@ -241,26 +273,7 @@ impl Solution {
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays; those near an emitter's outline, more.
         let probes = &self.probe(camera, film);
-        let (wi, hi) = (film.width as usize, film.height as usize);
-        let samples = |px: usize, py: usize| {
-            let centre = probes[py * wi + px].surface;
-            let neighbours = (py.saturating_sub(1)..(py + 2).min(hi)).flat_map(|qy| {
-                (px.saturating_sub(1)..(px + 2).min(wi)).map(move |qx| &probes[qy * wi + qx])
-            });
-            let mut uniform = centre.is_some();
-            let mut emitter_edge = false;
-            for p in neighbours {
-                uniform &= p.surface == centre;
-                emitter_edge |= p.emitter_edge;
-            }
-            if uniform {
-                settings.interior_samples_per_pixel
-            } else if emitter_edge {
-                settings.emitter_edge_samples_per_pixel
-            } else {
-                settings.samples_per_pixel
-            }
-        };
+        let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
         // A pixel with fewer camera rays takes as many glossy samples in all.
         let glossy_grid = |n: usize| {
             let ratio = (settings.samples_per_pixel as f64 / n as f64).max(1.0);
@@ -408,7 +421,7 @@ impl Solution {
                 };
                 PixelProbe {
                     surface: if one { hits[0] } else { None },
-                    emitter_edge: !one && hits.iter().any(emitter),
+                    emitter: hits.iter().any(emitter),
                 }
             })
             .collect()
@@ -534,6 +547,41 @@ impl Solution {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_emitter_outline_on_a_pixel_boundary_gets_the_most_rays() {
+        // A 3×3 film whose top row shows an emitter (surface 1) and the rest
+        // a wall (surface 0): the outline runs between rows, so every probe
+        // of a pixel meets one surface, yet both rows are at the outline.
+        let film = Film {
+            width: 3,
+            height: 3,
+            filter: crate::scene::PixelFilter::Box,
+        };
+        let probe = |surface: u32| PixelProbe {
+            surface: Some(surface),
+            emitter: surface == 1,
+        };
+        let probes: Vec<PixelProbe> = (0..9).map(|i| probe(u32::from(i < 3))).collect();
+        let settings = RenderSettings::default();
+        let rays = |px, py| camera_rays(&probes, &film, (px, py), &settings);
+        for px in 0..3 {
+            assert_eq!(rays(px, 0), settings.emitter_edge_samples_per_pixel);
+            assert_eq!(rays(px, 1), settings.emitter_edge_samples_per_pixel);
+            assert_eq!(rays(px, 2), settings.interior_samples_per_pixel);
+        }
+        // The same outline between two walls is an ordinary edge.
+        let walls: Vec<PixelProbe> = (0..9)
+            .map(|i| PixelProbe {
+                emitter: false,
+                ..probe(u32::from(i < 3))
+            })
+            .collect();
+        assert_eq!(
+            camera_rays(&walls, &film, (1, 1), &settings),
+            settings.samples_per_pixel
+        );
+    }
 
     #[test]
     fn gathering_rays_are_as_many_as_asked_and_spread_over_rows_and_columns() {
