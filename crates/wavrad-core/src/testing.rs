@@ -1,6 +1,8 @@
 //! Scene fixtures shared by tests, examples and benchmarks.
 
-use crate::scene::{Patch, Surface};
+use crate::brdf::ward::{Ward, WardVariant};
+use crate::brdf::Brdf;
+use crate::scene::{Patch, Scene, Surface};
 use glam::DVec3;
 
 /// A non-emitting surface reflecting 50 % in every channel.
@@ -8,9 +10,46 @@ pub fn grey(patch: Patch) -> Surface {
     Surface {
         name: String::new(),
         patch,
-        brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
+        brdf: Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     }
+}
+
+/// The paper's Figure 3 reflector: Ward's rolled aluminium (Ward 1992;
+/// ρd .10, ρs .21, αx .04, αy .09).
+pub fn rolled_aluminium() -> Brdf {
+    Brdf::Ward(Ward {
+        variant: WardVariant::Ward,
+        alpha_u: 0.04,
+        alpha_v: 0.09,
+        specular_reflectance: [0.21; 3],
+        diffuse_reflectance: [0.10; 3],
+    })
+}
+
+/// A unit floor of rolled aluminium (z = 0, facing +z; surface 0) under a
+/// 0.4 × 0.5 square light of radiance 1 at z = 1 facing down (surface 1).
+pub fn mirror_floor_and_light() -> Scene {
+    let floor = Patch::Parallelogram {
+        origin: DVec3::ZERO,
+        edge_s: DVec3::X,
+        edge_t: DVec3::Y,
+    };
+    let light = Patch::Parallelogram {
+        origin: DVec3::new(0.2, 0.3, 1.0),
+        edge_s: DVec3::Y * 0.4,
+        edge_t: DVec3::X * 0.5,
+    };
+    Scene::from_surfaces(vec![
+        Surface {
+            brdf: rolled_aluminium(),
+            ..grey(floor)
+        },
+        Surface {
+            emission: [1.0; 3],
+            ..grey(light)
+        },
+    ])
 }
 
 /// The six faces of the axis-aligned box [min, max], normals pointing inward

@@ -407,38 +407,14 @@ mod tests {
         // point. Cosine rays, area samples of the floor and the light's
         // mirror image, combined, must integrate it as a fine midpoint rule
         // over the floor does.
-        let unit = |origin: DVec3, s: DVec3, t: DVec3| Patch::Parallelogram {
-            origin,
-            edge_s: s,
-            edge_t: t,
-        };
-        let surface = |patch, brdf, emission| Surface {
-            name: "s".into(),
-            patch,
-            brdf,
-            emission,
-        };
-        let aluminium = crate::brdf::Brdf::Ward(crate::brdf::ward::Ward {
-            variant: crate::brdf::ward::WardVariant::Ward,
-            alpha_u: 0.04,
-            alpha_v: 0.09,
-            specular_reflectance: [0.21; 3],
-            diffuse_reflectance: [0.10; 3],
-        });
-        let diffuse = crate::brdf::Brdf::diffuse([0.5; 3]);
-        let scene = Scene::from_surfaces(vec![
-            surface(unit(DVec3::ZERO, DVec3::X, DVec3::Y), aluminium, [0.0; 3]),
-            surface(
-                unit(DVec3::new(0.2, 0.3, 1.0), DVec3::Y * 0.4, DVec3::X * 0.5),
-                diffuse.clone(),
-                [1.0; 3],
-            ),
-            surface(
-                unit(DVec3::new(1.2, 0.0, 0.0), DVec3::Z, DVec3::Y),
-                diffuse,
-                [0.0; 3],
-            ),
-        ]);
+        let mut scene = crate::testing::mirror_floor_and_light();
+        scene
+            .surfaces
+            .push(crate::testing::grey(Patch::Parallelogram {
+                origin: DVec3::new(1.2, 0.0, 0.0),
+                edge_s: DVec3::Z,
+                edge_t: DVec3::Y,
+            }));
         let tracer = SceneTracer::new(&scene);
         let x = DVec3::new(1.2, 0.5, 0.4);
         let normal = scene.surfaces[2].patch.normal();

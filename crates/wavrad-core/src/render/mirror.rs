@@ -140,65 +140,23 @@ fn reflection(patch: &Patch) -> DMat4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::brdf::{Brdf, Ward, WardVariant};
+    use crate::brdf::{Brdf, Ward};
     use crate::render::sampling::hash2;
-
-    /// Figure 3's rolled aluminium (Ward 1992).
-    fn aluminium() -> Brdf {
-        Brdf::Ward(Ward {
-            variant: WardVariant::Ward,
-            alpha_u: 0.04,
-            alpha_v: 0.09,
-            specular_reflectance: [0.21; 3],
-            diffuse_reflectance: [0.10; 3],
-        })
-    }
-
-    /// A unit floor (rolled aluminium, z = 0, facing +z) and a square light
-    /// above it facing down.
-    fn floor_and_light() -> Scene {
-        let floor = Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        };
-        let light = Patch::Parallelogram {
-            origin: DVec3::new(0.2, 0.3, 1.0),
-            edge_s: DVec3::Y * 0.4,
-            edge_t: DVec3::X * 0.5,
-        };
-        let surface = |name: &str, patch, brdf, emission| Surface {
-            name: name.into(),
-            patch,
-            brdf,
-            emission,
-        };
-        Scene::from_surfaces(vec![
-            surface("floor", floor, aluminium(), [0.0; 3]),
-            surface("light", light, Brdf::diffuse([0.5; 3]), [1.0; 3]),
-        ])
-    }
+    use crate::testing::{grey, mirror_floor_and_light};
 
     #[test]
     fn an_image_lights_the_diffuse_surfaces_facing_its_reflector() {
-        let mut scene = floor_and_light();
-        let wall = |origin: DVec3, s: DVec3| Surface {
-            name: "wall".into(),
-            patch: Patch::Parallelogram {
+        let mut scene = mirror_floor_and_light();
+        let wall = |origin: DVec3| {
+            grey(Patch::Parallelogram {
                 origin,
-                edge_s: s,
+                edge_s: -DVec3::Y,
                 edge_t: DVec3::Z,
-            },
-            brdf: Brdf::diffuse([0.5; 3]),
-            emission: [0.0; 3],
+            })
         };
         // Facing the floor (normal −x), then behind the floor's plane.
-        scene
-            .surfaces
-            .push(wall(DVec3::new(1.2, 1.0, 0.0), -DVec3::Y));
-        scene
-            .surfaces
-            .push(wall(DVec3::new(0.0, 0.0, -2.0), -DVec3::Y));
+        scene.surfaces.push(wall(DVec3::new(1.2, 1.0, 0.0)));
+        scene.surfaces.push(wall(DVec3::new(0.0, 0.0, -2.0)));
         let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
         let lit: Vec<bool> = (0..4).map(|s| image.lights(&scene, s)).collect();
         assert_eq!(lit, [false, false, true, false]);
@@ -206,7 +164,7 @@ mod tests {
 
     #[test]
     fn only_sharp_lobes_get_mirror_images() {
-        let mut scene = floor_and_light();
+        let mut scene = mirror_floor_and_light();
         assert!(is_sharp(&scene.surfaces[0]));
         // The glossy Cornell box's floor: balanced Ward, α 0.25.
         scene.surfaces[0].brdf = Brdf::Ward(Ward {
@@ -222,7 +180,7 @@ mod tests {
 
     #[test]
     fn the_image_lies_behind_the_plane_as_far_as_the_emitter_is_in_front() {
-        let scene = floor_and_light();
+        let scene = mirror_floor_and_light();
         let images = MirrorImage::of_scene(&scene, &[0], &[1]);
         assert_eq!(images.len(), 1);
         let light = scene.surfaces[1].patch.vertices();
@@ -236,7 +194,7 @@ mod tests {
 
     #[test]
     fn sampled_directions_reflect_specularly_into_the_emitter() {
-        let scene = floor_and_light();
+        let scene = mirror_floor_and_light();
         let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
         let x = DVec3::new(0.9, 0.5, 0.4);
         let floor = &scene.surfaces[0].patch;
@@ -262,7 +220,7 @@ mod tests {
     fn the_density_integrates_to_one_over_directions() {
         // Seen from x, every direction towards the image crosses the large
         // floor: the density integrates to one over the sphere.
-        let scene = floor_and_light();
+        let scene = mirror_floor_and_light();
         let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
         let x = DVec3::new(0.4, 0.5, 0.3);
         let n = 400;
