@@ -47,7 +47,8 @@ enum Command {
         /// mode) [default: a quarter]; other pixels gather in the same
         /// proportion, with fewer indirect rays each, and a caustic's
         /// receivers (diffuse surfaces facing a sharp glossy surface that
-        /// mirrors an emitter) four times as much.
+        /// mirrors an emitter) eight times as much (as more indirect rays
+        /// per gather where there are fewer camera rays than that).
         #[arg(long)]
         gather_spp: Option<u32>,
         /// Outside gather mode, read glossy surfaces' radiance from the

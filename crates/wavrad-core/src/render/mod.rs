@@ -92,7 +92,7 @@ impl Default for RenderSettings {
             interior_samples_per_pixel: 64,
             emitter_edge_samples_per_pixel: 4096,
             gather_samples_per_pixel: 16,
-            caustic_gathers: 4,
+            caustic_gathers: 8,
             gather_grid: 2,
             gather_rays: 32,
             glossy_grid: 1,
@@ -182,16 +182,21 @@ fn camera_rays(
 /// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
 /// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
 /// near √n/φ), so that they spread over the whole pixel at any ratio.
+/// When more gathers are asked for than the pixel has camera rays, each
+/// gathering ray traces more indirect rays instead.
 struct GatheringRays {
     side: usize,
     gathers: usize,
+    /// Gathers asked for per gather made (≥ 1).
+    excess: u32,
     step: usize,
 }
 
 impl GatheringRays {
-    fn new(n: usize, gathers: u32) -> GatheringRays {
+    fn new(n: usize, wanted: u32) -> GatheringRays {
         let side = ((n as f64).sqrt().round() as usize).max(1);
-        let gathers = (gathers as usize).clamp(1, side * side);
+        let gathers = (wanted as usize).clamp(1, side * side);
+        let excess = wanted.div_ceil(gathers as u32).max(1);
         let coprime = |p: usize| {
             (1..=p.min(side))
                 .rev()
@@ -203,6 +208,7 @@ impl GatheringRays {
         GatheringRays {
             side,
             gathers,
+            excess,
             step,
         }
     }
@@ -219,10 +225,14 @@ impl GatheringRays {
     }
 
     /// Indirect rays per gathering ray: the pixel's share of `settings`'
-    /// total for an interior pixel.
+    /// total for an interior pixel, and more where the pixel has fewer
+    /// camera rays than gathers asked for.
     fn rays(&self, settings: &RenderSettings) -> u32 {
         let total = settings.gather_rays * settings.gather_samples_per_pixel;
-        (total / self.gathers as u32).clamp(settings.gather_rays.min(4), settings.gather_rays)
+        (total / self.gathers as u32).clamp(
+            settings.gather_rays.min(4),
+            settings.gather_rays * self.excess,
+        )
     }
 }
 
@@ -605,6 +615,30 @@ mod tests {
             columns.sort_unstable();
             columns.dedup();
             assert_eq!(columns.len(), expect.min(side), "n {n} gathers {gathers}");
+        }
+    }
+
+    #[test]
+    fn gathers_beyond_the_camera_rays_become_indirect_rays() {
+        let settings = RenderSettings::default();
+        let interior = settings.interior_samples_per_pixel as usize;
+        let rays = |gather_spp: u32| {
+            let local = RenderSettings {
+                gather_samples_per_pixel: gather_spp,
+                ..settings
+            };
+            let g = GatheringRays::new(interior, local.gathers_among(interior));
+            (g.gathers, g.rays(&local))
+        };
+        // Indirect rays in all: gathers × rays per gather, as asked for.
+        for gather_spp in [16, 64, 256, 1024] {
+            let (gathers, per_gather) = rays(gather_spp);
+            assert_eq!(gathers, (gather_spp as usize).min(interior));
+            assert_eq!(
+                gathers as u32 * per_gather,
+                gather_spp * settings.gather_rays,
+                "gather spp {gather_spp}"
+            );
         }
     }
 

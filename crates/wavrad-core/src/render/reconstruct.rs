@@ -6,10 +6,15 @@
 //!   basis bi-orthogonal to Haar. wavrad uses the lowest-order such pairing:
 //!   Haar averages at the leaf level read as samples at element centres and
 //!   interpolated with the linear B-spline (bilinear "hat") basis. A constant
-//!   or linear radiance is reproduced exactly, the result is continuous within
-//!   a surface, and it never leaves the range of neighbouring averages.
-//!   Near a level change the neighbours are looked up through the tree, so
-//!   mixed resolutions blend without seams.
+//!   or linear radiance is reproduced exactly, and the result is continuous
+//!   within a surface. Near a level change the neighbours are looked up
+//!   through the tree, so mixed resolutions blend without seams. Within half
+//!   an element of a parallelogram's boundary there is no centre beyond the
+//!   point to interpolate towards, so [`SmoothLookup`] extrapolates the
+//!   line through the two nearest centres (clamped at zero): a radiance
+//!   that falls off towards an edge, as it does across a directly lit
+//!   floor or towards a contact line, keeps its slope up to the edge instead
+//!   of flattening to the boundary element's average.
 
 use crate::hierarchy::ElementTree;
 use crate::scene::{Patch, Rgb};
@@ -87,14 +92,24 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
 /// lookups done once: for each quadrant of each leaf of a parallelogram the
 /// four nodes the hat stencil blends there (they are the same everywhere in
 /// the quadrant), so that a lookup descends the tree once instead of five
-/// times. Triangle trees, whose leaves do not follow the stencil's square
-/// grid, are looked up as [`radiance_at`] does.
+/// times. At the boundary the stencil is moved inwards by one element and
+/// blends with weights beyond [0, 1]: linear extrapolation. Triangle trees,
+/// whose leaves do not follow the stencil's square grid, are looked up as
+/// [`radiance_at`] does.
 #[derive(Debug, Clone, Default)]
 pub struct SmoothLookup {
     /// Per node (leaves only; empty for triangles): per quadrant
-    /// (x ≥ ½) + 2·(y ≥ ½) of the leaf, the nodes at stencil offsets
-    /// (0,0), (1,0), (0,1), (1,1).
-    neighbours: Vec<[[u32; 4]; 4]>,
+    /// (x ≥ ½) + 2·(y ≥ ½) of the leaf, the stencil.
+    neighbours: Vec<[Stencil; 4]>,
+}
+
+/// The four nodes a quadrant of a leaf blends, at offsets (0,0), (1,0),
+/// (0,1), (1,1) of the stencil, and how many elements the stencil was moved
+/// inwards along each axis (+1 at the lower boundary, −1 at the upper).
+#[derive(Debug, Clone, Copy, Default)]
+struct Stencil {
+    nodes: [u32; 4],
+    shift: [i8; 2],
 }
 
 impl SmoothLookup {
@@ -109,12 +124,25 @@ impl SmoothLookup {
             .iter()
             .map(|node| {
                 if node.first_child.is_some() {
-                    return [[0; 4]; 4];
+                    return [Stencil::default(); 4];
                 }
+                let level = node.id.level;
+                let h = 0.5f64.powi(level as i32);
                 [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)].map(|(s, t)| {
                     let uv = root.param_of(node.patch.point_at(DVec2::new(s, t)));
-                    stencil_centres(uv, node.id.level)
-                        .map(|(centre, _)| tree.locate(root.clamp_param(centre)).0)
+                    // Centres beyond the boundary: move the stencil inwards
+                    // (a level-0 tree has no second centre to move to).
+                    let lower = stencil_centres(uv, level)[0].0;
+                    let shift = [lower.x, lower.y].map(|c| match () {
+                        _ if level == 0 => 0,
+                        _ if c < 0.0 => 1,
+                        _ if c + h > 1.0 => -1,
+                        _ => 0,
+                    });
+                    let moved = uv + h * DVec2::new(f64::from(shift[0]), f64::from(shift[1]));
+                    let nodes = stencil_centres(moved, level)
+                        .map(|(centre, _)| tree.locate(root.clamp_param(centre)).0);
+                    Stencil { nodes, shift }
                 })
             })
             .collect();
@@ -129,15 +157,15 @@ impl SmoothLookup {
         }
         let (leaf, local) = tree.locate(uv);
         let (qx, qy) = (local.x >= 0.5, local.y >= 0.5);
-        let nodes = self.neighbours[leaf as usize][usize::from(qx) + 2 * usize::from(qy)];
+        let stencil = self.neighbours[leaf as usize][usize::from(qx) + 2 * usize::from(qy)];
         // Position within the stencil: half an element past the quadrant's
-        // lower-left centre.
+        // lower-left centre, less the inward move (outside [0, 1] there).
         let f = DVec2::new(
-            local.x + 0.5 - f64::from(u8::from(qx)),
-            local.y + 0.5 - f64::from(u8::from(qy)),
+            local.x + 0.5 - f64::from(u8::from(qx)) - f64::from(stencil.shift[0]),
+            local.y + 0.5 - f64::from(u8::from(qy)) - f64::from(stencil.shift[1]),
         )
-        .clamp(DVec2::ZERO, DVec2::ONE);
-        blend(nodes.map(|n| radiance[n as usize]), f)
+        .clamp(DVec2::splat(-0.5), DVec2::splat(1.5));
+        blend(stencil.nodes.map(|n| radiance[n as usize]), f).map(|v| v.max(0.0))
     }
 }
 
@@ -220,5 +248,53 @@ mod tests {
             let haar = radiance_at(&tree, &radiance, uv, Reconstruction::Haar)[0];
             assert!((haar - ((s * 8.0).floor() + 0.5) / 8.0).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn smooth_lookup_keeps_a_ramps_slope_up_to_the_boundary() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        // Level 2 everywhere, one quadrant refined to level 3 (a level
+        // change at the boundary too).
+        let mut ids = BTreeSet::new();
+        for path in 0..16u64 {
+            if path == 0 {
+                (0..4).for_each(|c| _ = ids.insert(ElementId { level: 3, path: c }));
+            } else {
+                ids.insert(ElementId { level: 2, path });
+            }
+        }
+        let tree = ElementTree::build(&root, &ids);
+        let ramp = |p: DVec3| 1.0 + 2.0 * p.x - 0.5 * p.y;
+        let radiance: Vec<Rgb> = tree
+            .nodes
+            .iter()
+            .map(|n| [ramp(n.patch.centroid()); 3])
+            .collect();
+        let lookup = SmoothLookup::new(&tree);
+        for &(s, t) in &[
+            (0.01, 0.5),
+            (0.99, 0.02),
+            (0.5, 0.999),
+            (0.0, 0.0),
+            (0.03, 0.04),
+            (1.0, 1.0),
+        ] {
+            let uv = DVec2::new(s, t);
+            let got = lookup.radiance(&tree, &radiance, uv)[0];
+            let want = ramp(DVec3::new(s, t, 0.0));
+            assert!((got - want).abs() < 1e-12, "at ({s}, {t}): {got} vs {want}");
+        }
+        // A ramp that crosses zero inside the boundary element stops at
+        // zero instead of going below it.
+        let steep: Vec<Rgb> = tree
+            .nodes
+            .iter()
+            .map(|n| [4.0 * n.patch.centroid().x - 0.2; 3])
+            .collect();
+        assert_eq!(lookup.radiance(&tree, &steep, DVec2::new(0.0, 0.5))[0], 0.0);
     }
 }
