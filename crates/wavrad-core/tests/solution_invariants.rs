@@ -52,6 +52,45 @@ fn open_scene_energy_balance_single_bounce() {
     }
     // The emitter's radiance is its emission only.
     assert_eq!(solution.radiance[1][0], [5.0; 3]);
+    // Everything the receiver reflects is a first bounce, node by node.
+    let first = solution.first_bounce().unwrap();
+    for (f, l) in first[0].iter().zip(&solution.radiance[0]) {
+        (0..3).for_each(|ch| assert!((f[ch] - l[ch]).abs() < 1e-12, "{f:?} vs {l:?}"));
+    }
+    assert!(first[1].iter().all(|f| *f == [0.0; 3]));
+}
+
+/// With a reflecting emitter the receiver's radiance has a second bounce
+/// (receiver → emitter → receiver); its first bounce is still ρ · F · Le.
+#[test]
+fn first_bounce_is_the_light_straight_from_the_emitters() {
+    let scene = Scene::from_surfaces(vec![
+        Surface {
+            name: "receiver".into(),
+            patch: square(0.0, true),
+            brdf: wavrad_core::brdf::Brdf::diffuse([0.8; 3]),
+            emission: [0.0; 3],
+        },
+        Surface {
+            name: "emitter".into(),
+            patch: square(1.0, false),
+            brdf: wavrad_core::brdf::Brdf::diffuse([0.8; 3]),
+            emission: [5.0; 3],
+        },
+    ]);
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    let first = solution.first_bounce().unwrap();
+    let f = 0.199_825_3;
+    let (first, all) = (first[0][0][0], solution.radiance[0][0][0]);
+    assert!(
+        (first - 0.8 * f * 5.0).abs() < 1e-3 * 5.0,
+        "first bounce {first}"
+    );
+    // Receiver → emitter → receiver adds about ρ²F² of the first bounce
+    // to each surface in turn (F is the same both ways here).
+    let second = all - first;
+    assert!(second > 0.5 * 0.64 * f * f * first, "{second} of {all}");
+    assert!(second < 2.0 * 0.64 * f * f * first, "{second} of {all}");
 }
 
 /// Refinement, solve and rendering give bit-identical results on 1 and 2

@@ -265,6 +265,50 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     })
 }
 
+impl Solution {
+    /// The part of every diffuse element's radiance reflected straight from
+    /// the emitters (eq. 12 with the emission as the only source, no
+    /// emission of its own): the first bounce, which a final gather
+    /// evaluates per point instead of reading it from the elements. Empty
+    /// for glossy surfaces; `None` while the solution's links are not
+    /// arranged (a shooting step in progress).
+    pub fn first_bounce(&self) -> Option<Vec<Vec<Rgb>>> {
+        let scene = &self.scene;
+        if self.interactions.incoming.len() != scene.surfaces.len() {
+            return None;
+        }
+        let emission: Vec<Vec<Rgb>> = scene
+            .surfaces
+            .iter()
+            .zip(&self.trees)
+            .map(|(s, t)| vec![s.emission; t.nodes.len()])
+            .collect();
+        let directional: Vec<Vec<Rgb>> = self
+            .interactions
+            .directional
+            .iter()
+            .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
+            .collect();
+        let bounce = scene
+            .surfaces
+            .par_iter()
+            .enumerate()
+            .map(|(p, surface)| {
+                let Some(rho) = surface.brdf.diffuse_reflectance() else {
+                    return Vec::new();
+                };
+                let tree = &self.trees[p];
+                let gathered =
+                    self.interactions
+                        .gather(p, rho, tree.nodes.len(), &emission, &directional);
+                let exposure = Some(&self.interactions.exposure[p][..]);
+                push_pull::push_pull(tree, &gathered, [0.0; 3], exposure)
+            })
+            .collect();
+        Some(bounce)
+    }
+}
+
 /// A scene the solvers accept: some surfaces, not too many.
 fn check_size(scene: &Scene) -> Result<()> {
     if scene.surfaces.is_empty() {
