@@ -12,7 +12,7 @@ pub mod three_point;
 use crate::element::AreaSample;
 use crate::scene::Patch;
 use crate::tracing::SceneTracer;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 /// Quadrature settings for kernel coefficients.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,7 +85,6 @@ pub fn throughput_samples(
     let (outer, inner) = if outer_is_a { (a, c) } else { (c, a) };
     let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
     let polygon = inner.patch.vertices();
-    let targets = inner.patch.gauss_points(q.rays);
     let skip = |prim: u32| {
         let s = tracer.surface_of(prim);
         s == a.surface || s == c.surface
@@ -100,6 +99,7 @@ pub fn throughput_samples(
             if unoccluded_ff <= 0.0 {
                 return 0.0;
             }
+            let targets = jittered_targets(inner.patch, q.rays, x.position);
             x.weight
                 * unoccluded_ff
                 * visible_fraction(tracer, (x.position, n_outer), (&polygon, &targets), skip)
@@ -144,6 +144,29 @@ pub fn visible_fraction(
     f64::from(u8::from(
         !tracer.occluder.occluded_except(x, centroid, skip),
     ))
+}
+
+/// `n` × `n` stratified points on `patch`, jittered within their strata by
+/// a hash of `from`: each outer point of a link aims its visibility rays at
+/// points of its own, so that together they sample the inner element at
+/// many places, not at the same `n` × `n` again and again.
+pub(crate) fn jittered_targets(patch: &Patch, n: usize, from: DVec3) -> Vec<AreaSample> {
+    let seed =
+        from.x.to_bits() ^ from.y.to_bits().rotate_left(21) ^ from.z.to_bits().rotate_left(42);
+    let weight = patch.area() / (n * n) as f64;
+    (0..n * n)
+        .map(|k| {
+            let r = crate::render::sampling::hash2(seed, k as u64);
+            let uv = DVec2::new(
+                ((k % n) as f64 + r.x) / n as f64,
+                ((k / n) as f64 + r.y) / n as f64,
+            );
+            AreaSample {
+                position: patch.point_at(patch.square_to_param(uv)),
+                weight,
+            }
+        })
+        .collect()
 }
 
 /// Geometric throughput T(a,c) with visibility ([`throughput_samples`] summed).

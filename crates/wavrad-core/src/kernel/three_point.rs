@@ -15,7 +15,7 @@
 //! x_i on c: `∫_c f G V dA ≈ π F V̄ · Σ_i w_i G_i f_i / Σ_i w_i G_i`, exact
 //! for a BRDF constant over c.
 
-use super::{form_factor, visible_fraction, KernelElement, Quadrature};
+use super::{form_factor, jittered_targets, visible_fraction, KernelElement, Quadrature};
 use crate::brdf::{Brdf, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb};
 use crate::tracing::SceneTracer;
@@ -79,7 +79,6 @@ impl<'a> IncidentLight<'a> {
     ) -> IncidentLight<'a> {
         let (n_a, n_c) = (a.element.patch.normal(), c.patch.normal());
         let polygon = c.patch.vertices();
-        let targets = c.patch.gauss_points(q.rays);
         let sources = c.patch.gauss_points(q.points);
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
@@ -91,6 +90,7 @@ impl<'a> IncidentLight<'a> {
             if ff <= 0.0 {
                 continue;
             }
+            let targets = jittered_targets(c.patch, q.rays, xp.position);
             let v = visible_fraction(tracer, (xp.position, n_a), (&polygon, &targets), skip);
             if v == 0.0 {
                 continue;
