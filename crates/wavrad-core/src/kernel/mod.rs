@@ -93,13 +93,14 @@ pub fn throughput_samples(
         .patch
         .gauss_points(q.points)
         .into_iter()
-        .map(|x| {
+        .enumerate()
+        .map(|(i, x)| {
             let unoccluded_ff =
                 form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
             if unoccluded_ff <= 0.0 {
                 return 0.0;
             }
-            let targets = jittered_targets(inner.patch, q.rays, x.position);
+            let targets = interleaved_targets(inner.patch, q.rays, q.points, i);
             x.weight
                 * unoccluded_ff
                 * visible_fraction(tracer, (x.position, n_outer), (&polygon, &targets), skip)
@@ -146,23 +147,20 @@ pub fn visible_fraction(
     ))
 }
 
-/// `n` × `n` stratified points on `patch`, jittered within their strata by
-/// a hash of `from`: each outer point of a link aims its visibility rays at
-/// points of its own, so that together they sample the inner element at
-/// many places, not at the same `n` × `n` again and again.
-pub(crate) fn jittered_targets(patch: &Patch, n: usize, from: DVec3) -> Vec<AreaSample> {
-    let seed =
-        from.x.to_bits() ^ from.y.to_bits().rotate_left(21) ^ from.z.to_bits().rotate_left(42);
+/// The visibility targets of outer point `i` of an `m` × `m` rule: the
+/// centres of every `m`-th cell, offset by `i`, of an `n·m` × `n·m` grid
+/// on `patch`. Each point aims its `n` × `n` rays at places of its own,
+/// spread over the whole element, and together the points of a link sample
+/// the full grid, where fixed targets would test the same lines of sight
+/// from every point.
+pub(crate) fn interleaved_targets(patch: &Patch, n: usize, m: usize, i: usize) -> Vec<AreaSample> {
+    let side = (n * m) as f64;
     let weight = patch.area() / (n * n) as f64;
     (0..n * n)
         .map(|k| {
-            let r = crate::render::sampling::hash2(seed, k as u64);
-            let uv = DVec2::new(
-                ((k % n) as f64 + r.x) / n as f64,
-                ((k / n) as f64 + r.y) / n as f64,
-            );
+            let cell = DVec2::new(((k % n) * m + i % m) as f64, ((k / n) * m + i / m) as f64);
             AreaSample {
-                position: patch.point_at(patch.square_to_param(uv)),
+                position: patch.point_at(patch.square_to_param((cell + 0.5) / side)),
                 weight,
             }
         })
@@ -180,6 +178,36 @@ mod tests {
     use crate::scene::Scene;
     use crate::testing::grey;
     use glam::DVec3;
+
+    #[test]
+    fn interleaved_targets_of_all_points_fill_the_grid_once() {
+        let patch = Patch::Parallelogram {
+            origin: DVec3::new(1.0, 0.0, 0.0),
+            edge_s: DVec3::X * 2.0,
+            edge_t: DVec3::Y,
+        };
+        let (n, m) = (2, 2);
+        let mut cells: Vec<(i64, i64)> = (0..m * m)
+            .flat_map(|i| interleaved_targets(&patch, n, m, i))
+            .map(|t| {
+                let uv = patch.param_of(t.position) * (n * m) as f64 - DVec2::splat(0.5);
+                assert!(
+                    (uv - uv.round()).length() < 1e-9,
+                    "{uv:?} is not a cell centre"
+                );
+                (uv.x.round() as i64, uv.y.round() as i64)
+            })
+            .collect();
+        cells.sort_unstable();
+        cells.dedup();
+        assert_eq!(cells.len(), 16, "every cell of the 4×4 grid, each once");
+        // One point's targets spread over the whole element, one per quadrant.
+        let quadrants: Vec<_> = interleaved_targets(&patch, n, m, 3)
+            .iter()
+            .map(|t| patch.locate_child(patch.param_of(t.position)).0)
+            .collect();
+        assert_eq!(quadrants, [0, 1, 2, 3]);
+    }
 
     #[test]
     fn occluder_between_parallel_squares_blocks_light() {

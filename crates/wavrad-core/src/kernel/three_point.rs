@@ -15,7 +15,7 @@
 //! x_i on c: `∫_c f G V dA ≈ π F V̄ · Σ_i w_i G_i f_i / Σ_i w_i G_i`, exact
 //! for a BRDF constant over c.
 
-use super::{form_factor, jittered_targets, visible_fraction, KernelElement, Quadrature};
+use super::{form_factor, interleaved_targets, visible_fraction, KernelElement, Quadrature};
 use crate::brdf::{Brdf, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb};
 use crate::tracing::SceneTracer;
@@ -85,12 +85,18 @@ impl<'a> IncidentLight<'a> {
             s == a.element.surface || s == c.surface
         };
         let mut points = Vec::new();
-        for xp in a.element.patch.gauss_points(q.points) {
+        for (i, xp) in a
+            .element
+            .patch
+            .gauss_points(q.points)
+            .into_iter()
+            .enumerate()
+        {
             let ff = form_factor::point_to_polygon(xp.position, n_a, &polygon, n_c);
             if ff <= 0.0 {
                 continue;
             }
-            let targets = jittered_targets(c.patch, q.rays, xp.position);
+            let targets = interleaved_targets(c.patch, q.rays, q.points, i);
             let v = visible_fraction(tracer, (xp.position, n_a), (&polygon, &targets), skip);
             if v == 0.0 {
                 continue;
