@@ -57,8 +57,8 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     let gather = solution.render(&RenderSettings::default()).unwrap();
     let (all, away) = errors(&gather.rgb, &reference, w as usize);
     eprintln!("gather: relRMSE {all:.4}, away from the light {away:.4}");
-    assert!(all < 0.017, "gather relRMSE {all}");
-    assert!(away < 0.017, "gather relRMSE away from the light {away}");
+    assert!(all < 0.014, "gather relRMSE {all}");
+    assert!(away < 0.014, "gather relRMSE away from the light {away}");
 
     let smooth = solution
         .render(&RenderSettings {

@@ -103,6 +103,29 @@ fn fraction(
     exposed / total
 }
 
+/// True when `element` (a part of `surface`) is partly buried: some points
+/// of a 4×4 grid over it, reaching to 1 % of its edges, are [`is_buried`]
+/// and some are not. Such an element straddles the base of a box; when its
+/// exposed part is a strip narrower than its Gauss points' inset (0.21 of
+/// the element), all of them are buried and the strip, the floor right
+/// against the box, would be lost to its links and to its exposed fraction
+/// alike.
+pub fn straddles(scene: &Scene, tracer: &SceneTracer, surface: u32, element: &Patch) -> bool {
+    const AT: [f64; 4] = [0.01, 1.0 / 3.0, 2.0 / 3.0, 0.99];
+    let root = &scene.surfaces[surface as usize].patch;
+    let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
+    let mut seen = [false; 2];
+    for k in 0..16 {
+        let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
+        let x = element.point_at(element.square_to_param(uv));
+        seen[usize::from(is_buried(scene, tracer, surface, x, normal, coincident))] = true;
+        if seen == [true; 2] {
+            return true;
+        }
+    }
+    false
+}
+
 /// Exposed fractions of the elements of the directional structures' pairs,
 /// for the three-point links of glossy surfaces: a pair (a, b) averages
 /// radiance over exposed points of both a and b.
@@ -166,6 +189,30 @@ mod tests {
         let mut surfaces = vec![grey(floor)];
         surfaces.extend(cube.iter().map(|f| grey(f.flipped())));
         Scene::from_surfaces(surfaces)
+    }
+
+    #[test]
+    fn an_element_with_a_thin_exposed_strip_straddles_the_box() {
+        let scene = floor_with_a_box();
+        let tracer = SceneTracer::new(&scene);
+        let square = |x0: f64, y0: f64, side: f64| Patch::Parallelogram {
+            origin: DVec3::new(x0, y0, 0.0),
+            edge_s: DVec3::X * side,
+            edge_t: DVec3::Y * side,
+        };
+        // [0.45, 0.95]²: exposed only in strips 0.05 wide along the box's
+        // base, narrower than its 2×2 Gauss points' inset (0.21 · 0.5), all
+        // of which are buried.
+        let thin = square(0.45, 0.45, 0.5);
+        let gauss_buried = thin
+            .gauss_points(2)
+            .iter()
+            .all(|p| is_buried(&scene, &tracer, 0, p.position, DVec3::Z, 1e-7));
+        assert!(gauss_buried);
+        assert!(straddles(&scene, &tracer, 0, &thin));
+        // Wholly under the box, wholly beside it: neither.
+        assert!(!straddles(&scene, &tracer, 0, &square(0.7, 0.7, 0.5)));
+        assert!(!straddles(&scene, &tracer, 0, &square(1.55, 0.0, 0.4)));
     }
 
     #[test]

@@ -57,7 +57,10 @@ struct Side {
 }
 
 struct PairRefiner<'a> {
+    scene: &'a Scene,
     tracer: &'a SceneTracer,
+    /// Which elements [`crate::exposure::straddles`] a contact, as found.
+    straddling: std::collections::BTreeMap<(u32, ElementId), bool>,
     settings: RefineSettings,
     /// Light carried, for the weighted oracles; `None`: the paper's oracle.
     estimate: Option<&'a LightEstimate>,
@@ -79,7 +82,7 @@ struct Verdict {
 
 impl<'a> PairRefiner<'a> {
     fn new(
-        scene: &Scene,
+        scene: &'a Scene,
         tracer: &'a SceneTracer,
         settings: RefineSettings,
         estimate: Option<&'a LightEstimate>,
@@ -92,13 +95,28 @@ impl<'a> PairRefiner<'a> {
                 .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
         };
         PairRefiner {
+            scene,
             tracer,
+            straddling: Default::default(),
             settings,
             estimate,
             reflectance: [(p, rho(sp), sp.patch.area()), (r, rho(sr), sr.patch.area())],
             scale: (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area()),
             links: Vec::new(),
         }
+    }
+
+    /// True for an element above the maximum level that straddles a
+    /// contact line: no link may keep it whole.
+    fn straddles(&mut self, side: &Side) -> bool {
+        if side.id.level >= self.settings.max_level {
+            return false;
+        }
+        let (scene, tracer) = (self.scene, self.tracer);
+        *self
+            .straddling
+            .entry((side.surface, side.id))
+            .or_insert_with(|| crate::exposure::straddles(scene, tracer, side.surface, &side.patch))
     }
 
     fn surface(&self, s: u32) -> (f64, f64) {
@@ -301,10 +319,14 @@ impl<'a> PairRefiner<'a> {
         ];
         let (children_verdict, other_verdict) = self.look_ahead(&samples, &children, split, other);
         let split_verdict = self.test(means, split, other);
-        let split_smooth = children_verdict.smooth && split_verdict.smooth;
+        // An element straddling a contact line is refined whatever its
+        // kernel (`straddles`).
+        let split_smooth =
+            children_verdict.smooth && split_verdict.smooth && !self.straddles(split);
+        let other_smooth = other_verdict.smooth && !self.straddles(other);
         // Hierarchical decomposition: keep the link here if the details pass;
         // if only the unsplit element's fail, refine it instead.
-        if split_smooth && other_verdict.smooth {
+        if split_smooth && other_smooth {
             let detail = split_verdict
                 .detail
                 .max(children_verdict.detail)
