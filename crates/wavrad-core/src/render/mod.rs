@@ -139,10 +139,10 @@ impl RenderSettings {
 }
 
 /// What gather rays read from a solution on diffuse surfaces: the smooth
-/// reconstruction of `radiance`, plus, on the surfaces marked in
-/// `first_bounce_per_point`, the light reflected straight from the
-/// `emitters` evaluated at the point hit (their `radiance` is the
-/// solution's less that first bounce, [`Solution::first_bounce`]).
+/// reconstruction of its radiance; on a surface with an entry in
+/// `beyond_first` (the solution's radiance less its first bounce,
+/// [`Solution::first_bounce`]), the smooth reconstruction of that plus the
+/// light reflected straight from the `emitters` evaluated at the point hit.
 ///
 /// A final gather's bias is the error of what its rays read. On a strongly
 /// lit diffuse surface ([`Solution::secondary_sources`]) that reflects over
@@ -153,8 +153,7 @@ impl RenderSettings {
 /// 2.1 s → 2.8 s for the same error).
 struct SolutionReader<'a> {
     smooth: &'a [SmoothLookup],
-    radiance: &'a [Vec<Rgb>],
-    first_bounce_per_point: &'a [bool],
+    beyond_first: Vec<Option<Vec<Rgb>>>,
     emitters: &'a [u32],
 }
 
@@ -301,26 +300,21 @@ impl Solution {
         let smooth: Vec<SmoothLookup> = self.trees.par_iter().map(SmoothLookup::new).collect();
         // A strongly lit diffuse surface that reflects most of the scene's
         // light shows gather rays its first bounce per point.
-        let mut per_point = vec![false; self.scene.surfaces.len()];
-        let first = self.first_bounce().unwrap_or_default();
         let power = self.reflected_power();
         let total: f64 = power.iter().sum();
-        for &s in &bright {
-            let s = s as usize;
-            per_point[s] = power[s] > 0.5 * total && first.get(s).is_some_and(|f| !f.is_empty());
-        }
-        let beyond_first: Vec<Vec<Rgb>> = (0..self.radiance.len())
-            .map(|s| match per_point[s] {
-                false => self.radiance[s].clone(),
-                true => (self.radiance[s].iter().zip(&first[s]))
-                    .map(|(b, f)| [0, 1, 2].map(|ch| b[ch] - f[ch]))
-                    .collect(),
-            })
+        let per_point: Vec<usize> = (bright.iter().map(|&s| s as usize))
+            .filter(|&s| power[s] > 0.5 * total)
             .collect();
+        let mut beyond_first = vec![None; self.scene.surfaces.len()];
+        if let (false, Some(first)) = (per_point.is_empty(), self.first_bounce()) {
+            for s in per_point.into_iter().filter(|&s| !first[s].is_empty()) {
+                let less = |(b, f): (&Rgb, &Rgb)| [0, 1, 2].map(|ch| b[ch] - f[ch]);
+                beyond_first[s] = Some(self.radiance[s].iter().zip(&first[s]).map(less).collect());
+            }
+        }
         let reader = SolutionReader {
             smooth: &smooth,
-            radiance: &beyond_first,
-            first_bounce_per_point: &per_point,
+            beyond_first,
             emitters: &emitters,
         };
         // Pixels showing one surface, as do their eight neighbours
@@ -572,10 +566,10 @@ impl Solution {
         }
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let i = q as usize;
-        let solved = reader.smooth[i].radiance(&self.trees[i], &reader.radiance[i], uv_y);
-        if !reader.first_bounce_per_point[i] {
-            return solved;
-        }
+        let Some(beyond_first) = &reader.beyond_first[i] else {
+            return reader.smooth[i].radiance(&self.trees[i], &self.radiance[i], uv_y);
+        };
+        let solved = reader.smooth[i].radiance(&self.trees[i], beyond_first, uv_y);
         let at = GatherPoint {
             surface: q,
             position: y,
