@@ -52,6 +52,19 @@ pub fn mirror_floor_and_light() -> Scene {
     ])
 }
 
+/// The centres of an `n` × `n` grid over the unit square at z = 0, row by
+/// row: the midpoint rule over a unit floor, each point worth 1/n².
+pub fn unit_square_midpoints(n: usize) -> impl Iterator<Item = DVec3> {
+    (0..n * n).map(move |k| {
+        let (i, j) = (k % n, k / n);
+        DVec3::new(
+            (i as f64 + 0.5) / n as f64,
+            (j as f64 + 0.5) / n as f64,
+            0.0,
+        )
+    })
+}
+
 /// The six faces of the axis-aligned box [min, max], normals pointing inward
 /// (a closed enclosure, as in a furnace test).
 pub fn inward_box(min: DVec3, max: DVec3) -> Vec<Patch> {

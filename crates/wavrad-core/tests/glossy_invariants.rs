@@ -7,7 +7,7 @@ use glam::DVec3;
 use wavrad_core::brdf::{Brdf, Ward, WardVariant};
 use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
 use wavrad_core::solve::{solve, Silent, Solution, SolveSettings};
-use wavrad_core::testing::inward_box;
+use wavrad_core::testing::{inward_box, unit_square_midpoints};
 
 /// Ward with no specular lobe: Lambertian, but solved as a glossy surface.
 fn lambertian_ward(rho: f64) -> Brdf {
@@ -212,17 +212,9 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
         (DVec3::new(1.0, 0.1, 0.3), "towards the wall"),
     ] {
         let d = d.normalize();
-        let mut sum = 0.0;
-        for j in 0..n {
-            for i in 0..n {
-                let y = DVec3::new(
-                    (i as f64 + 0.5) / n as f64,
-                    (j as f64 + 0.5) / n as f64,
-                    0.0,
-                );
-                sum += glossy.glossy_radiance_towards(0, y, d)[0];
-            }
-        }
+        let sum: f64 = unit_square_midpoints(n)
+            .map(|y| glossy.glossy_radiance_towards(0, y, d)[0])
+            .sum();
         let mean = sum / (n * n) as f64;
         assert!(
             (mean - expect).abs() / expect < 0.03,

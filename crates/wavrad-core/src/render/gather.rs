@@ -454,19 +454,12 @@ mod tests {
         // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor.
         let n = 1000;
         let mut expect = 0.0;
-        for j in 0..n {
-            for i in 0..n {
-                let y = DVec3::new(
-                    (i as f64 + 0.5) / n as f64,
-                    (j as f64 + 0.5) / n as f64,
-                    0.0,
-                );
-                let d = y - x;
-                let r2 = d.length_squared();
-                let cos_x = normal.dot(d) / r2.sqrt();
-                let cos_y = -d.z / r2.sqrt();
-                expect += bump(y) * cos_x * cos_y / r2 / (n * n) as f64;
-            }
+        for y in crate::testing::unit_square_midpoints(n) {
+            let d = y - x;
+            let r2 = d.length_squared();
+            let cos_x = normal.dot(d) / r2.sqrt();
+            let cos_y = -d.z / r2.sqrt();
+            expect += bump(y) * cos_x * cos_y / r2 / (n * n) as f64;
         }
         expect *= 0.5 / std::f64::consts::PI;
         let (area_only, area_error) = estimate(&[]);

@@ -222,13 +222,17 @@ mod tests {
     use glam::DVec3;
     use std::collections::BTreeSet;
 
-    #[test]
-    fn smooth_reproduces_a_linear_ramp_and_haar_is_piecewise_constant() {
-        let root = Patch::Parallelogram {
+    fn unit_square() -> Patch {
+        Patch::Parallelogram {
             origin: DVec3::ZERO,
             edge_s: DVec3::X,
             edge_t: DVec3::Y,
-        };
+        }
+    }
+
+    #[test]
+    fn smooth_reproduces_a_linear_ramp_and_haar_is_piecewise_constant() {
+        let root = unit_square();
         // Uniform level-3 tree.
         let mut ids = BTreeSet::new();
         for path in 0..64u64 {
@@ -252,11 +256,7 @@ mod tests {
 
     #[test]
     fn smooth_lookup_keeps_a_ramps_slope_up_to_the_boundary() {
-        let root = Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        };
+        let root = unit_square();
         // Level 2 everywhere, one quadrant refined to level 3 (a level
         // change at the boundary too).
         let mut ids = BTreeSet::new();
