@@ -145,6 +145,42 @@ impl<'a> PairRefiner<'a> {
         one_way((xs, x), (ys, y)).max(one_way((ys, y), (xs, x)))
     }
 
+    /// The error a link from a glossy surface makes in its diffuse
+    /// receiver, for the weighted oracles. The glossy side's radiance
+    /// towards the receiver, L_{c→a}, varies over the children of `split`
+    /// (a highlight's edge) where the kernel may not, so the detail is that
+    /// of the product of the kernel `means` and L over the children:
+    /// ρ·|c|·detail(K_k·L_k)·I. Zero where neither side is glossy.
+    fn directional_error(
+        &self,
+        e: &LightEstimate,
+        means: [f64; 4],
+        split: &Side,
+        other: &Side,
+    ) -> f64 {
+        let one_way = |receiver: &Side, source: &Side, split_receiver: bool| {
+            let (rho, _) = self.surface(receiver.surface);
+            if rho == 0.0 || self.scene.surfaces[source.surface as usize].is_diffuse() {
+                return 0.0;
+            }
+            let (_, area) = self.surface(source.surface);
+            let products: [f64; 4] = std::array::from_fn(|k| {
+                let child = split.id.child(k);
+                let l = if split_receiver {
+                    e.radiance(source.surface, source.id, receiver.surface, child)
+                } else {
+                    e.radiance(source.surface, child, receiver.surface, receiver.id)
+                };
+                means[k] * l
+            });
+            rho * area
+                * 0.25f64.powi(source.id.level as i32)
+                * average_detail(products)
+                * e.importance(receiver.surface, receiver.id)
+        };
+        one_way(split, other, true).max(one_way(other, split, false))
+    }
+
     /// The oracle on the mean kernel over the four children of `split`
     /// against `other`.
     fn test(&self, means: [f64; 4], split: &Side, other: &Side) -> Verdict {
@@ -163,7 +199,8 @@ impl<'a> PairRefiner<'a> {
                 let detail = average_detail(means);
                 let w = self.weight(e, (split.surface, split.id), (other.surface, other.id));
                 Verdict {
-                    smooth: detail * w <= threshold,
+                    smooth: detail * w <= threshold
+                        && self.directional_error(e, means, split, other) <= threshold,
                     detail,
                 }
             }
@@ -171,11 +208,15 @@ impl<'a> PairRefiner<'a> {
     }
 
     /// True when a kept link still passes the weighted oracle under a new
-    /// estimate.
+    /// estimate, as far as its stored detail tells: a link with a glossy
+    /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
         let threshold = self.settings.oracle.threshold;
+        let glossy = |s: u32| !self.scene.surfaces[s as usize].is_diffuse();
         self.estimate.is_none_or(|e| {
-            f64::from(l.detail) * self.weight(e, (l.p, l.a), (l.r, l.c)) <= threshold
+            !glossy(l.p)
+                && !glossy(l.r)
+                && f64::from(l.detail) * self.weight(e, (l.p, l.a), (l.r, l.c)) <= threshold
         })
     }
 
@@ -323,7 +364,13 @@ impl<'a> PairRefiner<'a> {
         // kernel (`straddles`).
         let split_smooth =
             children_verdict.smooth && split_verdict.smooth && !self.straddles(split);
-        let other_smooth = other_verdict.smooth && !self.straddles(other);
+        // A glossy source's light may vary over the other element's
+        // children where the quadrature did not sample the kernel: test it
+        // with the kernel taken as constant there.
+        let mean = means.iter().sum::<f64>() / 4.0;
+        let other_smooth = other_verdict.smooth
+            && (self.estimate.is_none() || self.test([mean; 4], other, split).smooth)
+            && !self.straddles(other);
         // Hierarchical decomposition: keep the link here if the details pass;
         // if only the unsplit element's fail, refine it instead.
         if split_smooth && other_smooth {
@@ -445,7 +492,11 @@ pub fn refine_links_further(
             patch: id.patch(&scene.surfaces[surface as usize].patch),
         };
         refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput);
-        refiner.links
+        match refiner.links[..] {
+            // Tested again and kept: unchanged.
+            [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],
+            _ => refiner.links,
+        }
     });
     progress.finish();
     out
@@ -579,5 +630,87 @@ mod tests {
             let t: f64 = set.iter().map(|l| l.throughput).sum();
             assert!((t - 0.415_253_7).abs() < 2e-4, "{t}");
         }
+    }
+
+    /// A glossy floor (surface 0) and a diffuse square facing it from 2
+    /// above (surface 1), with an estimate of the floor's radiance towards
+    /// the square whose four quadrants get `towards_quadrants`.
+    fn glossy_floor_lighting(towards_quadrants: [f64; 4]) -> (Scene, LightEstimate) {
+        use crate::directional::PairTree;
+        use crate::hierarchy::ElementTree;
+        use crate::solve::gather::{Directional, Interactions};
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ceiling = Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, 2.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let scene = Scene::from_surfaces(vec![
+            Surface {
+                brdf: crate::testing::rolled_aluminium(),
+                // Sets the estimate's reference radiance.
+                emission: [10.0; 3],
+                ..crate::testing::grey(floor)
+            },
+            crate::testing::grey(ceiling),
+        ]);
+        let mut tree = PairTree::default();
+        tree.insert(ElementId::ROOT, ElementId::ROOT.child(0));
+        // Node 0 is the pair of whole surfaces; 1..=4 its b children.
+        let mean = towards_quadrants.iter().sum::<f64>() / 4.0;
+        let mut values = vec![[mean; 3]];
+        for &l in &towards_quadrants {
+            values.push([l; 3]);
+        }
+        let interactions = Interactions {
+            directional: vec![Directional { p: 0, q: 1, tree }],
+            ..Interactions::default()
+        };
+        let trees = [floor, ceiling]
+            .iter()
+            .map(|p| ElementTree::build(p, &Default::default()))
+            .collect();
+        let estimate = LightEstimate::from_solution(
+            &scene,
+            trees,
+            &[vec![[0.0; 3]], vec![[0.0; 3]]],
+            &interactions,
+            &[values],
+            None,
+        );
+        (scene, estimate)
+    }
+
+    /// The same light leaves the glossy floor towards the square, evenly or
+    /// as a highlight on one quadrant: the kernel is the same, but the
+    /// weighted oracle must resolve the highlight's edges on the receiver,
+    /// and a second pass against the same estimate changes nothing.
+    #[test]
+    fn weighted_oracle_resolves_a_glossy_sources_highlight_on_its_receiver() {
+        let settings = RefineSettings {
+            oracle: KernelSmoothness { threshold: 2e-3 },
+            max_level: 3,
+            quadrature: Quadrature::default(),
+        };
+        let receiver_levels = |quadrants| {
+            let (scene, estimate) = glossy_floor_lighting(quadrants);
+            let tracer = SceneTracer::new(&scene);
+            let links = refine_links(&scene, &tracer, settings, Some(&estimate), &Silent);
+            let (again, changed) =
+                refine_links_further(&scene, &tracer, settings, &estimate, links.clone(), &Silent);
+            assert_eq!((&again, changed), (&links, 0));
+            let t: f64 = links.iter().map(|l| l.throughput).sum();
+            // Howell's parallel unit squares at distance 2.
+            assert!((t - 0.068_575).abs() < 1e-4, "{t}");
+            links.iter().map(|l| l.c.level).collect::<Vec<_>>()
+        };
+        let even = receiver_levels([2.5; 4]);
+        assert_eq!(even, [0], "the even light needs no refinement");
+        let highlight = receiver_levels([10.0, 0.0, 0.0, 0.0]);
+        assert!(highlight.iter().all(|&l| l >= 1), "{highlight:?}");
     }
 }
