@@ -38,6 +38,24 @@ def test_glossy_stats_count_three_point_nodes_and_interactions(glossy: wavrad.So
     assert stats["converged"]
 
 
+def test_three_point_receivers_refine_below_the_three_point_level(glossy: wavrad.Solution) -> None:
+    scene = wavrad.load_scene(SCENES / "glossy-cornell-box" / "scene.xml", res=16)
+    deeper = wavrad.solve(
+        scene,
+        threshold=1e-2,
+        max_level=3,
+        three_point_threshold=1e-3,
+        three_point_max_level=2,
+        three_point_receiver_levels=2,
+    ).stats
+    assert deeper["three_point_receiver_levels"] == 2
+    # Pairs whose receiver lies below level 2, and none below level 4.
+    per_level = deeper["three_point_nodes_per_level"]
+    assert len(per_level) > len(glossy.stats["three_point_nodes_per_level"])
+    assert len(per_level) <= 2 + 4 + 1
+    assert deeper["three_point_nodes"] > glossy.stats["three_point_nodes"]
+
+
 @pytest.mark.parametrize("mode", ["gather", "direct", "smooth", "haar"])
 def test_glossy_render_modes_give_finite_positive_images(
     glossy: wavrad.Solution, mode: str

@@ -120,6 +120,7 @@ def solve(
     max_level: int | None = None,
     three_point_threshold: float | None = None,
     three_point_max_level: int | None = None,
+    three_point_receiver_levels: int | None = None,
     tolerance: float | None = None,
     max_iterations: int | None = None,
     oracle: Literal["kernel", "power", "importance"] | None = None,
@@ -144,7 +145,10 @@ def solve(
     paper uses 8); ``three_point_threshold``: the oracle's threshold for
     three-point (glossy) links (kernel oracle: default 1e-4);
     ``three_point_max_level``: deepest element level of three-point (glossy)
-    links (default 2); ``tolerance``: convergence of the Gauss-Seidel sweeps
+    links (default 2); ``three_point_receiver_levels``: levels the receiving
+    element of a three-point link may go further (default 0; sharper
+    highlights on diffuse receivers for no extra ray queries);
+    ``tolerance``: convergence of the Gauss-Seidel sweeps
     (default 1e-5; when shooting, also the unshot power left, relative to
     the emitted power); ``max_iterations``: most sweeps (default 200; when
     shooting, also the most shooting steps).

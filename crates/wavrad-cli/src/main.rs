@@ -113,6 +113,11 @@ struct SolveArgs {
     /// links [default: 2].
     #[arg(long)]
     three_point_max_level: Option<u32>,
+    /// Levels the receiving element of a three-point link may go below
+    /// --three-point-max-level: sharper highlights on diffuse receivers
+    /// for no extra ray queries [default: 0].
+    #[arg(long)]
+    three_point_receiver_levels: Option<u32>,
     /// Oracle threshold of three-point (glossy) links [default: 1e-4].
     #[arg(long)]
     three_point_threshold: Option<f64>,
@@ -268,6 +273,9 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
     }
     if let Some(j) = args.three_point_max_level {
         settings.three_point_max_level = j;
+    }
+    if let Some(j) = args.three_point_receiver_levels {
+        settings.three_point_receiver_levels = j;
     }
     if let Some(t) = args.three_point_threshold {
         settings.three_point_threshold = t;

@@ -56,6 +56,8 @@ pub struct Stats {
     pub max_level: u32,
     /// Maximum element level of three-point links.
     pub three_point_max_level: u32,
+    /// Levels the receiving element of a three-point link may go further.
+    pub three_point_receiver_levels: u32,
     /// Oracle threshold of three-point links.
     pub three_point_threshold: f64,
     /// How the system was solved: `gather` (Gauss–Seidel, every kernel
@@ -127,6 +129,7 @@ impl Stats {
             threshold: settings.refine.oracle.threshold,
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,
+            three_point_receiver_levels: settings.three_point_receiver_levels,
             three_point_threshold: settings.three_point_threshold,
             solver: "gather".into(),
             shooting_steps: 0,

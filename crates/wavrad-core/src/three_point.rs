@@ -7,7 +7,8 @@
 //! ([`crate::kernel::three_point::coefficient`]); if the kernel's Haar
 //! details over them pass the oracle the link is kept at this level with the
 //! coefficient assembled from the children, else each child triple is
-//! refined in turn. Elements never go below `max_level`.
+//! refined in turn. Source and glossy elements never go below `max_level`;
+//! the receiving element may go further ([`ThreePointSettings`]).
 
 use crate::brdf::Frame;
 use crate::hierarchy::ElementId;
@@ -44,6 +45,19 @@ pub struct ThreePointLink {
     pub detail: f32,
 }
 
+/// Settings of the three-point kernel projection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThreePointSettings {
+    /// Oracle, quadrature, and the deepest level of the source and glossy
+    /// elements.
+    pub refine: RefineSettings,
+    /// Deepest level of the receiving element. Splitting only the receiver
+    /// reuses the light incident on the glossy element (no ray queries, see
+    /// [`IncidentLight`]), so a highlight's edges on a receiver can be
+    /// resolved at a fraction of the cost of a deeper `refine.max_level`.
+    pub receiver_max_level: u32,
+}
+
 /// One element of a triple being refined.
 #[derive(Debug, Clone, Copy)]
 struct Part {
@@ -65,7 +79,7 @@ impl Part {
 struct TripleRefiner<'a> {
     tracer: &'a SceneTracer,
     scene: &'a Scene,
-    settings: RefineSettings,
+    settings: ThreePointSettings,
     /// Light carried, for the weighted oracles; `None`: the paper's oracle.
     estimate: Option<&'a LightEstimate>,
     r: u32,
@@ -79,7 +93,7 @@ impl<'a> TripleRefiner<'a> {
     fn new(
         scene: &'a Scene,
         tracer: &'a SceneTracer,
-        settings: RefineSettings,
+        settings: ThreePointSettings,
         estimate: Option<&'a LightEstimate>,
         (r, p, q): (u32, u32, u32),
     ) -> Self {
@@ -101,7 +115,7 @@ impl<'a> TripleRefiner<'a> {
     fn incident<'s>(&'s self, c: &'s Part, a: &'s Part) -> IncidentLight<'s> {
         IncidentLight::new(
             self.tracer,
-            self.settings.quadrature,
+            self.settings.refine.quadrature,
             KernelElement {
                 patch: &c.patch,
                 surface: self.r,
@@ -146,13 +160,19 @@ impl<'a> TripleRefiner<'a> {
     /// tested too; the first element whose details fail is subdivided. The
     /// link is kept only when every refinable element passes.
     fn refine(&mut self, c: Part, a: Part, b: Part, known: Rgb) {
-        let max = self.settings.max_level;
         // A hypothetical receiver (the eye) is a point: never split.
         let point_receiver = self.q as usize >= self.scene.surfaces.len();
+        let max = [
+            self.settings.refine.max_level,
+            self.settings.refine.max_level,
+            if point_receiver {
+                0
+            } else {
+                self.settings.receiver_max_level
+            },
+        ];
         let parts = [c, a, b];
-        let mut order: Vec<usize> = (0..3)
-            .filter(|&i| parts[i].id.level < max && !(i == 2 && point_receiver))
-            .collect();
+        let mut order: Vec<usize> = (0..3).filter(|&i| parts[i].id.level < max[i]).collect();
         order.sort_by(|&i, &j| parts[j].patch.area().total_cmp(&parts[i].patch.area()));
         let mut kept = None;
         let mut detail = 0.0f64;
@@ -206,7 +226,7 @@ impl<'a> TripleRefiner<'a> {
         let scale = if split == 0 { 4.0 } else { 1.0 };
         let detail = average_detail(k.map(|k| scale * k.iter().fold(0.0f64, |m, &x| m.max(x))));
         (
-            detail * self.weight(e, parts) <= self.settings.oracle.threshold,
+            detail * self.weight(e, parts) <= self.settings.refine.oracle.threshold,
             detail,
         )
     }
@@ -233,6 +253,7 @@ impl<'a> TripleRefiner<'a> {
             .sum();
         let r_area = self.scene.surfaces[self.r as usize].patch.area();
         self.settings
+            .refine
             .oracle
             .accepts(means, parts[split].id.level, other_levels, r_area)
     }
@@ -267,7 +288,7 @@ pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
 pub fn refine_three_point_links(
     scene: &Scene,
     tracer: &SceneTracer,
-    settings: RefineSettings,
+    settings: ThreePointSettings,
     estimate: Option<&LightEstimate>,
     triples: &[(u32, u32, u32)],
     receiver: impl Fn(u32) -> Patch + Sync,
@@ -303,7 +324,7 @@ pub fn refine_three_point_links(
 pub fn refine_three_point_links_further(
     scene: &Scene,
     tracer: &SceneTracer,
-    settings: RefineSettings,
+    settings: ThreePointSettings,
     estimate: &LightEstimate,
     links: Vec<ThreePointLink>,
     progress: &dyn Progress,
@@ -318,7 +339,7 @@ pub fn refine_three_point_links_further(
         };
         let [c, a, b] = [part(l.r, l.c), part(l.p, l.a), part(l.q, l.b)];
         let weight = refiner.weight(estimate, &[c, a, b]);
-        if f64::from(l.detail) * weight <= settings.oracle.threshold {
+        if f64::from(l.detail) * weight <= settings.refine.oracle.threshold {
             return vec![*l];
         }
         refiner.refine(c, a, b, l.coefficient);

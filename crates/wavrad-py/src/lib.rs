@@ -179,7 +179,7 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
 /// Solve `scene`; unset settings keep the defaults of the oracle (the core
 /// defaults for the paper's kernel oracle).
 #[pyfunction]
-#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None, on_step=None))]
+#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, three_point_receiver_levels=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None, on_step=None))]
 #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
 fn solve(
     py: Python<'_>,
@@ -188,6 +188,7 @@ fn solve(
     max_level: Option<u32>,
     three_point_threshold: Option<f64>,
     three_point_max_level: Option<u32>,
+    three_point_receiver_levels: Option<u32>,
     tolerance: Option<f64>,
     max_iterations: Option<u32>,
     oracle: Option<&str>,
@@ -206,6 +207,9 @@ fn solve(
     }
     if let Some(level) = three_point_max_level {
         settings.three_point_max_level = level;
+    }
+    if let Some(levels) = three_point_receiver_levels {
+        settings.three_point_receiver_levels = levels;
     }
     if let Some(t) = three_point_threshold {
         settings.three_point_threshold = t;

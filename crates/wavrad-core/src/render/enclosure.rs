@@ -151,7 +151,7 @@ impl Solution {
         EnclosureRadiance {
             faces,
             structures,
-            depth: self.settings.receiver_refine().max_level,
+            depth: self.settings.receiver_refine().receiver_max_level,
         }
     }
 

@@ -592,7 +592,7 @@ impl Solution {
         };
         let receiver = &self.scene.surfaces[s as usize].patch;
         let uv_x = receiver.param_of(x);
-        let depth = self.settings.three_point_max_level;
+        let depth = self.settings.three_point_refine().receiver_max_level;
         let path_y = ElementId::path_to(&surface.patch, uv_y, depth);
         let tree = &self.interactions.directional[index as usize].tree;
         let values = &self.directional[index as usize];

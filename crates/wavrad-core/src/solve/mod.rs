@@ -20,6 +20,7 @@ use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
 use crate::three_point::{
     refine_three_point_links, refine_three_point_links_further, surface_triples, ThreePointLink,
+    ThreePointSettings,
 };
 use crate::tracing::SceneTracer;
 use crate::{Error, Result};
@@ -48,6 +49,14 @@ pub struct SolveSettings {
     /// Cornell box level 3 buys little error for many times the links; the
     /// `level-3` rows of `docs/benchmarks.md`); the paper uses 8 for both.
     pub three_point_max_level: u32,
+    /// Levels the receiving element of a three-point link may go below
+    /// `three_point_max_level` (default 0). Only the receiver splits there,
+    /// which costs no ray queries, and a diffuse receiver's two-point links
+    /// read the glossy surface's directional radiance at that resolution:
+    /// a highlight's edges sharpen on the receiver for a few times the
+    /// kernel time instead of the tenfold of one more level for all three
+    /// elements (`docs/figure3.md`).
+    pub three_point_receiver_levels: u32,
     /// Oracle threshold of three-point links (the paper's orthonormal
     /// normalisation). Glossy lobes concentrate light that the kernel-only
     /// oracle sees as small kernel values, so it is finer than the
@@ -499,13 +508,18 @@ impl SolveSettings {
     }
 
     /// The refinement settings of three-point links.
-    pub fn three_point_refine(&self) -> RefineSettings {
-        RefineSettings {
-            max_level: self.three_point_max_level,
-            oracle: crate::oracle::KernelSmoothness {
-                threshold: self.three_point_threshold,
+    pub fn three_point_refine(&self) -> ThreePointSettings {
+        ThreePointSettings {
+            refine: RefineSettings {
+                max_level: self.three_point_max_level,
+                oracle: crate::oracle::KernelSmoothness {
+                    threshold: self.three_point_threshold,
+                },
+                ..self.refine
             },
-            ..self.refine
+            receiver_max_level: self
+                .three_point_max_level
+                .saturating_add(self.three_point_receiver_levels),
         }
     }
 
@@ -514,10 +528,17 @@ impl SolveSettings {
     /// Such a receiver is gathered once, after the solve, so its links
     /// refine the source elements further at a cost the solve's (three
     /// surfaces' worth of elements per link) could not afford.
-    pub fn receiver_refine(&self) -> RefineSettings {
-        RefineSettings {
-            max_level: self.three_point_max_level + 1,
-            ..self.three_point_refine()
+    pub fn receiver_refine(&self) -> ThreePointSettings {
+        let ThreePointSettings {
+            refine,
+            receiver_max_level,
+        } = self.three_point_refine();
+        ThreePointSettings {
+            refine: RefineSettings {
+                max_level: refine.max_level + 1,
+                ..refine
+            },
+            receiver_max_level: receiver_max_level + 1,
         }
     }
 
@@ -537,6 +558,11 @@ impl SolveSettings {
         for (name, level) in [
             ("max level", r.max_level),
             ("three-point max level", self.three_point_max_level),
+            (
+                "three-point max level plus receiver levels",
+                self.three_point_max_level
+                    .saturating_add(self.three_point_receiver_levels),
+            ),
         ] {
             if level > 16 {
                 return Err(Error::InvalidSetting(format!(
@@ -575,6 +601,7 @@ impl Default for SolveSettings {
                 quadrature: crate::kernel::Quadrature::default(),
             },
             three_point_max_level: 2,
+            three_point_receiver_levels: 0,
             three_point_threshold: 1e-4,
             tolerance: 1e-5,
             max_iterations: 200,
