@@ -502,6 +502,107 @@ pub fn refine_links_further(
     out
 }
 
+/// Relative variation of an emitter link's kernel over its receiver's
+/// children (largest Haar detail of their mean kernel over the mean) above
+/// which [`resolve_emitter_links`] carries the link down to them.
+pub const EMITTER_LINK_VARIATION: f64 = 0.02;
+
+/// Links from an emitter carried down to the finest elements that other
+/// links made on their diffuse receivers, wherever the kernel varies over
+/// them by more than [`EMITTER_LINK_VARIATION`] of its mean.
+///
+/// The oracles test a kernel's details against a threshold in absolute
+/// units, so a small emitter's links stop coarse where its light changes
+/// fast: on the Cornell box, the light's link to the top of the back wall
+/// covered the two rows of elements below the ceiling, across which the
+/// grazing direct light falls by a factor of four, and gave both their
+/// average (the top row 2.4× too bright; the ceiling beside it, lit by that
+/// row, too bright in turn). Push–pull spreads a link's light evenly over
+/// the receiver's children; this measures it per child instead. It makes
+/// no new elements, only links to elements that `trees` (built from every
+/// link) already hold, and costs one quadrature per child tested.
+pub fn resolve_emitter_links(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    quadrature: Quadrature,
+    trees: &[crate::hierarchy::ElementTree],
+    links: &[Link],
+    progress: &dyn Progress,
+) -> (Vec<Link>, usize) {
+    let emits = |s: u32| scene.surfaces[s as usize].is_emitter();
+    let receives = |s: u32| {
+        let surface = &scene.surfaces[s as usize];
+        surface.is_diffuse() && !surface.is_emitter()
+    };
+    progress.start("emitter links", links.len() as u64);
+    let out = refine_each(links, progress, |l| {
+        // (receiver, element, emitter, element), and the link's orientation.
+        let (receiver, a, emitter, c, flipped) = match (emits(l.p), emits(l.r)) {
+            (false, true) if receives(l.p) => (l.p, l.a, l.r, l.c, false),
+            (true, false) if receives(l.r) => (l.r, l.c, l.p, l.a, true),
+            _ => return vec![*l],
+        };
+        let tree = &trees[receiver as usize];
+        let source = c.patch(&scene.surfaces[emitter as usize].patch);
+        let link = |element: ElementId, throughput: f64| {
+            let (a, c) = if flipped { (c, element) } else { (element, c) };
+            Link {
+                a,
+                c,
+                throughput,
+                ..*l
+            }
+        };
+        let mut out = Vec::new();
+        let mut stack = vec![(
+            tree.index_of(a).expect("linked element is in its tree"),
+            l.throughput,
+        )];
+        while let Some((node, throughput)) = stack.pop() {
+            let n = &tree.nodes[node as usize];
+            let Some(first) = n.first_child else {
+                out.push(link(n.id, throughput));
+                continue;
+            };
+            let children = first..first + 4;
+            let t: Vec<f64> = children
+                .clone()
+                .map(|k| {
+                    let child = &tree.nodes[k as usize].patch;
+                    kernel::throughput(
+                        tracer,
+                        quadrature,
+                        KernelElement {
+                            patch: child,
+                            surface: receiver,
+                        },
+                        KernelElement {
+                            patch: &source,
+                            surface: emitter,
+                        },
+                    )
+                })
+                .collect();
+            let means =
+                [0, 1, 2, 3].map(|k| t[k] / tree.nodes[(first + k as u32) as usize].patch.area());
+            let mean = means.iter().sum::<f64>() / 4.0;
+            if mean <= 0.0 || average_detail(means) <= EMITTER_LINK_VARIATION * mean {
+                out.push(link(n.id, throughput));
+                continue;
+            }
+            // Children in reverse so the links come out in tree order.
+            for (k, tk) in children.zip(t).rev() {
+                if tk > 0.0 {
+                    stack.push((k, tk));
+                }
+            }
+        }
+        out
+    });
+    progress.finish();
+    out
+}
+
 /// Replace every link by what `refine` makes of it, in parallel and in
 /// order; also count the links that changed.
 pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
@@ -630,6 +731,119 @@ mod tests {
             let t: f64 = set.iter().map(|l| l.throughput).sum();
             assert!((t - 0.415_253_7).abs() < 2e-4, "{t}");
         }
+    }
+
+    /// A unit floor (surface 0) under a 0.2 square light facing down at
+    /// height `h` over its corner (surface 1); the floor's tree holds its
+    /// sixteen level-2 elements, made by other links.
+    fn light_over_a_corner(h: f64) -> (Scene, Vec<crate::hierarchy::ElementTree>) {
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, h),
+            edge_s: DVec3::Y * 0.2,
+            edge_t: DVec3::X * 0.2,
+        };
+        let scene = Scene::from_surfaces(vec![
+            crate::testing::grey(floor),
+            Surface {
+                emission: [1.0; 3],
+                ..crate::testing::grey(light)
+            },
+        ]);
+        let level2 = (0..4)
+            .flat_map(|i| (0..4).map(move |j| ElementId::ROOT.child(i).child(j)))
+            .collect();
+        let trees = vec![
+            crate::hierarchy::ElementTree::build(&floor, &level2),
+            crate::hierarchy::ElementTree::build(&light, &Default::default()),
+        ];
+        (scene, trees)
+    }
+
+    /// A light close over a corner of the floor lights it unevenly: its
+    /// link to the whole floor is carried down to the floor's elements
+    /// where the light changes, and their throughputs are those of the
+    /// elements (closer to the fine quadrature than the root's). Seen from
+    /// far, the light is even: the link stays whole. Links between surfaces
+    /// that do not emit are never touched.
+    #[test]
+    fn emitter_links_are_resolved_down_to_the_receivers_elements() {
+        let q = Quadrature::default();
+        let link = |scene: &Scene, tracer: &SceneTracer| {
+            let patch = |s: usize| scene.surfaces[s].patch;
+            let t = kernel::throughput(
+                tracer,
+                q,
+                KernelElement {
+                    patch: &patch(0),
+                    surface: 0,
+                },
+                KernelElement {
+                    patch: &patch(1),
+                    surface: 1,
+                },
+            );
+            Link {
+                p: 0,
+                a: ElementId::ROOT,
+                r: 1,
+                c: ElementId::ROOT,
+                throughput: t,
+                detail: 0.0,
+            }
+        };
+        let (scene, trees) = light_over_a_corner(0.3);
+        let tracer = SceneTracer::new(&scene);
+        let root = link(&scene, &tracer);
+        let (resolved, changed) =
+            resolve_emitter_links(&scene, &tracer, q, &trees, &[root], &Silent);
+        assert_eq!(changed, 1);
+        assert!(resolved.iter().any(|l| l.a.level == 2), "{resolved:?}");
+        assert!(resolved.iter().all(|l| (l.r, l.c) == (1, ElementId::ROOT)));
+        // The links partition the floor: unoccluded, quadrature over the
+        // light against the closed form is exact for any floor element.
+        let total: f64 = resolved.iter().map(|l| l.throughput).sum();
+        assert!(
+            (total - root.throughput).abs() < 1e-9 * total,
+            "{total} vs {root:?}"
+        );
+        // The element under the light gets its share, not the average.
+        let corner = ElementId::ROOT.child(0).child(0);
+        let under = resolved
+            .iter()
+            .find(|l| l.a == corner)
+            .expect("corner link");
+        let per_area = under.throughput / (1.0 / 16.0);
+        assert!(
+            per_area > 4.0 * root.throughput,
+            "{per_area} vs {}",
+            root.throughput
+        );
+        // From far above, the light is even over the floor.
+        let (far, trees) = light_over_a_corner(50.0);
+        let tracer = SceneTracer::new(&far);
+        let root = link(&far, &tracer);
+        let (same, changed) = resolve_emitter_links(&far, &tracer, q, &trees, &[root], &Silent);
+        assert_eq!((same, changed), (vec![root], 0));
+        // No emitter: untouched.
+        let (dark, trees) = light_over_a_corner(0.3);
+        let dark = Scene::from_surfaces(
+            dark.surfaces
+                .into_iter()
+                .map(|s| Surface {
+                    emission: [0.0; 3],
+                    ..s
+                })
+                .collect(),
+        );
+        let tracer = SceneTracer::new(&dark);
+        let root = link(&dark, &tracer);
+        let (same, changed) = resolve_emitter_links(&dark, &tracer, q, &trees, &[root], &Silent);
+        assert_eq!((same, changed), (vec![root], 0));
     }
 
     /// A glossy floor (surface 0) and a diffuse square facing it from 2

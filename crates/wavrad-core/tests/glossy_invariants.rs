@@ -147,10 +147,15 @@ fn glossy_path_of_a_lambertian_brdf_matches_the_diffuse_path() {
     .unwrap();
     assert_eq!(diffuse.stats.three_point_interactions, 0);
     assert!(glossy.stats.three_point_interactions > 0);
-    // The wall's light, all of it via the floor.
+    // The wall's light, all of it via the floor. The diffuse path carries
+    // the light's links down to the floor's finest elements
+    // (`link::resolve_emitter_links`); the glossy path keeps the light
+    // averaged over the elements its three-point links stop at. That puts
+    // the diffuse wall 0.25 % darker, at maximum levels 4 to 6 alike
+    // (before that step the two agreed within 0.05 %).
     let (d, g) = (diffuse.radiance[2][0][0], glossy.radiance[2][0][0]);
     assert!(
-        d > 0.0 && (g - d).abs() / d < 0.002,
+        d > 0.0 && (g - d).abs() / d < 0.004,
         "wall: diffuse {d}, glossy {g}"
     );
     // The floor's radiance towards the wall is its diffuse radiance.

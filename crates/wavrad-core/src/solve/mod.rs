@@ -14,7 +14,9 @@ use crate::directional::PairTree;
 use crate::exposure::{exposed_fractions, PairExposure};
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::kernel::Quadrature;
-use crate::link::{refine_links, refine_links_further, Link, RefineSettings};
+use crate::link::{
+    refine_links, refine_links_further, resolve_emitter_links, Link, RefineSettings,
+};
 use crate::oracle::Oracle;
 use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
@@ -204,21 +206,29 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     times.kernels_s = clock.elapsed().as_secs_f64();
 
     // Arrange the links and solve the system they make.
+    // The emitters' links are carried down to the elements the others made
+    // (`resolve_emitter_links`), then every link is arranged and solved.
     let assemble_and_solve =
         |links: &[Link], three_point: &[ThreePointLink], times: &mut PhaseTimes| {
             let quadrature = settings.refine.quadrature;
+            let clock = Instant::now();
+            let trees = element_trees(scene, links, three_point);
+            let (resolved, _) =
+                resolve_emitter_links(scene, &tracer, quadrature, &trees, links, progress);
+            times.kernels_s += clock.elapsed().as_secs_f64();
             let mut system = System::assemble(
                 scene,
                 (&tracer, quadrature),
                 &triples,
-                links,
+                (trees, &resolved),
                 three_point,
                 times,
             );
             let sweeps = system.solve(scene, settings, progress, times);
-            (system, sweeps)
+            (system, sweeps, resolved)
         };
-    let (mut system, mut sweeps) = assemble_and_solve(&links, &three_point, &mut times);
+    let (mut system, mut sweeps, mut resolved) =
+        assemble_and_solve(&links, &three_point, &mut times);
     let mut passes = 1;
     while settings.oracle.is_weighted() && passes < settings.refine_passes {
         let clock = Instant::now();
@@ -247,14 +257,14 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        (system, sweeps) = assemble_and_solve(&links, &three_point, &mut times);
+        (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, &mut times);
     }
 
     let mut stats = Stats::new(
         scene,
         settings,
         &system.trees,
-        &links,
+        &resolved,
         (&system.interactions.directional, three_point.len()),
         (sweeps.0, sweeps.1, passes),
         times,
@@ -340,33 +350,42 @@ struct System {
     directional: Vec<Vec<Rgb>>,
 }
 
+/// The element hierarchy of every surface: the smallest trees holding every
+/// element of `links` and every source element of `three_point`.
+fn element_trees(
+    scene: &Scene,
+    links: &[Link],
+    three_point: &[ThreePointLink],
+) -> Vec<ElementTree> {
+    let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
+    for l in links {
+        ids[l.p as usize].insert(l.a);
+        ids[l.r as usize].insert(l.c);
+    }
+    for l in three_point {
+        ids[l.r as usize].insert(l.c);
+    }
+    scene
+        .surfaces
+        .iter()
+        .zip(&ids)
+        .map(|(s, ids)| ElementTree::build(&s.patch, ids))
+        .collect()
+}
+
 impl System {
-    /// Element hierarchies holding every linked element, and the
-    /// directional structures holding every linked element pair; radiance
-    /// starts at the emission.
+    /// The system over the element hierarchies `trees` (holding every
+    /// linked element, [`element_trees`]) and the directional structures
+    /// holding every linked element pair; radiance starts at the emission.
     fn assemble(
         scene: &Scene,
         (tracer, quadrature): (&SceneTracer, Quadrature),
         triples: &[(u32, u32, u32)],
-        links: &[Link],
+        (trees, links): (Vec<ElementTree>, &[Link]),
         three_point: &[ThreePointLink],
         times: &mut PhaseTimes,
     ) -> System {
         let clock = Instant::now();
-        let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
-        for l in links {
-            ids[l.p as usize].insert(l.a);
-            ids[l.r as usize].insert(l.c);
-        }
-        for l in three_point {
-            ids[l.r as usize].insert(l.c);
-        }
-        let trees: Vec<ElementTree> = scene
-            .surfaces
-            .iter()
-            .zip(&ids)
-            .map(|(s, ids)| ElementTree::build(&s.patch, ids))
-            .collect();
         let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
         // A glossy surface lit by nothing may still emit towards what it sees.
         pairs.extend(triples.iter().map(|&(r, p, _)| (p, r)));

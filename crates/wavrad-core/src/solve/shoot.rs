@@ -59,7 +59,7 @@ use super::{push_pull, Progress, Silent, Solution, SolveSettings, System};
 use crate::exposure::exposed_fractions;
 use crate::hierarchy::{ElementId, ElementTree};
 use crate::kernel::Quadrature;
-use crate::link::{linked_pairs, refine_links_further, refine_pair, Link};
+use crate::link::{linked_pairs, refine_links_further, refine_pair, resolve_emitter_links, Link};
 use crate::oracle::Oracle;
 use crate::scene::{Rgb, Scene};
 use crate::stats::{PhaseTimes, Stats};
@@ -174,10 +174,21 @@ pub fn solve_shooting(
     }
     progress.finish();
 
-    // Finish with Gauss–Seidel sweeps over the links made.
+    // Finish with Gauss–Seidel sweeps over the links made, the emitters'
+    // carried down to the elements the others made (as the gather solver
+    // does).
     let clock = Instant::now();
     let links: Vec<Link> = shooting.links().copied().collect();
     let trees: Vec<ElementTree> = shooting.states.iter().map(|s| s.tree.clone()).collect();
+    let quadrature = settings.refine.quadrature;
+    let (links, _) = resolve_emitter_links(
+        scene,
+        &solution.tracer,
+        quadrature,
+        &trees,
+        &links,
+        progress,
+    );
     let exposure = shooting.states.iter().map(|s| s.exposure.clone()).collect();
     let interactions = Interactions::new(
         scene,
