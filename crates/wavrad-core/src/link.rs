@@ -507,9 +507,9 @@ pub fn refine_links_further(
 /// which [`resolve_emitter_links`] carries the link down to them.
 pub const EMITTER_LINK_VARIATION: f64 = 0.02;
 
-/// Links from an emitter carried down to the finest elements that other
-/// links made on their diffuse receivers, wherever the kernel varies over
-/// them by more than [`EMITTER_LINK_VARIATION`] of its mean.
+/// Links from an emitter carried down their diffuse receiver's element
+/// tree, as far as `max_level`, wherever the kernel varies over the
+/// receiver's children by more than [`EMITTER_LINK_VARIATION`] of its mean.
 ///
 /// The oracles test a kernel's details against a threshold in absolute
 /// units, so a small emitter's links stop coarse where its light changes
@@ -517,15 +517,16 @@ pub const EMITTER_LINK_VARIATION: f64 = 0.02;
 /// covered the two rows of elements below the ceiling, across which the
 /// grazing direct light falls by a factor of four, and gave both their
 /// average (the top row 2.4× too bright; the ceiling beside it, lit by that
-/// row, too bright in turn). Push–pull spreads a link's light evenly over
-/// the receiver's children; this measures it per child instead. It makes
-/// no new elements, only links to elements that `trees` (built from every
-/// link) already hold, and costs one quadrature per child tested.
+/// row, too bright in turn), and the paper's settings left Figure 3's
+/// directly lit reflector a few elements. Push–pull spreads a link's light
+/// evenly over the receiver's children; this measures it per child
+/// instead, at one quadrature per child tested. The elements it reaches
+/// may be finer than any other link's: build the element trees from the
+/// links it returns.
 pub fn resolve_emitter_links(
     scene: &Scene,
     tracer: &SceneTracer,
-    quadrature: Quadrature,
-    trees: &[crate::hierarchy::ElementTree],
+    (quadrature, max_level): (Quadrature, u32),
     links: &[Link],
     progress: &dyn Progress,
 ) -> (Vec<Link>, usize) {
@@ -542,7 +543,6 @@ pub fn resolve_emitter_links(
             (true, false) if receives(l.r) => (l.r, l.c, l.p, l.a, true),
             _ => return vec![*l],
         };
-        let tree = &trees[receiver as usize];
         let source = c.patch(&scene.surfaces[emitter as usize].patch);
         let link = |element: ElementId, throughput: f64| {
             let (a, c) = if flipped { (c, element) } else { (element, c) };
@@ -554,21 +554,17 @@ pub fn resolve_emitter_links(
             }
         };
         let mut out = Vec::new();
-        let mut stack = vec![(
-            tree.index_of(a).expect("linked element is in its tree"),
-            l.throughput,
-        )];
-        while let Some((node, throughput)) = stack.pop() {
-            let n = &tree.nodes[node as usize];
-            let Some(first) = n.first_child else {
-                out.push(link(n.id, throughput));
+        let patch = a.patch(&scene.surfaces[receiver as usize].patch);
+        let mut stack = vec![(a, patch, l.throughput)];
+        while let Some((id, patch, throughput)) = stack.pop() {
+            if id.level >= max_level {
+                out.push(link(id, throughput));
                 continue;
-            };
-            let children = first..first + 4;
+            }
+            let children = patch.subdivide();
             let t: Vec<f64> = children
-                .clone()
-                .map(|k| {
-                    let child = &tree.nodes[k as usize].patch;
+                .iter()
+                .map(|child| {
                     kernel::throughput(
                         tracer,
                         quadrature,
@@ -583,17 +579,16 @@ pub fn resolve_emitter_links(
                     )
                 })
                 .collect();
-            let means =
-                [0, 1, 2, 3].map(|k| t[k] / tree.nodes[(first + k as u32) as usize].patch.area());
+            let means = [0, 1, 2, 3].map(|k| t[k] / children[k].area());
             let mean = means.iter().sum::<f64>() / 4.0;
             if mean <= 0.0 || average_detail(means) <= EMITTER_LINK_VARIATION * mean {
-                out.push(link(n.id, throughput));
+                out.push(link(id, throughput));
                 continue;
             }
             // Children in reverse so the links come out in tree order.
-            for (k, tk) in children.zip(t).rev() {
+            for (k, tk) in (0..4).zip(t).rev() {
                 if tk > 0.0 {
-                    stack.push((k, tk));
+                    stack.push((id.child(k), children[k], tk));
                 }
             }
         }
@@ -734,9 +729,8 @@ mod tests {
     }
 
     /// A unit floor (surface 0) under a 0.2 square light facing down at
-    /// height `h` over its corner (surface 1); the floor's tree holds its
-    /// sixteen level-2 elements, made by other links.
-    fn light_over_a_corner(h: f64) -> (Scene, Vec<crate::hierarchy::ElementTree>) {
+    /// height `h` over its corner (surface 1).
+    fn light_over_a_corner(h: f64) -> Scene {
         let floor = Patch::Parallelogram {
             origin: DVec3::ZERO,
             edge_s: DVec3::X,
@@ -747,29 +741,20 @@ mod tests {
             edge_s: DVec3::Y * 0.2,
             edge_t: DVec3::X * 0.2,
         };
-        let scene = Scene::from_surfaces(vec![
+        Scene::from_surfaces(vec![
             crate::testing::grey(floor),
             Surface {
                 emission: [1.0; 3],
                 ..crate::testing::grey(light)
             },
-        ]);
-        let level2 = (0..4)
-            .flat_map(|i| (0..4).map(move |j| ElementId::ROOT.child(i).child(j)))
-            .collect();
-        let trees = vec![
-            crate::hierarchy::ElementTree::build(&floor, &level2),
-            crate::hierarchy::ElementTree::build(&light, &Default::default()),
-        ];
-        (scene, trees)
+        ])
     }
 
     /// A light close over a corner of the floor lights it unevenly: its
-    /// link to the whole floor is carried down to the floor's elements
-    /// where the light changes, and their throughputs are those of the
-    /// elements (closer to the fine quadrature than the root's). Seen from
-    /// far, the light is even: the link stays whole. Links between surfaces
-    /// that do not emit are never touched.
+    /// link to the whole floor is carried down to level-2 elements where
+    /// the light changes, and they share its throughput as the light sends
+    /// it. Seen from far, the light is even: the link stays whole. Links
+    /// between surfaces that do not emit are never touched.
     #[test]
     fn emitter_links_are_resolved_down_to_the_receivers_elements() {
         let q = Quadrature::default();
@@ -796,13 +781,16 @@ mod tests {
                 detail: 0.0,
             }
         };
-        let (scene, trees) = light_over_a_corner(0.3);
+        let resolve = |scene: &Scene, tracer: &SceneTracer, link: Link| {
+            resolve_emitter_links(scene, tracer, (q, 2), &[link], &Silent)
+        };
+        let scene = light_over_a_corner(0.3);
         let tracer = SceneTracer::new(&scene);
         let root = link(&scene, &tracer);
-        let (resolved, changed) =
-            resolve_emitter_links(&scene, &tracer, q, &trees, &[root], &Silent);
+        let (resolved, changed) = resolve(&scene, &tracer, root);
         assert_eq!(changed, 1);
         assert!(resolved.iter().any(|l| l.a.level == 2), "{resolved:?}");
+        assert!(resolved.iter().all(|l| l.a.level <= 2), "{resolved:?}");
         assert!(resolved.iter().all(|l| (l.r, l.c) == (1, ElementId::ROOT)));
         // The links partition the floor: unoccluded, quadrature over the
         // light against the closed form is exact for any floor element.
@@ -824,13 +812,13 @@ mod tests {
             root.throughput
         );
         // From far above, the light is even over the floor.
-        let (far, trees) = light_over_a_corner(50.0);
+        let far = light_over_a_corner(50.0);
         let tracer = SceneTracer::new(&far);
         let root = link(&far, &tracer);
-        let (same, changed) = resolve_emitter_links(&far, &tracer, q, &trees, &[root], &Silent);
+        let (same, changed) = resolve(&far, &tracer, root);
         assert_eq!((same, changed), (vec![root], 0));
         // No emitter: untouched.
-        let (dark, trees) = light_over_a_corner(0.3);
+        let dark = light_over_a_corner(0.3);
         let dark = Scene::from_surfaces(
             dark.surfaces
                 .into_iter()
@@ -842,7 +830,7 @@ mod tests {
         );
         let tracer = SceneTracer::new(&dark);
         let root = link(&dark, &tracer);
-        let (same, changed) = resolve_emitter_links(&dark, &tracer, q, &trees, &[root], &Silent);
+        let (same, changed) = resolve(&dark, &tracer, root);
         assert_eq!((same, changed), (vec![root], 0));
     }
 

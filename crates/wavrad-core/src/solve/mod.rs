@@ -206,15 +206,16 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     times.kernels_s = clock.elapsed().as_secs_f64();
 
     // Arrange the links and solve the system they make.
-    // The emitters' links are carried down to the elements the others made
+    // The emitters' links are carried down to where their light changes
     // (`resolve_emitter_links`), then every link is arranged and solved.
     let assemble_and_solve =
         |links: &[Link], three_point: &[ThreePointLink], times: &mut PhaseTimes| {
             let quadrature = settings.refine.quadrature;
             let clock = Instant::now();
-            let trees = element_trees(scene, links, three_point);
+            let max_level = settings.refine.max_level;
             let (resolved, _) =
-                resolve_emitter_links(scene, &tracer, quadrature, &trees, links, progress);
+                resolve_emitter_links(scene, &tracer, (quadrature, max_level), links, progress);
+            let trees = element_trees(scene, &resolved, three_point);
             times.kernels_s += clock.elapsed().as_secs_f64();
             let mut system = System::assemble(
                 scene,

@@ -175,39 +175,23 @@ pub fn solve_shooting(
     progress.finish();
 
     // Finish with Gauss–Seidel sweeps over the links made, the emitters'
-    // carried down to the elements the others made (as the gather solver
-    // does).
+    // carried down to where their light changes (as the gather solver does:
+    // that may make new elements, so the system is assembled anew and its
+    // sweeps start from the emission).
     let clock = Instant::now();
     let links: Vec<Link> = shooting.links().copied().collect();
-    let trees: Vec<ElementTree> = shooting.states.iter().map(|s| s.tree.clone()).collect();
-    let quadrature = settings.refine.quadrature;
-    let (links, _) = resolve_emitter_links(
+    let levels = (settings.refine.quadrature, settings.refine.max_level);
+    let (links, _) = resolve_emitter_links(scene, &solution.tracer, levels, &links, progress);
+    let trees = super::element_trees(scene, &links, &[]);
+    shooting.times.kernels_s += clock.elapsed().as_secs_f64();
+    let mut system = System::assemble(
         scene,
-        &solution.tracer,
-        quadrature,
-        &trees,
-        &links,
-        progress,
+        (&solution.tracer, settings.refine.quadrature),
+        &[],
+        (trees, &links),
+        &[],
+        &mut shooting.times,
     );
-    let exposure = shooting.states.iter().map(|s| s.exposure.clone()).collect();
-    let interactions = Interactions::new(
-        scene,
-        (&trees, exposure),
-        &links,
-        (&[], &Default::default()),
-        Vec::new(),
-    );
-    shooting.times.hierarchy_s += clock.elapsed().as_secs_f64();
-    let mut system = System {
-        trees,
-        interactions,
-        radiance: shooting
-            .states
-            .iter_mut()
-            .map(|s| std::mem::take(&mut s.radiance))
-            .collect(),
-        directional: Vec::new(),
-    };
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
     solution.stats = shooting.stats(&system.trees, sweeps);
     solution.trees = system.trees;
