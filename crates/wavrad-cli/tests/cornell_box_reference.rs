@@ -45,6 +45,21 @@ fn errors(image: &[f32], reference: &[f32], width: usize) -> (f64, f64) {
     (all, (sq / n as f64).sqrt() / mean)
 }
 
+/// relRMSE of `solution`'s `direct` render of `scene` against `reference`.
+fn direct_error(
+    solution: &wavrad_core::solve::Solution,
+    scene: &wavrad_core::scene::Scene,
+    reference: &[f32],
+) -> f64 {
+    let image = solution
+        .render(&RenderSettings {
+            mode: Reconstruction::Direct,
+            ..RenderSettings::for_scene(scene)
+        })
+        .unwrap();
+    wavrad_io::relative_rmse(&image.rgb, reference)
+}
+
 #[test]
 fn cornell_box_matches_mitsuba_path_tracer() {
     let scene = wavrad_io::load_scene(&repo().join("scenes/cornell-box/scene.xml")).unwrap();
@@ -162,13 +177,7 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
         if name == "diffuse" {
             // The directly lit reflector's elements follow the emitter's
             // light (`link::resolve_emitter_links`): direct mode is close.
-            let direct = solution
-                .render(&RenderSettings {
-                    mode: Reconstruction::Direct,
-                    ..RenderSettings::for_scene(&scene)
-                })
-                .unwrap();
-            let error = wavrad_io::relative_rmse(&direct.rgb, &reference);
+            let error = direct_error(&solution, &scene, &reference);
             eprintln!("figure 3 diffuse, direct: relRMSE {error:.4}");
             assert!(error < 0.025, "diffuse, direct: relRMSE {error}");
         }
@@ -192,13 +201,7 @@ fn figure3_highlight_is_resolved_in_direct_mode() {
     settings.three_point_max_level = 3;
     settings.three_point_receiver_levels = 1;
     let solution = solve(&scene, &settings, &Silent).unwrap();
-    let image = solution
-        .render(&RenderSettings {
-            mode: Reconstruction::Direct,
-            ..RenderSettings::for_scene(&scene)
-        })
-        .unwrap();
-    let error = wavrad_io::relative_rmse(&image.rgb, &reference);
+    let error = direct_error(&solution, &scene, &reference);
     eprintln!("figure 3 specular, direct: relRMSE {error:.4}");
     assert!(error < 0.05, "relRMSE {error}");
 }

@@ -731,11 +731,7 @@ mod tests {
     /// A unit floor (surface 0) under a 0.2 square light facing down at
     /// height `h` over its corner (surface 1).
     fn light_over_a_corner(h: f64) -> Scene {
-        let floor = Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        };
+        let floor = crate::testing::unit_floor();
         let light = Patch::Parallelogram {
             origin: DVec3::new(0.0, 0.0, h),
             edge_s: DVec3::Y * 0.2,
@@ -841,11 +837,7 @@ mod tests {
         use crate::directional::PairTree;
         use crate::hierarchy::ElementTree;
         use crate::solve::gather::{Directional, Interactions};
-        let floor = Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        };
+        let floor = crate::testing::unit_floor();
         let ceiling = Patch::Parallelogram {
             origin: DVec3::new(0.0, 0.0, 2.0),
             edge_s: DVec3::Y,

@@ -27,14 +27,19 @@ pub fn rolled_aluminium() -> Brdf {
     })
 }
 
-/// A unit floor of rolled aluminium (z = 0, facing +z; surface 0) under a
-/// 0.4 × 0.5 square light of radiance 1 at z = 1 facing down (surface 1).
-pub fn mirror_floor_and_light() -> Scene {
-    let floor = Patch::Parallelogram {
+/// The unit square at z = 0, facing +z: a floor.
+pub fn unit_floor() -> Patch {
+    Patch::Parallelogram {
         origin: DVec3::ZERO,
         edge_s: DVec3::X,
         edge_t: DVec3::Y,
-    };
+    }
+}
+
+/// A unit floor of rolled aluminium (z = 0, facing +z; surface 0) under a
+/// 0.4 × 0.5 square light of radiance 1 at z = 1 facing down (surface 1).
+pub fn mirror_floor_and_light() -> Scene {
+    let floor = unit_floor();
     let light = Patch::Parallelogram {
         origin: DVec3::new(0.2, 0.3, 1.0),
         edge_s: DVec3::Y * 0.4,

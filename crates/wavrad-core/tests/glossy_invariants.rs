@@ -7,7 +7,7 @@ use glam::DVec3;
 use wavrad_core::brdf::{Brdf, Ward, WardVariant};
 use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
 use wavrad_core::solve::{solve, Silent, Solution, SolveSettings};
-use wavrad_core::testing::{inward_box, unit_square_midpoints};
+use wavrad_core::testing::{inward_box, unit_floor, unit_square_midpoints};
 
 /// Ward with no specular lobe: Lambertian, but solved as a glossy surface.
 fn lambertian_ward(rho: f64) -> Brdf {
@@ -41,11 +41,7 @@ fn surface(patch: Patch, brdf: Brdf, emission: Rgb) -> Surface {
 /// A unit floor with `floor_brdf`, lit by a square light above it and seen
 /// by a grey wall along one edge; open elsewhere.
 fn floor_light_wall(floor_brdf: Brdf) -> Scene {
-    let floor = Patch::Parallelogram {
-        origin: DVec3::ZERO,
-        edge_s: DVec3::X,
-        edge_t: DVec3::Y,
-    };
+    let floor = unit_floor();
     let light = Patch::Parallelogram {
         origin: DVec3::new(0.1, 0.2, 0.8),
         edge_s: DVec3::Y * 0.5,

@@ -218,21 +218,12 @@ pub fn hat_stencil(uv: DVec2, level: u32) -> impl Iterator<Item = (DVec2, f64)> 
 mod tests {
     use super::*;
     use crate::hierarchy::ElementId;
-    use crate::scene::Patch;
     use glam::DVec3;
     use std::collections::BTreeSet;
 
-    fn unit_square() -> Patch {
-        Patch::Parallelogram {
-            origin: DVec3::ZERO,
-            edge_s: DVec3::X,
-            edge_t: DVec3::Y,
-        }
-    }
-
     #[test]
     fn smooth_reproduces_a_linear_ramp_and_haar_is_piecewise_constant() {
-        let root = unit_square();
+        let root = crate::testing::unit_floor();
         // Uniform level-3 tree.
         let mut ids = BTreeSet::new();
         for path in 0..64u64 {
@@ -256,7 +247,7 @@ mod tests {
 
     #[test]
     fn smooth_lookup_keeps_a_ramps_slope_up_to_the_boundary() {
-        let root = unit_square();
+        let root = crate::testing::unit_floor();
         // Level 2 everywhere, one quadrant refined to level 3 (a level
         // change at the boundary too).
         let mut ids = BTreeSet::new();

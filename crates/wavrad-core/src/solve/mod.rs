@@ -205,9 +205,9 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     );
     times.kernels_s = clock.elapsed().as_secs_f64();
 
-    // Arrange the links and solve the system they make.
-    // The emitters' links are carried down to where their light changes
-    // (`resolve_emitter_links`), then every link is arranged and solved.
+    // Carry the emitters' links down to where their light changes
+    // (`resolve_emitter_links`), then arrange the links and solve the
+    // system they make.
     let assemble_and_solve =
         |links: &[Link], three_point: &[ThreePointLink], times: &mut PhaseTimes| {
             let quadrature = settings.refine.quadrature;
