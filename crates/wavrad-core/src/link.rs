@@ -728,24 +728,6 @@ mod tests {
         }
     }
 
-    /// A unit floor (surface 0) under a 0.2 square light facing down at
-    /// height `h` over its corner (surface 1).
-    fn light_over_a_corner(h: f64) -> Scene {
-        let floor = crate::testing::unit_floor();
-        let light = Patch::Parallelogram {
-            origin: DVec3::new(0.0, 0.0, h),
-            edge_s: DVec3::Y * 0.2,
-            edge_t: DVec3::X * 0.2,
-        };
-        Scene::from_surfaces(vec![
-            crate::testing::grey(floor),
-            Surface {
-                emission: [1.0; 3],
-                ..crate::testing::grey(light)
-            },
-        ])
-    }
-
     /// A light close over a corner of the floor lights it unevenly: its
     /// link to the whole floor is carried down to level-2 elements where
     /// the light changes, and they share its throughput as the light sends
@@ -780,7 +762,7 @@ mod tests {
         let resolve = |scene: &Scene, tracer: &SceneTracer, link: Link| {
             resolve_emitter_links(scene, tracer, (q, 2), &[link], &Silent)
         };
-        let scene = light_over_a_corner(0.3);
+        let scene = crate::testing::light_over_a_corner(0.3);
         let tracer = SceneTracer::new(&scene);
         let root = link(&scene, &tracer);
         let (resolved, changed) = resolve(&scene, &tracer, root);
@@ -808,13 +790,13 @@ mod tests {
             root.throughput
         );
         // From far above, the light is even over the floor.
-        let far = light_over_a_corner(50.0);
+        let far = crate::testing::light_over_a_corner(50.0);
         let tracer = SceneTracer::new(&far);
         let root = link(&far, &tracer);
         let (same, changed) = resolve(&far, &tracer, root);
         assert_eq!((same, changed), (vec![root], 0));
         // No emitter: untouched.
-        let dark = light_over_a_corner(0.3);
+        let dark = crate::testing::light_over_a_corner(0.3);
         let dark = Scene::from_surfaces(
             dark.surfaces
                 .into_iter()

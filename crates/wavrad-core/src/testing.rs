@@ -36,6 +36,23 @@ pub fn unit_floor() -> Patch {
     }
 }
 
+/// A grey unit floor (surface 0) under a 0.2 square light of radiance 1
+/// facing down at height `h` over its corner (surface 1).
+pub fn light_over_a_corner(h: f64) -> Scene {
+    let light = Patch::Parallelogram {
+        origin: DVec3::new(0.0, 0.0, h),
+        edge_s: DVec3::Y * 0.2,
+        edge_t: DVec3::X * 0.2,
+    };
+    Scene::from_surfaces(vec![
+        grey(unit_floor()),
+        Surface {
+            emission: [1.0; 3],
+            ..grey(light)
+        },
+    ])
+}
+
 /// A unit floor of rolled aluminium (z = 0, facing +z; surface 0) under a
 /// 0.4 × 0.5 square light of radiance 1 at z = 1 facing down (surface 1).
 pub fn mirror_floor_and_light() -> Scene {

@@ -95,6 +95,31 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
 
 /// Refinement, solve and rendering give bit-identical results on 1 and 2
 /// threads, diffuse and glossy (two- and three-point links, the eye).
+/// Whatever the oracle and however many refine–solve passes run, the
+/// solution returned has its emitter links resolved down to the elements
+/// where their light changes: a light close over a floor's corner makes the
+/// floor's elements under it at the maximum level, even with an oracle
+/// threshold so loose that it refines nothing itself.
+#[test]
+fn every_solution_has_its_emitter_links_resolved() {
+    let scene = wavrad_core::testing::light_over_a_corner(0.3);
+    for (oracle, passes) in [
+        (Oracle::Kernel, 1),
+        (Oracle::Power, 1),
+        (Oracle::Power, 2),
+        (Oracle::Power, 4),
+    ] {
+        let mut settings = SolveSettings {
+            refine_passes: passes,
+            ..SolveSettings::for_oracle(oracle)
+        };
+        settings.refine.oracle.threshold = 1e9;
+        settings.refine.max_level = 3;
+        let solution = solve(&scene, &settings, &Silent).unwrap();
+        assert_eq!(solution.trees[0].depth(), 3, "{oracle:?}, {passes} passes");
+    }
+}
+
 #[test]
 fn results_do_not_depend_on_thread_count() {
     let mut surfaces: Vec<Surface> =

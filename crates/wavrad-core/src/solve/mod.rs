@@ -207,14 +207,19 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 
     // Carry the emitters' links down to where their light changes
     // (`resolve_emitter_links`), then arrange the links and solve the
-    // system they make.
+    // system they make. The refine–solve loop's intermediate solutions only
+    // estimate where light flows, so they skip the resolution; the solution
+    // returned always has it.
     let assemble_and_solve =
-        |links: &[Link], three_point: &[ThreePointLink], times: &mut PhaseTimes| {
+        |links: &[Link], three_point: &[ThreePointLink], resolve: bool, times: &mut PhaseTimes| {
             let quadrature = settings.refine.quadrature;
             let clock = Instant::now();
             let max_level = settings.refine.max_level;
-            let (resolved, _) =
-                resolve_emitter_links(scene, &tracer, (quadrature, max_level), links, progress);
+            let resolved = if resolve {
+                resolve_emitter_links(scene, &tracer, (quadrature, max_level), links, progress).0
+            } else {
+                links.to_vec()
+            };
             let trees = element_trees(scene, &resolved, three_point);
             times.kernels_s += clock.elapsed().as_secs_f64();
             let mut system = System::assemble(
@@ -228,10 +233,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
+    let looping = settings.oracle.is_weighted() && settings.refine_passes > 1;
     let (mut system, mut sweeps, mut resolved) =
-        assemble_and_solve(&links, &three_point, &mut times);
+        assemble_and_solve(&links, &three_point, !looping, &mut times);
     let mut passes = 1;
-    while settings.oracle.is_weighted() && passes < settings.refine_passes {
+    let mut final_system = !looping;
+    while looping && passes < settings.refine_passes {
         let clock = Instant::now();
         let estimate = LightEstimate::from_solution(
             scene,
@@ -258,7 +265,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, &mut times);
+        final_system = passes == settings.refine_passes;
+        (system, sweeps, resolved) =
+            assemble_and_solve(&links, &three_point, final_system, &mut times);
+    }
+    if !final_system {
+        (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
     let mut stats = Stats::new(
