@@ -12,10 +12,10 @@
 use crate::brdf::BrdfModel;
 use crate::kernel::form_factor::point_to_polygon;
 use crate::render::mirror::MirrorImage;
-use crate::render::sampling::hash2;
+use crate::render::sampling::Samples;
 use crate::scene::{Rgb, Scene};
 use crate::tracing::SceneTracer;
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 /// A visible point where light is gathered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,8 +26,8 @@ pub struct GatherPoint {
     pub position: DVec3,
     /// Front normal of the surface.
     pub normal: DVec3,
-    /// Decorrelates the ray jitter between camera samples.
-    pub seed: u64,
+    /// Where its estimates draw their sample points.
+    pub samples: Samples,
 }
 
 /// Direct radiance reflected at `point` towards any direction, from every
@@ -43,7 +43,7 @@ pub fn direct_radiance(
         surface,
         position: x,
         normal,
-        seed,
+        samples,
     } = *point;
     let rho = diffuse_reflectance(scene, surface);
     let mut out = [0.0; 3];
@@ -61,21 +61,15 @@ pub fn direct_radiance(
             s == e || s == surface
         };
         let (mut seen, mut total) = (0u32, 0u32);
-        for j in 0..grid {
-            for i in 0..grid {
-                let r = hash2(seed, u64::from(e) << 32 | u64::from(j * grid + i));
-                let uv = DVec2::new(
-                    (i as f64 + r.x) / grid as f64,
-                    (j as f64 + r.y) / grid as f64,
-                );
-                let y = light.patch.point_at(light.patch.square_to_param(uv));
-                if normal.dot(y - x) <= 0.0 {
-                    continue;
-                }
-                total += 1;
-                if !tracer.occluder.occluded_except(x, y, skip) {
-                    seen += 1;
-                }
+        for k in 0..grid * grid {
+            let uv = samples.point(u64::from(e) << 32, grid * grid, k);
+            let y = light.patch.point_at(light.patch.square_to_param(uv));
+            if normal.dot(y - x) <= 0.0 {
+                continue;
+            }
+            total += 1;
+            if !tracer.occluder.occluded_except(x, y, skip) {
+                seen += 1;
             }
         }
         if total > 0 {
@@ -121,7 +115,7 @@ pub fn indirect_radiance(
         surface,
         position: x,
         normal,
-        seed,
+        samples,
     } = *point;
     let GatherSources {
         bright,
@@ -169,11 +163,7 @@ pub fn indirect_radiance(
             h == m.surface || h == surface
         };
         for k in 0..grid * grid {
-            let r = hash2(seed ^ 0x6a09_e667, (index as u64) << 32 | u64::from(k));
-            let u = DVec2::new(
-                (f64::from(k % grid) + r.x) / f64::from(grid),
-                (f64::from(k / grid) + r.y) / f64::from(grid),
-            );
+            let u = samples.point(0x6a09_e667 ^ (index as u64) << 32, grid * grid, k);
             let Some((wi, y, _)) = m.sample(patch, x, u) else {
                 continue;
             };
@@ -183,10 +173,8 @@ pub fn indirect_radiance(
         }
     }
     for k in 0..rays {
-        // Stratified in the first dimension, cosine-weighted (Malley).
-        let r = hash2(seed ^ 0x5bd1_e995, u64::from(k));
-        let u1 = (k as f64 + r.x) / rays as f64;
-        let local = crate::brdf::cosine_hemisphere(DVec2::new(u1, r.y));
+        // Cosine-weighted (Malley).
+        let local = crate::brdf::cosine_hemisphere(samples.point(0x5bd1_e995, rays, k));
         let dir = local.x * t + local.y * b + local.z * normal;
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
@@ -230,25 +218,18 @@ fn area_samples(
         h == q || h == point.surface
     };
     let mut out = Vec::new();
-    for j in 0..grid {
-        for i in 0..grid {
-            let r = hash2(
-                point.seed ^ salt,
-                u64::from(q) << 32 | u64::from(j * grid + i),
-            );
-            let uv = DVec2::new(
-                (i as f64 + r.x) / grid as f64,
-                (j as f64 + r.y) / grid as f64,
-            );
-            let y = patch.point_at(patch.square_to_param(uv));
-            let wi = (y - x).normalize();
-            let p = area_pdf(patch, wi, (y - x).length_squared());
-            if p.is_finite()
-                && point.normal.dot(wi) > 0.0
-                && !tracer.occluder.occluded_except(x, y, skip)
-            {
-                out.push((wi, y, p));
-            }
+    for k in 0..grid * grid {
+        let uv = point
+            .samples
+            .point(salt ^ u64::from(q) << 32, grid * grid, k);
+        let y = patch.point_at(patch.square_to_param(uv));
+        let wi = (y - x).normalize();
+        let p = area_pdf(patch, wi, (y - x).length_squared());
+        if p.is_finite()
+            && point.normal.dot(wi) > 0.0
+            && !tracer.occluder.occluded_except(x, y, skip)
+        {
+            out.push((wi, y, p));
         }
     }
     out
@@ -273,7 +254,7 @@ pub fn glossy_radiance(
     let GatherPoint {
         surface,
         position: x,
-        seed,
+        samples: sample_points,
         ..
     } = *point;
     let s = &scene.surfaces[surface as usize];
@@ -302,8 +283,8 @@ pub fn glossy_radiance(
     // BRDF sampling: emitters (weighted against light sampling) and the rest
     // of the solution.
     for k in 0..samples {
-        let u = hash2(seed ^ 0x9e37_79b9, u64::from(k));
-        let lobe = hash2(seed ^ 0x7f4a_7c15, u64::from(k)).x;
+        let u = sample_points.point(0x9e37_79b9, samples, k);
+        let lobe = sample_points.third(0x9e37_79b9, samples, k);
         let Some(sample) = s.brdf.sample(wo_local, u, lobe) else {
             continue;
         };
@@ -354,6 +335,7 @@ fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
 mod tests {
     use super::*;
     use crate::scene::{Patch, Surface};
+    use std::f64::consts::{FRAC_PI_2, PI};
 
     #[test]
     fn basis_is_orthonormal() {
@@ -383,13 +365,13 @@ mod tests {
             .collect();
         let scene = Scene::from_surfaces(walls);
         let tracer = SceneTracer::new(&scene);
-        let x = scene.surfaces[0].patch.point_at(DVec2::new(0.3, 0.6));
+        let x = scene.surfaces[0].patch.point_at(glam::DVec2::new(0.3, 0.6));
         let n = scene.surfaces[0].patch.normal();
         let point = GatherPoint {
             surface: 0,
             position: x,
             normal: n,
-            seed: 3,
+            samples: Samples::Hashed(3),
         };
         let sources = GatherSources {
             bright: &[],
@@ -440,7 +422,7 @@ mod tests {
                     surface: 2,
                     position: x,
                     normal,
-                    seed,
+                    samples: Samples::Hashed(seed),
                 };
                 let v = indirect_radiance(&scene, &tracer, &point, 16, sources, outgoing)[0];
                 (sum, sq) = (sum + v, sq + v * v);
@@ -476,6 +458,85 @@ mod tests {
         );
     }
 
+    /// A glossy floor in a closed box whose ceiling alone sends light
+    /// (radiance 1) reflects ∫ f cos θ over the ceiling's directions towards
+    /// `wo`. BRDF samples drawn as one pixel's blocks (each sample's lobe
+    /// chosen independently of its direction) average to it, as
+    /// independent samples do.
+    #[test]
+    fn brdf_samples_average_to_the_reflected_light() {
+        let mut walls: Vec<Surface> =
+            Patch::inward_box(DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, 1.0, 2.0))
+                .into_iter()
+                .map(crate::testing::grey)
+                .collect();
+        walls[0].brdf = crate::testing::rolled_aluminium();
+        let scene = Scene::from_surfaces(walls);
+        let tracer = SceneTracer::new(&scene);
+        let floor = &scene.surfaces[0];
+        let wo = DVec3::new(0.5, 0.2, 0.8).normalize();
+        let x = DVec3::new(0.1, -0.2, 0.0);
+        // ∫ f(wi, wo) cos θ dω over the directions reaching the ceiling
+        // (z = 2, |x|, |y| ≤ 1), by the midpoint rule in (θ, φ).
+        let frame = floor.frame();
+        let wo_local = frame.to_local(wo);
+        let n = 1500;
+        let (dt, dp) = (FRAC_PI_2 / n as f64, 2.0 * PI / n as f64);
+        let mut reflected = 0.0;
+        for i in 0..n {
+            let theta = (i as f64 + 0.5) * dt;
+            for j in 0..n {
+                let phi = (j as f64 + 0.5) * dp;
+                let wi = DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                let w = frame.to_world(wi);
+                let at = x + w * (2.0 / w.z);
+                if at.x.abs() > 1.0 || at.y.abs() > 1.0 {
+                    continue;
+                }
+                let f = floor.brdf.eval(wi, wo_local)[0];
+                reflected += f * theta.cos() * theta.sin() * dt * dp;
+            }
+        }
+        let estimate = |samples: Samples| {
+            let point = GatherPoint {
+                surface: 0,
+                position: x,
+                normal: DVec3::Z,
+                samples,
+            };
+            let ceiling = |q: u32, _| [if q == 1 { 1.0 } else { 0.0 }; 3];
+            glossy_radiance(&scene, &tracer, &[], &point, wo, 2, ceiling)[0]
+        };
+        let mean_and_error = |values: Vec<f64>| {
+            let m = values.len() as f64;
+            let mean = values.iter().sum::<f64>() / m;
+            let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
+            (mean, (var / m).sqrt())
+        };
+        let hashed = mean_and_error((0..4096).map(|s| estimate(Samples::Hashed(s))).collect());
+        // Each pixel's 16 blocks together, as one estimate.
+        let pixels = (0..256u64)
+            .map(|p| {
+                let scramble = p.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                (0..16)
+                    .map(|block| estimate(Samples::Pixel { scramble, block }))
+                    .sum::<f64>()
+                    / 16.0
+            })
+            .collect();
+        let pixel = mean_and_error(pixels);
+        for (mean, error) in [hashed, pixel] {
+            assert!(
+                (mean - reflected).abs() < 4.0 * error + 2e-3 * reflected,
+                "{mean} ± {error} vs {reflected}"
+            );
+        }
+    }
+
     #[test]
     fn unoccluded_direct_light_matches_closed_form() {
         // A point 1 below the corner of a unit square light of radiance 1,
@@ -509,7 +570,7 @@ mod tests {
             surface: 0,
             position: DVec3::ZERO,
             normal: DVec3::Z,
-            seed: 7,
+            samples: Samples::Hashed(7),
         };
         let l = direct_radiance(&scene, &tracer, &[1], &point, 4);
         let s = 2f64.sqrt();

@@ -21,6 +21,7 @@ use glam::{DVec2, DVec3};
 use mirror::MirrorImage;
 use rayon::prelude::*;
 use reconstruct::{radiance_at, Reconstruction, SmoothLookup};
+use sampling::Samples;
 
 /// How to render a view.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -232,10 +233,14 @@ impl GatheringRays {
         }
     }
 
-    fn contains(&self, k: usize) -> bool {
+    /// Which of the pixel's gathers camera ray `k` makes (0 for the first),
+    /// if it gathers.
+    fn rank(&self, k: usize) -> Option<u32> {
         let (row, col) = (k / self.side, k % self.side);
         let first = |r: usize| (r * self.gathers).div_ceil(self.side);
-        (first(row)..first(row + 1)).any(|j| (j * self.step) % self.side == col)
+        (first(row)..first(row + 1))
+            .find(|&j| (j * self.step) % self.side == col)
+            .map(|j| j as u32)
     }
 
     /// The control variate's weight: rays per gathering ray.
@@ -343,17 +348,25 @@ impl Solution {
                 return [0.0; 3];
             }
             let uv = patch.clamp_param(patch.param_of(hit.position));
+            // The pixel's estimates of one kind stratify their samples
+            // jointly: each takes its own block of the pixel's sequences.
+            let pixel = (y.floor() * w + x.floor()) as u64;
+            let scramble = pixel.wrapping_mul(0x9e37_79b9_7f4a_7c15);
             let point = GatherPoint {
                 surface: hit.surface,
                 position: hit.position,
                 normal: patch.normal(),
-                seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(k as u64),
+                samples: Samples::Pixel {
+                    scramble,
+                    block: k as u32,
+                },
             };
             // What a gather ray from this point finds: glossy surfaces lit
             // per point (their highlights are finer than their elements).
             let seen = |q: u32, z: DVec3| {
                 let to = (hit.surface, hit.position);
-                self.radiance_leaving(&reader, (q, z), to, (point.seed, settings.glossy_grid))
+                let seed = point.samples.seed();
+                self.radiance_leaving(&reader, (q, z), to, (seed, settings.glossy_grid))
             };
             if !surface.is_diffuse() {
                 if !settings.eye && settings.mode != Reconstruction::Gather {
@@ -391,11 +404,15 @@ impl Solution {
                 settings
             };
             let gathering = GatheringRays::new(n, local.gathers_among(n));
-            if settings.mode != Reconstruction::Gather || !gathering.contains(k) {
+            let rank = gathering.rank(k);
+            let Some(block) = rank.filter(|_| settings.mode == Reconstruction::Gather) else {
                 return reconstructed;
-            }
+            };
             let point = GatherPoint {
-                seed: (x.to_bits() ^ y.to_bits().rotate_left(32)).wrapping_add(1),
+                samples: Samples::Pixel {
+                    scramble: scramble ^ 0x243f_6a88_85a3_08d3,
+                    block,
+                },
                 ..point
             };
             // Bright surfaces and mirror images get about as many samples
@@ -534,7 +551,7 @@ impl Solution {
             surface: q,
             position: y,
             normal: source.patch.normal(),
-            seed,
+            samples: Samples::Hashed(seed),
         };
         gather::glossy_radiance(
             &self.scene,
@@ -574,7 +591,7 @@ impl Solution {
             surface: q,
             position: y,
             normal: surface.patch.normal(),
-            seed,
+            samples: Samples::Hashed(seed),
         };
         let first = gather::direct_radiance(&self.scene, &self.tracer, reader.emitters, &at, 1);
         [0, 1, 2].map(|ch| solved[ch].max(0.0) + first[ch])
@@ -661,9 +678,13 @@ mod tests {
             (256, 7),
         ] {
             let g = GatheringRays::new(n, gathers);
-            let chosen: Vec<usize> = (0..n).filter(|&k| g.contains(k)).collect();
+            let chosen: Vec<usize> = (0..n).filter(|&k| g.rank(k).is_some()).collect();
             let expect = (gathers as usize).min(n);
             assert_eq!(chosen.len(), expect, "n {n} gathers {gathers}");
+            // Each gather has its own rank, and together they number 0, 1, ….
+            let mut ranks: Vec<u32> = chosen.iter().filter_map(|&k| g.rank(k)).collect();
+            ranks.sort_unstable();
+            assert!(ranks.iter().enumerate().all(|(i, &r)| r == i as u32));
             assert_eq!(g.weight() * expect as f64, n as f64);
             // No two in one column while there are columns to spare.
             let side = (n as f64).sqrt() as usize;

@@ -1,6 +1,7 @@
 //! Reproducible sample numbers: every random choice in rendering is a hash of
-//! where it is made (pixel, sample, ray), so images do not depend on the
-//! number of threads or on the order of work.
+//! where it is made (pixel, sample, ray), or a point of a per-pixel scrambled
+//! Sobol sequence keyed the same way, so images do not depend on the number
+//! of threads or on the order of work.
 
 use glam::DVec2;
 
@@ -15,6 +16,99 @@ pub fn hash2(seed: u64, index: u64) -> DVec2 {
     let h = mix(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ mix(index));
     let to_unit = |bits: u64| (bits >> 11) as f64 / (1u64 << 53) as f64;
     DVec2::new(to_unit(h), to_unit(mix(h)))
+}
+
+/// Where one estimate draws its sample points, kind by kind (`kind` names
+/// what is sampled: the cosine rays of a gather, the shadow rays to one
+/// emitter, ...).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Samples {
+    /// Independent of every other estimate: `len` points of a kind are
+    /// jittered over a √len × √len grid when `len` is a square, else
+    /// stratified along the first dimension only.
+    Hashed(u64),
+    /// Block `block` of `len` consecutive points of the pixel's own
+    /// Owen-scrambled Sobol (0,2)-sequence of each kind (Burley 2020,
+    /// "Practical Hash-based Owen Scrambling"). Every aligned block of 2^k
+    /// points of such a sequence is stratified in both dimensions at once
+    /// (an elementary (0,k,2)-net), and so is the union of a pixel's
+    /// blocks: the gathers that share a pixel stratify their samples of
+    /// each kind jointly instead of each on its own, while each estimate
+    /// stays unbiased by itself.
+    Pixel {
+        /// Picks the pixel's scramble (one per pixel and kind).
+        scramble: u64,
+        /// Which block of the sequence this estimate takes.
+        block: u32,
+    },
+}
+
+impl Samples {
+    /// Point `j` of the `len` points of `kind` this estimate takes, in
+    /// [0,1)².
+    pub fn point(self, kind: u64, len: u32, j: u32) -> DVec2 {
+        match self {
+            Samples::Hashed(seed) => {
+                let r = hash2(seed ^ kind, u64::from(j));
+                let side = f64::from(len).sqrt().round() as u32;
+                if side * side == len {
+                    DVec2::new(
+                        (f64::from(j % side) + r.x) / f64::from(side),
+                        (f64::from(j / side) + r.y) / f64::from(side),
+                    )
+                } else {
+                    DVec2::new((f64::from(j) + r.x) / f64::from(len.max(1)), r.y)
+                }
+            }
+            Samples::Pixel { scramble, block } => {
+                sobol2(block.wrapping_mul(len).wrapping_add(j), scramble ^ kind)
+            }
+        }
+    }
+
+    /// A third number for point `j` of `kind`, independent of the two of
+    /// [`Samples::point`] (a BRDF sample's choice of lobe): Sobol's third
+    /// dimension, scrambled on its own, or an independent hash. Two points
+    /// of one index but different kinds are not independent of each other
+    /// (their strata follow the index), so one sample's numbers must come
+    /// from one kind.
+    pub fn third(self, kind: u64, len: u32, j: u32) -> f64 {
+        match self {
+            Samples::Hashed(seed) => hash2(seed ^ kind ^ 0x3c6e_f372_fe94_f82b, u64::from(j)).x,
+            Samples::Pixel { scramble, block } => {
+                sobol(block.wrapping_mul(len).wrapping_add(j), scramble ^ kind, 2)
+            }
+        }
+    }
+
+    /// A seed for the estimates nested in this one (light leaving a point
+    /// that one of its rays reaches), which sample independently.
+    pub fn seed(self) -> u64 {
+        match self {
+            Samples::Hashed(seed) => seed,
+            Samples::Pixel { scramble, block } => scramble ^ u64::from(block).rotate_left(40),
+        }
+    }
+}
+
+/// Point `index` (below 2^16; higher indices wrap) of the first two
+/// dimensions of the Sobol sequence, Owen-scrambled by a hash of
+/// `scramble` (`sobol_burley`'s building blocks: its seeded `sample` also
+/// shuffles the sequence's order, which would break the aligned blocks
+/// [`Samples::Pixel`] relies on).
+pub fn sobol2(index: u32, scramble: u64) -> DVec2 {
+    DVec2::new(sobol(index, scramble, 0), sobol(index, scramble, 1))
+}
+
+/// Dimension `dimension` of point `index` of the Sobol sequence,
+/// Owen-scrambled by a hash of `scramble` and the dimension.
+fn sobol(index: u32, scramble: u64, dimension: u32) -> f64 {
+    use sobol_burley::parts::{hash, owen_scramble_rev, sobol_rev};
+    let key = hash((scramble ^ (scramble >> 32)) as u32);
+    let index_rev = (index & 0xffff).reverse_bits();
+    let bits =
+        owen_scramble_rev(sobol_rev(index_rev, dimension), hash(key ^ dimension)).reverse_bits();
+    (f64::from(bits) + 0.5) / 4_294_967_296.0
 }
 
 /// Jittered stratified positions inside pixel number `pixel`: an n×n grid
@@ -55,6 +149,55 @@ mod tests {
         }
         assert_ne!(o, pixel_offsets(6, 16));
         assert_eq!(o, pixel_offsets(5, 16));
+    }
+
+    /// Every aligned block of 2^k points, and two adjacent blocks together,
+    /// put exactly one point in each cell of every 2^a × 2^(k−a) grid.
+    #[test]
+    fn pixel_blocks_are_stratified_alone_and_together() {
+        let net = |points: &[DVec2], k: u32| {
+            (0..=k).all(|a| {
+                let (nx, ny) = (1u32 << a, 1u32 << (k - a));
+                let mut seen = vec![0u32; (nx * ny) as usize];
+                for p in points {
+                    let (cx, cy) = ((p.x * f64::from(nx)) as u32, (p.y * f64::from(ny)) as u32);
+                    seen[(cy * nx + cx) as usize] += 1;
+                }
+                seen.iter().all(|&c| c == 1)
+            })
+        };
+        let block = |b: u32| -> Vec<DVec2> {
+            let samples = Samples::Pixel {
+                scramble: 0x1234_5678_9abc,
+                block: b,
+            };
+            (0..16).map(|j| samples.point(7, 16, j)).collect()
+        };
+        for b in 0..8 {
+            assert!(net(&block(b), 4), "block {b}");
+        }
+        let pair = [block(2), block(3)].concat();
+        assert!(net(&pair, 5));
+        let all: Vec<DVec2> = (0..8).flat_map(block).collect();
+        assert!(net(&all, 7));
+        // Another kind or pixel is another scramble.
+        let other = Samples::Pixel {
+            scramble: 0x1234_5678_9abd,
+            block: 0,
+        };
+        assert_ne!(other.point(7, 16, 0), block(0)[0]);
+    }
+
+    #[test]
+    fn hashed_points_are_jittered_on_a_grid_or_stratified_in_x() {
+        let s = Samples::Hashed(9);
+        for j in 0..16 {
+            let p = s.point(1, 16, j);
+            assert_eq!(((p.x * 4.0) as u32, (p.y * 4.0) as u32), (j % 4, j / 4));
+        }
+        for j in 0..8 {
+            assert_eq!((s.point(1, 8, j).x * 8.0) as u32, j);
+        }
     }
 
     #[test]
