@@ -85,7 +85,7 @@ class Solution:
         piecewise-constant projection). ``spp``: camera rays
         per pixel where an edge shows (default 512, or the scene sampler's
         sample_count if larger; pixels that show one surface get an eighth,
-        and a quarter of a pixel's camera rays final-gather). ``eye``:
+        and an eighth of a pixel's camera rays final-gather). ``eye``:
         outside ``"gather"``, glossy surfaces show their radiance gathered
         once into the eye as a hypothetical receiver
         (``True``), or read from the view-independent solution alone

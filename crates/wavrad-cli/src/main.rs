@@ -44,7 +44,7 @@ enum Command {
         spp: Option<u32>,
         /// Of an interior pixel's camera rays, how many also final-gather,
         /// each with 4 shadow rays per emitter and 32 indirect rays (gather
-        /// mode) [default: a quarter]; other pixels gather in the same
+        /// mode) [default: an eighth]; other pixels gather in the same
         /// proportion, with fewer indirect rays each, and a caustic's
         /// receivers (diffuse surfaces facing a sharp glossy surface that
         /// mirrors an emitter) eight times as much (as more indirect rays

@@ -92,8 +92,8 @@ impl Default for RenderSettings {
             samples_per_pixel: 512,
             interior_samples_per_pixel: 64,
             emitter_edge_samples_per_pixel: 4096,
-            gather_samples_per_pixel: 16,
-            caustic_gathers: 8,
+            gather_samples_per_pixel: 8,
+            caustic_gathers: 16,
             gather_grid: 2,
             gather_rays: 32,
             glossy_grid: 1,
@@ -125,7 +125,7 @@ impl RenderSettings {
     }
 
     /// The same settings with `n` camera rays per pixel, an eighth of them
-    /// in interior pixels, a thirty-second gathering and eight times as
+    /// in interior pixels, a sixty-fourth gathering and eight times as
     /// many at an emitter's outline (the default proportions).
     pub fn with_samples_per_pixel(self, n: u32) -> RenderSettings {
         let n = n.max(1);
@@ -133,7 +133,7 @@ impl RenderSettings {
             samples_per_pixel: n,
             interior_samples_per_pixel: (n / 8).max(1),
             emitter_edge_samples_per_pixel: n.saturating_mul(8),
-            gather_samples_per_pixel: (n / 32).max(1),
+            gather_samples_per_pixel: (n / 64).max(1),
             ..self
         }
     }
