@@ -733,7 +733,7 @@ mod tests {
                 s.interior_samples_per_pixel,
                 s.gather_samples_per_pixel
             ),
-            (4096, 512, 128)
+            (4096, 512, 64)
         );
         assert_eq!(s.mode, default.mode);
     }
