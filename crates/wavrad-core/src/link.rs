@@ -220,23 +220,21 @@ impl<'a> PairRefiner<'a> {
         })
     }
 
-    fn samples(&self, a: &Side, c: &Side) -> OuterSamples {
+    /// Quadrature of the pair; `clear` when it is part of a pair whose
+    /// shaft nothing blocks.
+    fn samples(&self, a: &Side, c: &Side, clear: bool) -> OuterSamples {
+        fn element(s: &Side) -> KernelElement<'_> {
+            KernelElement {
+                patch: &s.patch,
+                surface: s.surface,
+            }
+        }
         kernel::throughput_samples(
             self.tracer,
             self.settings.quadrature,
-            KernelElement {
-                patch: &a.patch,
-                surface: a.surface,
-            },
-            KernelElement {
-                patch: &c.patch,
-                surface: c.surface,
-            },
+            (element(a), element(c)),
+            clear,
         )
-    }
-
-    fn throughput(&self, a: &Side, c: &Side) -> f64 {
-        self.samples(a, c).total()
     }
 
     /// Mean kernel over each quadrant of `outer` times the whole `inner`
@@ -324,8 +322,9 @@ impl<'a> PairRefiner<'a> {
         }
     }
 
-    /// Compute_2point_Kernel for the pair (a, c) whose throughput is known.
-    fn refine(&mut self, a: Side, c: Side, throughput: f64) {
+    /// Compute_2point_Kernel for the pair (a, c) whose throughput is known
+    /// (and whose shaft is `clear`, when known: so are its parts').
+    fn refine(&mut self, a: Side, c: Side, throughput: f64, clear: bool) {
         let max = self.settings.max_level;
         let split_a = match (a.id.level < max, c.id.level < max) {
             (false, false) => return self.push(&a, &c, throughput, 0.0),
@@ -348,7 +347,7 @@ impl<'a> PairRefiner<'a> {
             .collect();
         let samples: Vec<OuterSamples> = children
             .iter()
-            .map(|child| self.samples(child, other))
+            .map(|child| self.samples(child, other, clear))
             .collect();
         let t: Vec<f64> = samples.iter().map(OuterSamples::total).collect();
         let pair_area = children[0].patch.area() * other.patch.area();
@@ -388,21 +387,21 @@ impl<'a> PairRefiner<'a> {
                     id: split.id.child(k),
                     patch,
                 };
-                let tk = self.throughput(&child, &other);
+                let sk = self.samples(&child, &other, clear);
                 if split_a {
-                    self.refine(other, child, tk);
+                    self.refine(other, child, sk.total(), sk.clear);
                 } else {
-                    self.refine(child, other, tk);
+                    self.refine(child, other, sk.total(), sk.clear);
                 }
             }
             return;
         }
         let other = *other;
-        for (child, tk) in children.into_iter().zip(t) {
+        for ((child, tk), sk) in children.into_iter().zip(t).zip(&samples) {
             if split_a {
-                self.refine(child, other, tk);
+                self.refine(child, other, tk, sk.clear);
             } else {
-                self.refine(other, child, tk);
+                self.refine(other, child, tk, sk.clear);
             }
         }
     }
@@ -463,8 +462,8 @@ pub fn refine_pair(
         patch: scene.surfaces[s as usize].patch,
     };
     let (a, c) = (side(p), side(r));
-    let t = refiner.throughput(&a, &c);
-    refiner.refine(a, c, t);
+    let s = refiner.samples(&a, &c, false);
+    refiner.refine(a, c, s.total(), s.clear);
     refiner.links
 }
 
@@ -491,7 +490,7 @@ pub fn refine_links_further(
             id,
             patch: id.patch(&scene.surfaces[surface as usize].patch),
         };
-        refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput);
+        refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput, false);
         match refiner.links[..] {
             // Tested again and kept: unchanged.
             [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],

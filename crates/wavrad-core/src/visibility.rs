@@ -52,6 +52,16 @@ pub struct Hit {
     pub v: f64,
 }
 
+/// obvhs' binary BVH, which has no `Debug` of its own.
+#[derive(Clone)]
+struct BoxTree(obvhs::bvh2::Bvh2);
+
+impl std::fmt::Debug for BoxTree {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "BoxTree({} nodes)", self.0.nodes.len())
+    }
+}
+
 /// One triangle as the exact test wants it, in BVH order.
 #[derive(Debug, Clone, Copy)]
 struct Tri {
@@ -94,6 +104,13 @@ pub struct Occluder {
     bvh: Option<CwBvh>,
     /// Triangles in the order of `bvh.primitive_indices`.
     tris: Vec<Tri>,
+    /// A binary BVH over the same boxes, for box queries (obvhs traverses
+    /// its wide BVH with rays only), and the triangles by id.
+    boxes: Option<BoxTree>,
+    by_id: Vec<Tri>,
+    /// How far apart (world units) a triangle and a shaft must be for
+    /// [`Occluder::clear_between`] to call them apart: the boxes' padding.
+    pad: f64,
     /// How far (world units) the f32 ray starts behind the real origin and
     /// overshoots the real end.
     slack: f64,
@@ -107,6 +124,9 @@ impl Occluder {
             return Occluder {
                 bvh: None,
                 tris: Vec::new(),
+                boxes: None,
+                by_id: Vec::new(),
+                pad: 0.0,
                 slack: 0.0,
             };
         }
@@ -137,22 +157,27 @@ impl Occluder {
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
-        let tris = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = triangles[i as usize];
-                Tri {
-                    v0: a,
-                    e1: b - a,
-                    e2: c - a,
-                    id: i,
-                }
-            })
-            .collect();
+        let boxes = obvhs::bvh2::builder::build_bvh2(
+            &aabbs,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        let tri = |i: u32| {
+            let [a, b, c] = triangles[i as usize];
+            Tri {
+                v0: a,
+                e1: b - a,
+                e2: c - a,
+                id: i,
+            }
+        };
+        let tris = bvh.primitive_indices.iter().map(|&i| tri(i)).collect();
         Occluder {
             bvh: Some(bvh),
             tris,
+            boxes: Some(BoxTree(boxes)),
+            by_id: (0..triangles.len() as u32).map(tri).collect(),
+            pad,
             // obvhs skips boxes closer than 1e-4 along the (unit) f32 ray.
             slack: 2e-4 + 4.0 * pad,
         }
@@ -192,6 +217,83 @@ impl Occluder {
                 _ => f32::INFINITY,
             }
         })
+    }
+
+    /// True when no triangle that `skip` does not accept meets the shaft
+    /// between the convex polygons `a` and `c` (the convex hull of their
+    /// corners, which holds every segment from one to the other): then
+    /// [`occluded_except`](Self::occluded_except) is false for every such
+    /// segment, and its rays need not be traced (shaft culling, Haines &
+    /// Wallace 1991). Conservative: the triangles whose boxes meet the
+    /// shaft's box must each be kept apart from it, by more than the boxes'
+    /// padding, along one of a few separating axes (the polygons' and the
+    /// triangle's normals, and cross products of their edges and the line
+    /// between the polygons' centres), else the answer is `false`.
+    pub fn clear_between(&self, a: &[DVec3], c: &[DVec3], skip: impl Fn(u32) -> bool) -> bool {
+        let Some(BoxTree(boxes)) = &self.boxes else {
+            return true;
+        };
+        let hull = || a.iter().chain(c);
+        let (lo, hi) = hull().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let query = Aabb::new(
+            to_f32_down(lo - DVec3::splat(self.pad)).into(),
+            to_f32_up(hi + DVec3::splat(self.pad)).into(),
+        );
+        // Two edge directions per polygon (parallelograms have no more;
+        // a triangle's third is their difference, covered by the cross
+        // products below only in part, which is conservative).
+        let edges = [a[1] - a[0], a[2] - a[1], c[1] - c[0], c[2] - c[1]];
+        let centre = |poly: &[DVec3]| poly.iter().sum::<DVec3>() / poly.len() as f64;
+        let along = centre(c) - centre(a);
+        // The shaft's own axes, with the hull's extent along each, once:
+        // the polygons' normals, and each edge direction crossed with the
+        // lines from the corners of `a` to those of `c` (the hull's sides
+        // when the polygons are alike) and between their centres.
+        let sides = (0..3).map(|i| c[i.min(c.len() - 1)] - a[i.min(a.len() - 1)]);
+        let lines: Vec<DVec3> = std::iter::once(along).chain(sides).collect();
+        let shaft_axes: Vec<(DVec3, (f64, f64))> =
+            [edges[0].cross(edges[1]), edges[2].cross(edges[3])]
+                .into_iter()
+                .chain(lines.iter().flat_map(|l| edges.map(|e| l.cross(e))))
+                .map(|axis| (axis, span(hull(), axis)))
+                .collect();
+        let mut clear = true;
+        boxes.aabb_traverse(query, |bvh, node| {
+            let node = &bvh.nodes[node as usize];
+            let first = node.first_index as usize;
+            for &i in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                let tri = &self.by_id[i as usize];
+                if skip(tri.id) {
+                    continue;
+                }
+                let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2];
+                let apart = |axis: DVec3, (h0, h1): (f64, f64)| {
+                    let (t0, t1) = span(corners.iter(), axis);
+                    let gap = (t0 - h1).max(h0 - t1);
+                    gap > 0.0 && gap * gap > self.pad * self.pad * axis.length_squared()
+                };
+                if shaft_axes.iter().any(|&(axis, h)| apart(axis, h)) {
+                    continue;
+                }
+                let tri_edges = [tri.e1, tri.e2, tri.e2 - tri.e1];
+                let mut axes = std::iter::once(tri.e1.cross(tri.e2)).chain(
+                    tri_edges.into_iter().flat_map(|f| {
+                        [along.cross(f)]
+                            .into_iter()
+                            .chain(edges.iter().map(move |e| e.cross(f)))
+                    }),
+                );
+                if !axes.any(|axis| apart(axis, span(hull(), axis))) {
+                    clear = false;
+                    return false;
+                }
+            }
+            true
+        });
+        clear
     }
 
     /// Closest hit along `origin + t·dir` with `t ∈ (tmin, tmax)` (open
@@ -264,6 +366,14 @@ impl Occluder {
     }
 }
 
+/// The extent of `points` along `axis` (in units of its length).
+fn span<'a>(points: impl Iterator<Item = &'a DVec3>, axis: DVec3) -> (f64, f64) {
+    points.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        let d = p.dot(axis);
+        (lo.min(d), hi.max(d))
+    })
+}
+
 /// Rounds each component to an f32 not above it.
 fn to_f32_down(p: DVec3) -> [f32; 3] {
     p.to_array().map(|x| {
@@ -303,6 +413,55 @@ mod tests {
     }
 
     fn assert_send_sync<T: Send + Sync>() {}
+
+    /// A square at height `z`, centred on (`x`, `y`), of half-side `r`.
+    fn square(x: f64, y: f64, z: f64, r: f64) -> [DVec3; 4] {
+        [(-r, -r), (r, -r), (r, r), (-r, r)].map(|(u, v)| DVec3::new(x + u, y + v, z))
+    }
+
+    #[test]
+    fn shafts_are_clear_only_when_nothing_can_block_them() {
+        // A blocking square at z = 0 (triangles 0, 1), between z = -2 and
+        // z = 2, and a small triangle (2) off to the side at z = 1.
+        let mut tris = quad(0.0).to_vec();
+        tris.push([
+            DVec3::new(3.6, 3.6, 1.0),
+            DVec3::new(3.9, 3.6, 1.0),
+            DVec3::new(3.6, 3.9, 1.0),
+        ]);
+        let occ = Occluder::new(&tris);
+        let none = |_: u32| false;
+        // Through the blocker: not clear, unless it is skipped.
+        let (low, high) = (square(0.0, 0.0, -2.0, 0.5), square(0.0, 0.0, 2.0, 0.5));
+        assert!(!occ.clear_between(&low, &high, none));
+        assert!(occ.clear_between(&low, &high, |p| p < 2));
+        // Beside the blocker, with the side triangle inside the shaft's
+        // box but outside the shaft: clear.
+        let (a, c) = (square(2.5, 4.0, 0.5, 0.2), square(4.0, 2.5, 1.5, 0.2));
+        assert!(occ.clear_between(&a, &c, none));
+        // A shaft that only grazes the blocker's edge is not called clear.
+        let (a, c) = (square(1.5, 0.0, -1.0, 0.5), square(1.5, 0.0, 1.0, 0.5));
+        assert!(!occ.clear_between(&a, &c, none));
+        // Wherever a shaft is called clear, no segment in it is blocked.
+        let mut clear = 0;
+        for i in 0..200 {
+            let r = |k: u64| crate::render::sampling::hash2(i, k);
+            let (p, q) = (r(0), r(1));
+            let a = square(4.0 * p.x - 2.0, 4.0 * p.y - 2.0, -1.0 - q.x, 0.3);
+            let c = square(4.0 * q.y - 2.0, 4.0 * r(2).x - 2.0, 0.5 + r(2).y, 0.3);
+            if !occ.clear_between(&a, &c, none) {
+                continue;
+            }
+            clear += 1;
+            for k in 0..16 {
+                let (u, v) = (r(10 + k), r(100 + k));
+                let x = a[0] + (a[1] - a[0]) * u.x + (a[3] - a[0]) * u.y;
+                let y = c[0] + (c[1] - c[0]) * v.x + (c[3] - c[0]) * v.y;
+                assert!(!occ.occluded(x, y), "pair {i}, segment {k}");
+            }
+        }
+        assert!(clear > 10, "{clear} clear shafts");
+    }
 
     #[test]
     fn occluder_is_send_and_sync() {

@@ -60,6 +60,10 @@ pub struct OuterSamples {
     /// For each point of `outer.gauss_points(q.points)`, in that order, its
     /// weight times the visible point-to-polygon factor.
     pub contributions: Vec<f64>,
+    /// Nothing blocks the shaft between the two elements
+    /// ([`Occluder::clear_between`](crate::visibility::Occluder::clear_between)),
+    /// nor any shaft between parts of them.
+    pub clear: bool,
 }
 
 impl OuterSamples {
@@ -74,12 +78,13 @@ impl OuterSamples {
 /// The outer integral runs over the smaller element with Gauss–Legendre
 /// points; the inner one is Lambert's closed form over the larger element
 /// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
-/// from the point to a grid of points on it.
+/// from the point to a grid of points on it, where the shaft between the
+/// elements is not `known_clear` (a part of a clear one) or found clear.
 pub fn throughput_samples(
     tracer: &SceneTracer,
     q: Quadrature,
-    a: KernelElement,
-    c: KernelElement,
+    (a, c): (KernelElement, KernelElement),
+    known_clear: bool,
 ) -> OuterSamples {
     let outer_is_a = a.patch.area() <= c.patch.area();
     let (outer, inner) = if outer_is_a { (a, c) } else { (c, a) };
@@ -89,6 +94,10 @@ pub fn throughput_samples(
         let s = tracer.surface_of(prim);
         s == a.surface || s == c.surface
     };
+    let clear = known_clear
+        || tracer
+            .occluder
+            .clear_between(&outer.patch.vertices(), &polygon, skip);
     let contributions = outer
         .patch
         .gauss_points(q.points)
@@ -103,12 +112,19 @@ pub fn throughput_samples(
             let targets = interleaved_targets(inner.patch, q.rays, q.points, i);
             x.weight
                 * unoccluded_ff
-                * visible_fraction(tracer, (x.position, n_outer), (&polygon, &targets), skip)
+                * visible_fraction(
+                    tracer,
+                    (x.position, n_outer),
+                    (&polygon, &targets),
+                    skip,
+                    clear,
+                )
         })
         .collect();
     OuterSamples {
         outer_is_a,
         contributions,
+        clear,
     }
 }
 
@@ -117,20 +133,25 @@ pub fn throughput_samples(
 /// `polygon` they sample; when none of them is in front of `x` but part of
 /// the polygon is (a large element straddling `x`'s plane, whose front part
 /// Lambert's formula still counts), the centroid of that part stands in for
-/// them. 0 when nothing is in front.
+/// them. 0 when nothing is in front. With `clear`, the caller knows that
+/// nothing blocks the shaft between `x`'s element and the polygon
+/// ([`Occluder::clear_between`](crate::visibility::Occluder::clear_between)):
+/// no ray is traced, and the result is the same.
 pub fn visible_fraction(
     tracer: &SceneTracer,
     (x, n_x): (DVec3, DVec3),
     (polygon, targets): (&[DVec3], &[AreaSample]),
     skip: impl Fn(u32) -> bool + Copy,
+    clear: bool,
 ) -> f64 {
+    let sees = |y: DVec3| clear || !tracer.occluder.occluded_except(x, y, skip);
     let (mut seen, mut total) = (0usize, 0usize);
     for y in targets {
         if n_x.dot(y.position - x) <= 0.0 {
             continue;
         }
         total += 1;
-        if !tracer.occluder.occluded_except(x, y.position, skip) {
+        if sees(y.position) {
             seen += 1;
         }
     }
@@ -142,9 +163,7 @@ pub fn visible_fraction(
         return 0.0;
     }
     let centroid = front.iter().sum::<DVec3>() / front.len() as f64;
-    f64::from(u8::from(
-        !tracer.occluder.occluded_except(x, centroid, skip),
-    ))
+    f64::from(u8::from(sees(centroid)))
 }
 
 /// The visibility targets of outer point `i` of an `m` × `m` rule: the
@@ -169,7 +188,7 @@ pub(crate) fn interleaved_targets(patch: &Patch, n: usize, m: usize, i: usize) -
 
 /// Geometric throughput T(a,c) with visibility ([`throughput_samples`] summed).
 pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
-    throughput_samples(tracer, q, a, c).total()
+    throughput_samples(tracer, q, (a, c), false).total()
 }
 
 #[cfg(test)]

@@ -84,6 +84,9 @@ impl<'a> IncidentLight<'a> {
             let s = tracer.surface_of(prim);
             s == a.element.surface || s == c.surface
         };
+        let clear = tracer
+            .occluder
+            .clear_between(&a.element.patch.vertices(), &polygon, skip);
         let mut points = Vec::new();
         for (i, xp) in a
             .element
@@ -97,7 +100,13 @@ impl<'a> IncidentLight<'a> {
                 continue;
             }
             let targets = interleaved_targets(c.patch, q.rays, q.points, i);
-            let v = visible_fraction(tracer, (xp.position, n_a), (&polygon, &targets), skip);
+            let v = visible_fraction(
+                tracer,
+                (xp.position, n_a),
+                (&polygon, &targets),
+                skip,
+                clear,
+            );
             if v == 0.0 {
                 continue;
             }
