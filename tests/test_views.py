@@ -93,3 +93,16 @@ def test_bad_views_raise_value_error(
 def test_view_keywords_are_keyword_only(solution: wavrad.Solution) -> None:
     with pytest.raises(TypeError):
         solution.render("haar", 1, ORIGIN)  # type: ignore[misc]
+
+
+def test_a_gather_cache_serves_every_view_alike(solution: wavrad.Solution) -> None:
+    # The cached gather is view-independent: a view renders the same
+    # before and after another view used the cache, and it shows about
+    # what gathering per camera ray shows.
+    here = {"origin": (0.3, 0.2, 3.0), "target": (0.0, 0.0, -1.0)}
+    first = solution.render("gather", SPP, gather_cache=True, **here)
+    solution.render("gather", SPP, gather_cache=True, origin=(-0.4, 0.0, 2.5))
+    again = solution.render("gather", SPP, gather_cache=True, **here)
+    np.testing.assert_array_equal(again, first)
+    per_ray = solution.render("gather", SPP, **here)
+    assert wavrad.relative_rmse(first, per_ray) < 0.05

@@ -63,6 +63,7 @@ class Solution:
         up: npt.ArrayLike | None = None,
         fov: float | None = None,
         eye: bool = True,
+        gather_cache: bool = False,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
@@ -91,7 +92,11 @@ class Solution:
         (``True``), or read from the view-independent solution alone
         (``False``: the directional radiance towards what the view ray meets
         beyond the eye, or towards an enclosure receiver around the scene; no
-        per-view work, softer highlights). Raises
+        per-view work, softer highlights). ``gather_cache``: in ``"gather"``
+        mode, diffuse surfaces show a view-independent final gather, one
+        gather per texel (half an element wide), made by the first render
+        that asks for it and read by every later one, instead of gathering
+        per camera ray: for many views of one solution. Raises
         ``ValueError`` for an unknown mode and ``SolveError`` when the scene
         has no sensor.
         """

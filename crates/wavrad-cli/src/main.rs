@@ -58,6 +58,12 @@ enum Command {
         /// per-view work, softer highlights.
         #[arg(long)]
         no_eye: bool,
+        /// In gather mode, gather once per texel of every diffuse surface
+        /// (view-independent; texels half an element wide) and read the
+        /// texels, instead of gathering per camera ray: for many views of
+        /// one solution.
+        #[arg(long)]
+        gather_cache: bool,
     },
     /// Solve the scene (view-independent) and report statistics, without an image.
     Solve {
@@ -219,6 +225,7 @@ fn run(cli: Cli) -> Result<(), String> {
             spp,
             gather_spp,
             no_eye,
+            gather_cache,
         } => {
             check_output_extension(&output)?;
             let mut solution = load_and_solve(&args, &progress)?;
@@ -230,6 +237,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 settings.gather_samples_per_pixel = n.max(1);
             }
             settings.eye = !no_eye;
+            settings.gather_cache = gather_cache;
             settings.mode = match mode {
                 Mode::Haar => Reconstruction::Haar,
                 Mode::Smooth => Reconstruction::Smooth,

@@ -198,6 +198,12 @@ fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
                     ..render
                 })
                 .unwrap();
+            let cached = s
+                .render(&RenderSettings {
+                    gather_cache: true,
+                    ..render
+                })
+                .unwrap();
             let counts = (
                 s.stats.two_point_interactions,
                 s.stats.three_point_interactions,
@@ -205,7 +211,7 @@ fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
             (
                 (s.radiance, s.directional),
                 counts,
-                (gather.rgb, direct.rgb),
+                (gather.rgb, direct.rgb, cached.rgb),
             )
         })
     };

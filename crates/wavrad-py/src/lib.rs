@@ -72,7 +72,7 @@ impl Solution {
     /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
     /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
     /// linear RGB radiance.
-    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, eye=true))]
+    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, eye=true, gather_cache=false))]
     #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
@@ -84,10 +84,12 @@ impl Solution {
         up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         fov: Option<f64>,
         eye: bool,
+        gather_cache: bool,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
         let scene = &self.0.scene;
         let mut settings = RenderSettings::for_scene(scene);
         settings.eye = eye;
+        settings.gather_cache = gather_cache;
         if let Some(mode) = mode {
             settings.mode = parse::<Reconstruction>(mode)?;
         }

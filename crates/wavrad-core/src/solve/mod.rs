@@ -153,6 +153,9 @@ pub struct Solution {
     /// Glossy radiance towards the enclosure receiver, gathered the first
     /// time a view asks for it ([`Solution::enclosure`]).
     pub enclosure: std::sync::OnceLock<crate::render::enclosure::EnclosureRadiance>,
+    /// The view-independent final gather on diffuse surfaces, built the
+    /// first time a view asks for it ([`crate::render::RenderSettings::gather_cache`]).
+    pub gather_cache: std::sync::OnceLock<crate::render::cache::GatherCache>,
 }
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
@@ -294,6 +297,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         settings: *settings,
         stats,
         enclosure: Default::default(),
+        gather_cache: Default::default(),
     })
 }
 

@@ -144,6 +144,7 @@ pub fn solve_shooting(
         settings: *settings,
         stats: shooting.stats(&[], (0, f64::INFINITY)),
         enclosure: Default::default(),
+        gather_cache: Default::default(),
     };
 
     // Shoot the surface with the most unshot power until little is left.
