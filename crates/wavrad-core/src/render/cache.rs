@@ -10,9 +10,12 @@
 //! surfaces (which gather per camera ray, their radiance depending on the
 //! view). The price is resolution: light varying within a texel (a sharp
 //! shadow's edge) is blurred over it, where a per-pixel gather resolves it
-//! at any distance. Texels are half the size of the surface's finest
-//! elements (at most 128 per side), and each gathers with the rays of one
-//! interior pixel's gathers together, jointly stratified.
+//! at any distance. Texels are one size on every surface, half the largest
+//! surface's finest elements (at most 128 per side), and each gathers with
+//! half the indirect rays of one interior pixel's gathers together, jointly
+//! stratified (a camera ray blends four texels; on the glossy Cornell box's
+//! walkthrough, half the rays built the cache in 3.9 s instead of 7.7 s for
+//! a view-0 error of 1.18 % instead of 1.17 %).
 
 use super::gather::GatherPoint;
 use super::sampling::Samples;
@@ -45,9 +48,9 @@ struct Grid {
 impl GatherCache {
     /// Gather at every texel centre of every diffuse parallelogram of
     /// `solution`, in parallel (the result does not depend on the number
-    /// of threads: each texel's samples are its own). Each texel takes as
-    /// many indirect rays and shadow rays as an interior pixel's gathers of
-    /// `settings` do together, and caustic receivers
+    /// of threads: each texel's samples are its own). Each texel takes half
+    /// the indirect rays and as many shadow rays as an interior pixel's
+    /// gathers of `settings` do together, and caustic receivers
     /// `settings.caustic_gathers` times as many.
     pub(super) fn build(
         solution: &Solution,
