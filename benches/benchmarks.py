@@ -18,8 +18,9 @@ per-scene additions of SCENE_CONFIGS):
   reach wavrad's relRMSE is interpolated log-log between the two measured
   points that bracket it.
 * Walkthrough (WALKTHROUGH_SCENE): VIEWS views along a path from one wavrad
-  solution, against VIEWS Mitsuba images at the spp that reached wavrad's
-  relRMSE on the scene's own view.
+  solution (WALKTHROUGH_CONFIG: the gather cache made by the first view and
+  read by all), against VIEWS Mitsuba images at the spp that reached
+  wavrad's relRMSE on the scene's own view.
 
 Usage: make bench   (installs benches/requirements.txt into .venv, then
        .venv/bin/python benches/benchmarks.py [--scenes NAME ...])
@@ -43,10 +44,13 @@ import numpy as np
 
 import wavrad
 
-# wavrad configurations: name -> keyword arguments of wavrad.solve. The first
-# one is the walkthrough's; add a line to compare another.
+# wavrad configurations: name -> keyword arguments of wavrad.solve; add a
+# line to compare another.
 CONFIGS: dict[str, dict[str, object]] = {
     "default": {},
+    # The default solve, rendered with the view-independent gather cache
+    # (RENDER_ARGS): the walkthrough's configuration.
+    "cached": {},
     # Power-weighted oracle (refine-solve loop), with its own default
     # thresholds (2e-4 relative radiance error) unless SCENE_CONFIGS says.
     "power": {"oracle": "power"},
@@ -55,6 +59,11 @@ CONFIGS: dict[str, dict[str, object]] = {
     # surfaces per point.
     "level-3": {"three_point_max_level": 3},
 }
+# Keyword arguments of Solution.render besides mode="gather", per configuration.
+RENDER_ARGS: dict[str, dict[str, object]] = {"cached": {"gather_cache": True}}
+# The configuration the walkthrough renders its views with: the cache is built
+# by its first view (the scene's own), whose render time includes it.
+WALKTHROUGH_CONFIG = "cached"
 # Configurations that run only on some scenes (the others have nothing for
 # them to change): configuration -> scenes.
 SCENE_ONLY: dict[str, list[str]] = {"level-3": ["glossy-cornell-box"]}
@@ -139,9 +148,17 @@ def wavrad_worker(scene_name: str, config: str, out: str) -> None:
     solution = wavrad.solve(scene, **solve_arguments(scene_name, config))
     solve_wall, solve_cpu = time.perf_counter() - clock, cpu_seconds() - cpu
     stats = solution.stats
-    clock, cpu = time.perf_counter(), cpu_seconds()
-    image = solution.render(mode="gather")
-    render_s, render_cpu = time.perf_counter() - clock, cpu_seconds() - cpu
+    render_args = RENDER_ARGS.get(config, {})
+    walk = scene_name == WALKTHROUGH_SCENE and config == WALKTHROUGH_CONFIG
+    times, cpus, views = [], [], []
+    # The walkthrough's first view is the scene's own: it is the main image.
+    for origin, target, up in walkthrough_views() if walk else [(None, None, None)]:
+        clock, cpu = time.perf_counter(), cpu_seconds()
+        views.append(solution.render(mode="gather", origin=origin, target=target, up=up,
+                                     **render_args))
+        times.append(time.perf_counter() - clock)
+        cpus.append(cpu_seconds() - cpu)
+    image, render_s, render_cpu = views[0], times[0], cpus[0]
     np.save(os.path.join(out, "main.npy"), image)
     result = {
         "stats": stats,
@@ -153,13 +170,8 @@ def wavrad_worker(scene_name: str, config: str, out: str) -> None:
         "width": scene.width,
         "height": scene.height,
     }
-    if scene_name == WALKTHROUGH_SCENE and config == next(iter(CONFIGS)):
-        times, cpus = [], []
-        for k, (origin, target, up) in enumerate(walkthrough_views()):
-            clock, cpu = time.perf_counter(), cpu_seconds()
-            view = solution.render(mode="gather", origin=origin, target=target, up=up)
-            times.append(time.perf_counter() - clock)
-            cpus.append(cpu_seconds() - cpu)
+    if walk:
+        for k, view in enumerate(views):
             np.save(os.path.join(out, f"view{k}.npy"), view)
         result["view_render_s"] = times
         result["view_render_cpu_s"] = cpus
@@ -438,7 +450,8 @@ def write_report(info: dict, results: dict, walk: dict | None) -> None:
         "",
         "wavrad solve = every phase of `solution.stats[\"times\"]` (visibility, kernels, "
         "hierarchy, Gauss–Seidel); render = wall clock of `solution.render()` (gather "
-        "mode, default camera rays). Mitsuba time = wall clock of its `mi.render` calls "
+        "mode, default camera rays; config `cached` with `gather_cache=True`, its time "
+        "including the cache's making). Mitsuba time = wall clock of its `mi.render` calls "
         "(scene loading excluded), interpolated log-log between the two measured points "
         "of a curve below that bracket wavrad's relRMSE; the median over "
         f"{CURVES} independent curves (every curve's spp below the table). CPU: user + "
@@ -519,7 +532,9 @@ def walkthrough_report(walk: dict) -> list[str]:
         f"side to just inside it, swinging left, right and up, always looking into the box "
         f"(`walkthrough_views()` in the script; images: `docs/benchmarks/walkthrough-"
         f"wavrad.png`, `walkthrough-mitsuba.png`, views row by row). wavrad solves once "
-        f"(config `{config}`) and renders every view; Mitsuba renders every view at "
+        f"(config `{config}`) and renders every view (with the view-independent gather "
+        "cache, which the first view makes: its render time includes that); Mitsuba "
+        "renders every view at "
         f"{mt['spp']} spp, the spp at which it reached wavrad's relRMSE on the scene's "
         "own view (rounded up to even): this assumes that the same spp gives about the same "
         "error on the other views, which the per-view noise below checks for Mitsuba.",
@@ -621,7 +636,7 @@ def main() -> None:
 
     start = time.perf_counter()
     info = {"machine": machine(), "configs": CONFIGS, "scene_configs": SCENE_CONFIGS,
-            "scene_only": SCENE_ONLY}
+            "scene_only": SCENE_ONLY, "render_args": RENDER_ARGS}
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         # wavrad first, each configuration in its own process.
@@ -658,7 +673,7 @@ def main() -> None:
                       for c, w in r["wavrad"].items()}
         r["reference_noise"] = REFERENCE_NOISE.get(name)
         if name == WALKTHROUGH_SCENE:
-            first = next(iter(CONFIGS))
+            first = WALKTHROUGH_CONFIG
             spp = 2 * math.ceil(r["match"][first]["spp"] / 2)
             mt = walkthrough(mitsuba, loaded, spp)
             errors = {"0": {"wavrad": relative_rmse(r["wavrad"][first]["views"][0], reference),
