@@ -80,7 +80,6 @@ impl GatherCache {
         let texels: Vec<(usize, usize)> = (0..sides.len())
             .flat_map(|s| (0..sides[s] * sides[s]).map(move |t| (s, t)))
             .collect();
-        let per_pixel = settings.gather_samples_per_pixel.max(1);
         let values: Vec<Option<Rgb>> = texels
             .par_iter()
             .map(|&(s, t)| {
@@ -96,10 +95,10 @@ impl GatherCache {
                 if is_buried(scene, tracer, s as u32, position, normal, coincident) {
                     return None;
                 }
-                let gathers = match reader.caustic[s] {
-                    true => per_pixel.saturating_mul(settings.caustic_gathers),
-                    false => per_pixel,
-                };
+                let gathers = settings
+                    .on_receiver(reader.caustic[s])
+                    .gather_samples_per_pixel
+                    .max(1);
                 let rays = settings.gather_rays.saturating_mul(gathers) / 2;
                 // As many shadow rays as the pixel's gathers, in one grid.
                 let shadow_grid = (f64::from(settings.gather_grid) * f64::from(gathers).sqrt())

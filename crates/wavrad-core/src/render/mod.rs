@@ -132,6 +132,16 @@ impl RenderSettings {
         ((n as f64 * share).round() as u32).max(1)
     }
 
+    /// The settings a diffuse surface gathers with: these, or on a caustic's
+    /// receiver `caustic_gathers` times as many gathers.
+    fn on_receiver(&self, caustic: bool) -> RenderSettings {
+        let factor = if caustic { self.caustic_gathers } else { 1 };
+        RenderSettings {
+            gather_samples_per_pixel: self.gather_samples_per_pixel.saturating_mul(factor),
+            ..*self
+        }
+    }
+
     /// The same settings with `n` camera rays per pixel, an eighth of them
     /// in interior pixels, a sixty-fourth gathering and eight times as
     /// many at an emitter's outline (the default proportions).
@@ -302,12 +312,6 @@ impl Solution {
         let any_glossy = self.scene.surfaces.iter().any(|s| !s.is_diffuse());
         let eye = (settings.eye && any_glossy && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::solve::Silent));
-        let caustic_settings = RenderSettings {
-            gather_samples_per_pixel: settings
-                .gather_samples_per_pixel
-                .saturating_mul(settings.caustic_gathers),
-            ..*settings
-        };
         let cache = (settings.mode == Reconstruction::Gather && settings.gather_cache)
             .then(|| self.gather_cache(&reader, settings));
         // Pixels showing one surface, as do their eight neighbours
@@ -389,11 +393,7 @@ impl Solution {
                 }
                 _ => reader.smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
             };
-            let local = if reader.caustic[s] {
-                &caustic_settings
-            } else {
-                settings
-            };
+            let local = settings.on_receiver(reader.caustic[s]);
             let gathering = GatheringRays::new(n, local.gathers_among(n));
             let rank = gathering.rank(k);
             let Some(block) = rank.filter(|_| settings.mode == Reconstruction::Gather) else {
@@ -406,7 +406,7 @@ impl Solution {
                 },
                 ..point
             };
-            let rays = gathering.rays(local);
+            let rays = gathering.rays(&local);
             let gathered =
                 self.final_gather(&reader, &point, (rays, settings.gather_grid), settings);
             let weight = gathering.weight();
