@@ -105,9 +105,10 @@ pub struct Occluder {
     /// Triangles in the order of `bvh.primitive_indices`.
     tris: Vec<Tri>,
     /// A binary BVH over the same boxes, for box queries (obvhs traverses
-    /// its wide BVH with rays only), and the triangles by id.
+    /// its wide BVH with rays only), and where each triangle id is in
+    /// `tris`.
     boxes: Option<BoxTree>,
-    by_id: Vec<Tri>,
+    slot_of: Vec<u32>,
     /// How far apart (world units) a triangle and a shaft must be for
     /// [`Occluder::clear_between`] to call them apart: the boxes' padding.
     pad: f64,
@@ -125,7 +126,7 @@ impl Occluder {
                 bvh: None,
                 tris: Vec::new(),
                 boxes: None,
-                by_id: Vec::new(),
+                slot_of: Vec::new(),
                 pad: 0.0,
                 slack: 0.0,
             };
@@ -162,21 +163,28 @@ impl Occluder {
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
-        let tri = |i: u32| {
-            let [a, b, c] = triangles[i as usize];
-            Tri {
-                v0: a,
-                e1: b - a,
-                e2: c - a,
-                id: i,
-            }
-        };
-        let tris = bvh.primitive_indices.iter().map(|&i| tri(i)).collect();
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = triangles[i as usize];
+                Tri {
+                    v0: a,
+                    e1: b - a,
+                    e2: c - a,
+                    id: i,
+                }
+            })
+            .collect();
+        let mut slot_of = vec![0; triangles.len()];
+        for (slot, &i) in bvh.primitive_indices.iter().enumerate() {
+            slot_of[i as usize] = slot as u32;
+        }
         Occluder {
             bvh: Some(bvh),
             tris,
             boxes: Some(BoxTree(boxes)),
-            by_id: (0..triangles.len() as u32).map(tri).collect(),
+            slot_of,
             pad,
             // obvhs skips boxes closer than 1e-4 along the (unit) f32 ray.
             slack: 2e-4 + 4.0 * pad,
@@ -265,7 +273,7 @@ impl Occluder {
             let node = &bvh.nodes[node as usize];
             let first = node.first_index as usize;
             for &i in &bvh.primitive_indices[first..first + node.prim_count as usize] {
-                let tri = &self.by_id[i as usize];
+                let tri = &self.tris[self.slot_of[i as usize] as usize];
                 if skip(tri.id) {
                     continue;
                 }
