@@ -15,8 +15,6 @@ import os
 import sys
 import time
 
-import numpy as np
-
 import wavrad
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
