@@ -91,7 +91,7 @@ impl<'a> PairRefiner<'a> {
         let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
         let rho = |s: &Surface| {
             s.brdf
-                .diffuse_reflectance()
+                .lambertian()
                 .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
         };
         PairRefiner {
@@ -433,15 +433,17 @@ pub fn refine_links(
 }
 
 /// The surface pairs (p < r) that get two-point links: those not facing
-/// away from each other, with at least one diffuse surface (glossy
-/// receivers gather through three-point links instead), in order.
+/// away from each other, at least one of which has a Lambertian lobe
+/// ([`crate::brdf::Brdf::lambertian`]; the rest of a glossy receiver's
+/// reflection goes through three-point links), in order.
 pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
     let n = scene.surfaces.len() as u32;
     (0..n)
         .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
         .filter(|&(p, r)| {
             let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
-            !kernel::faces_away(&sp.patch, &sr.patch) && (sp.is_diffuse() || sr.is_diffuse())
+            let lambertian = |s: &Surface| s.brdf.lambertian().is_some();
+            !kernel::faces_away(&sp.patch, &sr.patch) && (lambertian(sp) || lambertian(sr))
         })
         .collect()
 }
@@ -532,7 +534,7 @@ pub fn resolve_emitter_links(
     let emits = |s: u32| scene.surfaces[s as usize].is_emitter();
     let receives = |s: u32| {
         let surface = &scene.surfaces[s as usize];
-        surface.is_diffuse() && !surface.is_emitter()
+        surface.brdf.lambertian().is_some() && !surface.is_emitter()
     };
     progress.start("emitter links", links.len() as u64);
     let out = refine_each(links, progress, |l| {

@@ -10,7 +10,7 @@
 //! refined in turn. Source and glossy elements never go below `max_level`;
 //! the receiving element may go further ([`ThreePointSettings`]).
 
-use crate::brdf::Frame;
+use crate::brdf::{Brdf, Frame};
 use crate::hierarchy::ElementId;
 use crate::kernel::three_point::{GlossyElement, IncidentLight};
 use crate::kernel::{faces_away, KernelElement};
@@ -86,6 +86,8 @@ struct TripleRefiner<'a> {
     p: u32,
     q: u32,
     frame: Frame,
+    /// p's BRDF less its Lambertian lobe, which two-point links carry.
+    brdf: Brdf,
     links: Vec<ThreePointLink>,
 }
 
@@ -106,6 +108,7 @@ impl<'a> TripleRefiner<'a> {
             p,
             q,
             frame: scene.surfaces[p as usize].frame(),
+            brdf: scene.surfaces[p as usize].brdf.without_lambertian(),
             links: Vec::new(),
         }
     }
@@ -125,7 +128,7 @@ impl<'a> TripleRefiner<'a> {
                     patch: &a.patch,
                     surface: self.p,
                 },
-                brdf: &self.scene.surfaces[self.p as usize].brdf,
+                brdf: &self.brdf,
                 frame: self.frame,
             },
         )

@@ -226,3 +226,33 @@ fn brdf_sample_weight_is_f_cos_over_pdf() {
         }
     }
 }
+
+#[test]
+fn brdf_is_its_lambertian_lobe_plus_the_rest() {
+    // The solvers carry ρ/π of `lambertian()` through two-point links and
+    // `without_lambertian()` through three-point links: together they must
+    // be the whole BRDF, and the rest must have no Lambertian lobe left.
+    let mut rng = Rng::new(11);
+    for (name, model) in models() {
+        let rest = model.without_lambertian();
+        assert_eq!(rest.lambertian().unwrap_or([0.0; 3]), [0.0; 3], "{name}");
+        let rho = model.lambertian().unwrap_or([0.0; 3]);
+        let lambertian_models = ["diffuse", "ward"];
+        assert_eq!(
+            model.lambertian().is_some(),
+            lambertian_models.iter().any(|m| name.starts_with(m)),
+            "{name}"
+        );
+        for _ in 0..500 {
+            let (a, b) = (hemisphere(&mut rng), hemisphere(&mut rng));
+            let (f, g) = (model.eval(a, b), rest.eval(a, b));
+            for c in 0..3 {
+                let sum = rho[c] * std::f64::consts::FRAC_1_PI + g[c];
+                assert!(
+                    (f[c] - sum).abs() <= 1e-12 * f[c],
+                    "{name}: f = {f:?}, lobes {rho:?}/π + {g:?}"
+                );
+            }
+        }
+    }
+}

@@ -147,6 +147,34 @@ impl Brdf {
         }
     }
 
+    /// The albedo of the BRDF's Lambertian lobe: ρ of a diffuse BRDF, ρ_d
+    /// of a Ward one (unless black); `None` for models without one. The
+    /// solvers carry light this lobe reflects like a diffuse surface's
+    /// (two-point links, one radiance per element) and only the rest, f less
+    /// ρ/π ([`Brdf::without_lambertian`]), through three-point links.
+    pub fn lambertian(&self) -> Option<Rgb> {
+        match self {
+            Brdf::Diffuse(d) => Some(d.reflectance),
+            Brdf::Ward(w) if w.diffuse_reflectance.iter().any(|&r| r > 0.0) => {
+                Some(w.diffuse_reflectance)
+            }
+            _ => None,
+        }
+    }
+
+    /// The BRDF less its Lambertian lobe ([`Brdf::lambertian`]): what the
+    /// three-point kernel (the paper's eq. 13) projects.
+    pub fn without_lambertian(&self) -> Brdf {
+        match self {
+            Brdf::Diffuse(_) => Brdf::diffuse([0.0; 3]),
+            Brdf::Ward(w) => Brdf::Ward(Ward {
+                diffuse_reflectance: [0.0; 3],
+                ..*w
+            }),
+            other => other.clone(),
+        }
+    }
+
     fn model(&self) -> &dyn BrdfModel {
         match self {
             Brdf::Diffuse(d) => d,

@@ -16,6 +16,7 @@ use crate::exposure::PairExposure;
 use crate::hierarchy::ElementId;
 use crate::kernel::faces_away;
 use crate::render::eye::glossy_sources;
+use crate::render::reconstruct::{radiance_at, Reconstruction};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::{push_pull::push_pull, Progress, Solution};
 use glam::DVec3;
@@ -29,7 +30,8 @@ pub struct EnclosureRadiance {
     pub faces: [Patch; 6],
     /// For each (glossy surface p, face k) that can exchange light: the
     /// element pairs (a on p, b on face k) and their average radiance
-    /// L_{a→b}.
+    /// L_{a→b} (what p's non-Lambertian lobes reflect; its element radiance
+    /// adds the rest).
     pub structures: BTreeMap<(u32, u32), (PairTree, Vec<Rgb>)>,
     /// Element level to which points are located in the pair trees.
     depth: u32,
@@ -138,13 +140,12 @@ impl Solution {
         let structures = trees
             .into_iter()
             .map(|((p, k), tree)| {
-                let emission = scene.surfaces[p as usize].emission;
                 let weights: Vec<f64> = tree
                     .nodes
                     .iter()
                     .map(|node| exposure.of((p, node.a), (n + k, node.b)))
                     .collect();
-                let values = push_pull(&tree, &gathered[&(p, k)], emission, Some(&weights));
+                let values = push_pull(&tree, &gathered[&(p, k)], [0.0; 3], Some(&weights));
                 ((p, k), (tree, values))
             })
             .collect();
@@ -162,16 +163,22 @@ impl Solution {
     }
 
     /// Radiance leaving point `y` of glossy surface `p` in the unit
-    /// direction `d`, from the view-independent solution alone: the
-    /// directional radiance L_{p→q} towards the surface q the direction
-    /// meets, or the `enclosure`'s where it meets none.
+    /// direction `d`, from the view-independent solution alone: its element
+    /// radiance (smooth) plus the directional radiance L_{p→q} towards the
+    /// surface q the direction meets, or the `enclosure`'s where it meets
+    /// none.
     pub fn glossy_radiance_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
-        match self.tracer.trace(y, d, 1e-7, f64::INFINITY) {
+        let glossy = match self.tracer.trace(y, d, 1e-7, f64::INFINITY) {
             Some(hit) if hit.surface != p => {
                 self.directional_radiance(p, y, hit.surface, hit.position)
             }
             _ => self.enclosure().radiance(&self.scene, p, y, d),
-        }
+        };
+        let patch = &self.scene.surfaces[p as usize].patch;
+        let uv = patch.clamp_param(patch.param_of(y));
+        let (tree, radiance) = (&self.trees[p as usize], &self.radiance[p as usize]);
+        let own = radiance_at(tree, radiance, uv, Reconstruction::Smooth);
+        [0, 1, 2].map(|ch| own[ch] + glossy[ch])
     }
 }
 

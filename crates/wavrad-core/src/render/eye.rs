@@ -21,7 +21,8 @@ use std::collections::BTreeSet;
 #[derive(Debug, Clone, PartialEq)]
 pub struct EyeRadiance {
     /// For each surface, if glossy and facing the eye: its element tree and
-    /// the average radiance L_{a→eye} of every node.
+    /// the average radiance L_{a→eye} of every node (what its
+    /// non-Lambertian lobes reflect; its element radiance adds the rest).
     pub surfaces: Vec<Option<(ElementTree, Vec<Rgb>)>>,
 }
 
@@ -119,8 +120,7 @@ impl Solution {
             if let Some((tree, radiance)) = entry {
                 let weights: Vec<f64> =
                     tree.nodes.iter().map(|n| exposed(p as u32, n.id)).collect();
-                let emission = scene.surfaces[p].emission;
-                *radiance = push_pull(tree, &gathered[p], emission, Some(&weights));
+                *radiance = push_pull(tree, &gathered[p], [0.0; 3], Some(&weights));
             }
         }
         EyeRadiance { surfaces }
@@ -158,17 +158,18 @@ impl Solution {
     }
 
     /// L_{c→a}: the average radiance leaving element `c` of surface `r`
-    /// towards element `a` of surface `p`, at any levels.
+    /// towards element `a` of surface `p`, at any levels: the element's own
+    /// and, from a glossy `r`, its directional radiance towards `a`.
     pub fn radiance_from(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> Rgb {
         let (r, p) = (r as usize, p as usize);
+        let mut l = self.radiance[r][self.trees[r].node_containing(c) as usize];
         if self.scene.surfaces[r].is_diffuse() {
-            return self.radiance[r][self.trees[r].node_containing(c) as usize];
+            return l;
         }
         let Some(&s) = self.interactions.structure_of.get(&(r as u32, p as u32)) else {
-            return self.scene.surfaces[r].emission;
+            return l;
         };
         let values = &self.directional[s as usize];
-        let mut l = [0.0; 3];
         for (n, w) in self.interactions.directional[s as usize]
             .tree
             .overlaps(c, a)

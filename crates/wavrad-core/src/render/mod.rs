@@ -369,9 +369,10 @@ impl Solution {
                         Reconstruction::Smooth => Reconstruction::Smooth,
                         _ => Reconstruction::Haar,
                     };
-                    return eye.surfaces[s]
-                        .as_ref()
+                    let own = radiance_at(&self.trees[s], &self.radiance[s], uv, mode);
+                    let towards_eye = (eye.surfaces[s].as_ref())
                         .map_or([0.0; 3], |(tree, l)| radiance_at(tree, l, uv, mode));
+                    return [0, 1, 2].map(|ch| own[ch] + towards_eye[ch]);
                 }
                 // Every camera ray gathers through the BRDF.
                 return gather::glossy_radiance(
@@ -616,11 +617,9 @@ impl Solution {
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
-    /// point `x` of surface `s`: the smooth reconstruction (`smooth`, one
-    /// lookup per tree) for a diffuse `q`;
-    /// for a glossy one the directional radiance L_{q→s} of the element pairs
-    /// (a ∋ y, b), smooth over the receiver's elements b around `x` (the
-    /// gather integrates over y already, so only x needs the smoothing).
+    /// point `x` of surface `s`: the smooth reconstruction of `q`'s element
+    /// radiance (`smooth`, one lookup per tree), plus for a glossy `q` its
+    /// directional radiance towards `x` ([`Solution::directional_radiance`]).
     fn outgoing_radiance(
         &self,
         reader: &SolutionReader,
@@ -629,11 +628,13 @@ impl Solution {
         x: DVec3,
     ) -> Rgb {
         let surface = &self.scene.surfaces[q as usize];
-        if !surface.is_diffuse() {
-            return self.directional_radiance(q, y, s, x);
-        }
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let i = q as usize;
+        if !surface.is_diffuse() {
+            let own = reader.smooth[i].radiance(&self.trees[i], &self.radiance[i], uv_y);
+            let glossy = self.directional_radiance(q, y, s, x);
+            return [0, 1, 2].map(|ch| own[ch] + glossy[ch]);
+        }
         let Some(beyond_first) = &reader.beyond_first[i] else {
             return reader.smooth[i].radiance(&self.trees[i], &self.radiance[i], uv_y);
         };
@@ -649,14 +650,16 @@ impl Solution {
     }
 
     /// The directional radiance L_{q→s} that glossy surface `q` sends from
-    /// its point `y` towards point `x` of surface `s`: the values of the
-    /// element pairs (a ∋ y, b), smooth over the receiver's elements b
-    /// around `x`; `q`'s emission where the solve made no structure (q, s).
+    /// its point `y` towards point `x` of surface `s`, on top of its element
+    /// radiance (the light its non-Lambertian lobes reflect): the values of
+    /// the element pairs (a ∋ y, b), smooth over the receiver's elements b
+    /// around `x` (a gather integrates over y already, so only x needs the
+    /// smoothing); zero where the solve made no structure (q, s).
     pub fn directional_radiance(&self, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
         let surface = &self.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let Some(&index) = self.interactions.structure_of.get(&(q, s)) else {
-            return surface.emission;
+            return [0.0; 3];
         };
         let receiver = &self.scene.surfaces[s as usize].patch;
         let uv_x = receiver.param_of(x);

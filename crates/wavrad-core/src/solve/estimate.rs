@@ -99,18 +99,16 @@ impl LightEstimate {
 
     /// L_{c→a} (c on r, a on p) relative to the brightest emission.
     pub fn radiance(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> f64 {
-        let l = match self.directional.get(&(r, p)) {
-            Some((tree, values)) => tree
-                .overlaps(c, a)
-                .into_iter()
-                .map(|(n, w)| w * values[n as usize])
-                .sum(),
-            None => match self.trees.get(r as usize) {
-                Some(tree) => self.radiance[r as usize][tree.node_containing(c) as usize],
-                None => self.emission[r as usize],
-            },
+        let own = match self.trees.get(r as usize) {
+            Some(tree) => self.radiance[r as usize][tree.node_containing(c) as usize],
+            None => self.emission[r as usize],
         };
-        l / self.reference
+        let glossy: f64 = self.directional.get(&(r, p)).map_or(0.0, |(tree, values)| {
+            (tree.overlaps(c, a).into_iter())
+                .map(|(n, w)| w * values[n as usize])
+                .sum()
+        });
+        (own + glossy) / self.reference
     }
 
     /// Relative importance of element `b` of receiver `q` (1 without an

@@ -3,6 +3,17 @@
 //! glossy element pair collects R·L_{c→a} over its three-point links
 //! (eq. 13). L_{c→a} is the source element's radiance when the source is
 //! diffuse, and its directional radiance towards the receiver when glossy.
+//!
+//! A glossy surface with a Lambertian lobe ([`crate::brdf::Brdf::lambertian`])
+//! is both: its elements gather ρ_d·F·L_{c→a} over two-point links like a
+//! diffuse surface's, and its element pairs only the light the rest of its
+//! BRDF reflects (R projects f less ρ_d/π). Its radiance towards a receiver
+//! is the sum: the element's own (emission and Lambertian reflection) plus
+//! the pair's directional radiance. Without the split, the Lambertian lobe
+//! went through three-point links, whose glossy elements stop at
+//! `three_point_max_level`: a Ward floor of the glossy Cornell box (with
+//! its specular lobe off, the same surface as a diffuse one) left the small
+//! box's sides next to it 11–45 % off their diffuse-floor values.
 
 use crate::directional::PairTree;
 use crate::exposure::PairExposure;
@@ -34,9 +45,15 @@ pub enum Source {
         /// Node in its element tree.
         node: u32,
     },
-    /// A glossy source: the area-weighted mean of `directional[structure]`
-    /// over `nodes` (node, weight) covering the pair (c, a).
-    Directional {
+    /// A glossy source: its element's own radiance,
+    /// `radiance[surface][node]` (emission and Lambertian reflection), plus
+    /// the area-weighted mean of `directional[structure]` over `nodes`
+    /// (node, weight) covering the pair (c, a).
+    Glossy {
+        /// Source surface.
+        surface: u32,
+        /// Node in its element tree.
+        node: u32,
         /// Index of the directional structure L_{r→p}.
         structure: u32,
         /// Range in [`Interactions::covers`].
@@ -78,7 +95,8 @@ pub struct ThreePointTransfer {
 /// Every link of a scene, arranged for gathering.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Interactions {
-    /// Incoming two-point transfers of every surface (empty for glossy ones),
+    /// Incoming two-point transfers of every surface (empty for those
+    /// without a Lambertian lobe),
     /// ordered by receiving node so the gather is deterministic.
     pub incoming: Vec<Vec<Transfer>>,
     /// The directional structures, ordered by (p, q).
@@ -141,8 +159,8 @@ impl Interactions {
         };
         for l in links {
             for (p, a, r, c) in [(l.p, l.a, l.r, l.c), (l.r, l.c, l.p, l.a)] {
-                if !scene.surfaces[p as usize].is_diffuse() {
-                    continue; // glossy receivers gather through three-point links
+                if scene.surfaces[p as usize].brdf.lambertian().is_none() {
+                    continue; // they gather through three-point links alone
                 }
                 let receiver = node(p, a);
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
@@ -192,30 +210,37 @@ impl Interactions {
         p: u32,
         a: crate::hierarchy::ElementId,
     ) -> Source {
-        if scene.surfaces[r as usize].is_diffuse() {
-            return Source::Element {
-                surface: r,
-                node: trees[r as usize]
-                    .index_of(c)
-                    .expect("source element is in its tree"),
-            };
-        }
-        let structure = self.structure_of[&(r, p)];
-        let cover = self.directional[structure as usize].tree.overlaps(c, a);
-        Source::Directional {
-            structure,
-            nodes: self.push_cover(cover),
+        let node = trees[r as usize]
+            .index_of(c)
+            .expect("source element is in its tree");
+        let structure = self.structure_of.get(&(r, p)).copied();
+        match structure {
+            Some(structure) if !scene.surfaces[r as usize].is_diffuse() => {
+                let cover = self.directional[structure as usize].tree.overlaps(c, a);
+                Source::Glossy {
+                    surface: r,
+                    node,
+                    structure,
+                    nodes: self.push_cover(cover),
+                }
+            }
+            _ => Source::Element { surface: r, node },
         }
     }
 
-    /// L_{c→a} now: `radiance[surface][node]` for diffuse sources,
-    /// `directional[structure][node]` for glossy ones.
+    /// L_{c→a} now: `radiance[surface][node]`, plus for glossy sources
+    /// their directional radiance `directional[structure]` over the pair.
     pub fn read(&self, source: &Source, radiance: &[Vec<Rgb>], directional: &[Vec<Rgb>]) -> Rgb {
         match source {
             Source::Element { surface, node } => radiance[*surface as usize][*node as usize],
-            Source::Directional { structure, nodes } => {
+            Source::Glossy {
+                surface,
+                node,
+                structure,
+                nodes,
+            } => {
                 let values = &directional[*structure as usize];
-                let mut l = [0.0; 3];
+                let mut l = radiance[*surface as usize][*node as usize];
                 for &(n, w) in &self.covers[nodes.start as usize..nodes.end as usize] {
                     (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
                 }

@@ -137,13 +137,16 @@ pub struct Solution {
     pub tracer: SceneTracer,
     /// One element hierarchy per surface.
     pub trees: Vec<ElementTree>,
-    /// Average radiance of every node of every tree, `radiance[surface][node]`
-    /// (diffuse surfaces; a glossy surface's entries hold its emission).
+    /// Average radiance of every node of every tree, `radiance[surface][node]`:
+    /// emission and Lambertian reflection (all of a diffuse surface's; of a
+    /// glossy one, what leaves it alike in every direction).
     pub radiance: Vec<Vec<Rgb>>,
     /// The links arranged for gathering, with the directional structures of
     /// glossy surfaces (`interactions.directional`).
     pub interactions: Interactions,
-    /// Average radiance L_{a→b} of every node of every directional structure.
+    /// Average radiance L_{a→b} of every node of every directional structure:
+    /// the light the glossy surface's non-Lambertian lobes reflect towards
+    /// the receiver, on top of its elements' `radiance`.
     pub directional: Vec<Vec<Rgb>>,
     /// The refinement settings of the solve (rendering reuses them for the
     /// eye receiver).
@@ -159,7 +162,8 @@ pub struct Solution {
 }
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
-/// ones through three-point links and directional radiance (eq. 13).
+/// ones through three-point links and directional radiance (eq. 13), and
+/// their Lambertian lobes through two-point links ([`gather`]).
 ///
 /// With the paper's oracle the kernels are projected once. The weighted
 /// oracles need the light the links carry, so they run a refine–solve loop
@@ -305,8 +309,8 @@ impl Solution {
     /// The part of every diffuse element's radiance reflected straight from
     /// the emitters (eq. 12 with the emission as the only source, no
     /// emission of its own): the first bounce, which a final gather
-    /// evaluates per point instead of reading it from the elements. Empty
-    /// for glossy surfaces; `None` while the solution's links are not
+    /// evaluates per point instead of reading it from the elements. Of a
+    /// glossy surface, its Lambertian lobe's (empty without one); `None` while the solution's links are not
     /// arranged (a shooting step in progress).
     pub fn first_bounce(&self) -> Option<Vec<Vec<Rgb>>> {
         let scene = &self.scene;
@@ -323,14 +327,14 @@ impl Solution {
             .interactions
             .directional
             .iter()
-            .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
+            .map(|d| vec![[0.0; 3]; d.tree.nodes.len()])
             .collect();
         let bounce = scene
             .surfaces
             .par_iter()
             .enumerate()
             .map(|(p, surface)| {
-                let Some(rho) = surface.brdf.diffuse_reflectance() else {
+                let Some(rho) = surface.brdf.lambertian() else {
                     return Vec::new();
                 };
                 let tree = &self.trees[p];
@@ -449,10 +453,12 @@ impl System {
             .zip(&trees)
             .map(|(s, t)| vec![s.emission; t.nodes.len()])
             .collect();
+        // A glossy surface's emission is in its elements' radiance; its
+        // element pairs hold only what the non-Lambertian lobes reflect.
         let directional = interactions
             .directional
             .iter()
-            .map(|d| vec![scene.surfaces[d.p as usize].emission; d.tree.nodes.len()])
+            .map(|d| vec![[0.0; 3]; d.tree.nodes.len()])
             .collect();
         times.hierarchy_s += clock.elapsed().as_secs_f64();
         System {
@@ -500,7 +506,7 @@ impl System {
         while iterations < settings.max_iterations && residual > settings.tolerance {
             residual = 0.0;
             for (p, surface) in scene.surfaces.iter().enumerate() {
-                if let Some(rho) = surface.brdf.diffuse_reflectance() {
+                if let Some(rho) = surface.brdf.lambertian() {
                     let gathered =
                         interactions.gather(p, rho, trees[p].nodes.len(), radiance, directional);
                     let exposure = Some(&interactions.exposure[p][..]);
@@ -508,13 +514,12 @@ impl System {
                         push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);
                     residual = residual.max(change(updated[0], radiance[p][0]) / scale);
                     radiance[p] = updated;
-                    continue;
                 }
                 for &s in &structures_of[p] {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
-                    let updated = push_pull::push_pull(tree, &gathered, surface.emission, exposure);
+                    let updated = push_pull::push_pull(tree, &gathered, [0.0; 3], exposure);
                     residual = residual.max(change(updated[0], directional[s][0]) / scale);
                     directional[s] = updated;
                 }
