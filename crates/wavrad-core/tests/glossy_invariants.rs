@@ -107,11 +107,17 @@ fn a_lambertian_lobe_solves_exactly_as_a_diffuse_surface() {
     )
     .unwrap();
     assert_eq!(glossy.stats.three_point_interactions, 0);
-    assert_eq!(diffuse.stats.two_point_interactions, glossy.stats.two_point_interactions);
+    assert_eq!(
+        diffuse.stats.two_point_interactions,
+        glossy.stats.two_point_interactions
+    );
     for (s, (d, g)) in diffuse.radiance.iter().zip(&glossy.radiance).enumerate() {
         assert_eq!(d.len(), g.len(), "surface {s}");
         for (d, g) in d.iter().zip(g) {
-            assert!((d[0] - g[0]).abs() <= 1e-12 * d[0].max(1.0), "surface {s}: {d:?} {g:?}");
+            assert!(
+                (d[0] - g[0]).abs() <= 1e-12 * d[0].max(1.0),
+                "surface {s}: {d:?} {g:?}"
+            );
         }
     }
     assert!(diffuse.radiance[2][0][0] > 0.0);
@@ -169,7 +175,11 @@ fn glossy_box_with_albedo_below_one_gains_no_energy() {
     let towards = |(d, values): (&wavrad_core::solve::gather::Directional, &Vec<Rgb>)| {
         solution.radiance[d.p as usize][0][0] + values[0][0]
     };
-    let pairs = solution.interactions.directional.iter().zip(&solution.directional);
+    let pairs = solution
+        .interactions
+        .directional
+        .iter()
+        .zip(&solution.directional);
     let brightest = pairs.map(towards).fold(0.0, f64::max);
     assert!(brightest <= bound, "{brightest} > {bound}");
     // Light did bounce: walls that do not emit are lit, by both lobes.
