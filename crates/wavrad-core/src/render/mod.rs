@@ -369,7 +369,13 @@ impl Solution {
                         Reconstruction::Smooth => Reconstruction::Smooth,
                         _ => Reconstruction::Haar,
                     };
-                    let own = radiance_at(&self.trees[s], &self.radiance[s], uv, mode);
+                    // Its element radiance as a diffuse surface's is shown.
+                    let own = match settings.mode {
+                        Reconstruction::Haar => {
+                            radiance_at(&self.trees[s], &self.radiance[s], uv, mode)
+                        }
+                        _ => reader.smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
+                    };
                     let towards_eye = (eye.surfaces[s].as_ref())
                         .map_or([0.0; 3], |(tree, l)| radiance_at(tree, l, uv, mode));
                     return [0, 1, 2].map(|ch| own[ch] + towards_eye[ch]);
