@@ -38,8 +38,9 @@ COUNTS = ["two_point_nodes", "two_point_interactions",
 # receiver's elements follow the reflector's directional radiance, which the
 # three-point links resolve on the receiver: level 3, with the receiving
 # element two levels further (splitting only the receiver costs no ray
-# queries), gives 3.6 % in 11 s where level 4 for all three elements gives
-# 4.2 % in 42 s.
+# queries), gave 3.6 % in 11 s where level 4 for all three elements gave
+# 4.2 % in 42 s (before glossy BRDFs' Lambertian lobes took two-point
+# links; now 2.6 % in 4.5 s, docs/figure3.md).
 REFINED = {
     "diffuse": ["--oracle", "power", "--threshold", "2e-6", "--max-level", "8"],
     "specular": ["--oracle", "importance", "--threshold", "2e-6", "--max-level", "8",
