@@ -157,11 +157,19 @@ impl RenderSettings {
     }
 }
 
-/// What gather rays read from a solution on diffuse surfaces: the smooth
-/// reconstruction of its radiance; on a surface with an entry in
+/// What gather rays read from a solution on diffuse surfaces: the radiance
+/// of the element they hit (piecewise constant; `smooth`, the bilinear
+/// reconstruction, is what camera rays show); on a surface with an entry in
 /// `beyond_first` (the solution's radiance less its first bounce,
-/// [`Solution::first_bounce`]), the smooth reconstruction of that plus the
-/// light reflected straight from the `emitters` evaluated at the point hit.
+/// [`Solution::first_bounce`]), that element's value of it plus the light
+/// reflected straight from the `emitters` evaluated at the point hit.
+///
+/// A gather averages what it reads over many elements, so the smooth
+/// reconstruction gains it nothing, and near a concave edge, where the
+/// nearby surface fills much of a gather's hemisphere, its linear
+/// extrapolation at the boundary overshoots: reading element values took
+/// the reference test's Cornell box from 0.97 % to 0.93 %, the glossy box
+/// from 0.98 % to 0.95 %, Figure 3 unchanged.
 ///
 /// A final gather's bias is the error of what its rays read. On a strongly
 /// lit diffuse surface ([`Solution::secondary_sources`]) that reflects over
@@ -623,9 +631,9 @@ impl Solution {
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
-    /// point `x` of surface `s`: the smooth reconstruction of `q`'s element
-    /// radiance (`smooth`, one lookup per tree), plus for a glossy `q` its
-    /// directional radiance towards `x` ([`Solution::directional_radiance`]).
+    /// point `x` of surface `s` ([`SolutionReader`]): the radiance of `q`'s
+    /// element at `y`, plus for a glossy `q` its directional radiance
+    /// towards `x` ([`Solution::directional_radiance`]).
     fn outgoing_radiance(
         &self,
         reader: &SolutionReader,
@@ -636,15 +644,17 @@ impl Solution {
         let surface = &self.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let i = q as usize;
+        let element =
+            |radiance: &[Rgb]| radiance_at(&self.trees[i], radiance, uv_y, Reconstruction::Haar);
         if !surface.is_diffuse() {
-            let own = reader.smooth[i].radiance(&self.trees[i], &self.radiance[i], uv_y);
+            let own = element(&self.radiance[i]);
             let glossy = self.directional_radiance(q, y, s, x);
             return [0, 1, 2].map(|ch| own[ch] + glossy[ch]);
         }
         let Some(beyond_first) = &reader.beyond_first[i] else {
-            return reader.smooth[i].radiance(&self.trees[i], &self.radiance[i], uv_y);
+            return element(&self.radiance[i]);
         };
-        let solved = reader.smooth[i].radiance(&self.trees[i], beyond_first, uv_y);
+        let solved = element(beyond_first);
         let at = GatherPoint {
             surface: q,
             position: y,
