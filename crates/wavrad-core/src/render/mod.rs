@@ -368,6 +368,14 @@ impl Solution {
                 let seed = point.samples.seed();
                 self.radiance_leaving(&reader, (q, z), to, (seed, settings.glossy_grid))
             };
+            // The element radiance camera rays show: piecewise constant in
+            // Haar mode, else the smooth reconstruction.
+            let element = || match settings.mode {
+                Reconstruction::Haar => {
+                    radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode)
+                }
+                _ => reader.smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
+            };
             if !surface.is_diffuse() {
                 if !settings.eye && settings.mode != Reconstruction::Gather {
                     return self.glossy_radiance_towards(hit.surface, hit.position, -ray.direction);
@@ -378,12 +386,7 @@ impl Solution {
                         _ => Reconstruction::Haar,
                     };
                     // Its element radiance as a diffuse surface's is shown.
-                    let own = match settings.mode {
-                        Reconstruction::Haar => {
-                            radiance_at(&self.trees[s], &self.radiance[s], uv, mode)
-                        }
-                        _ => reader.smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
-                    };
+                    let own = element();
                     let towards_eye = (eye.surfaces[s].as_ref())
                         .map_or([0.0; 3], |(tree, l)| radiance_at(tree, l, uv, mode));
                     return [0, 1, 2].map(|ch| own[ch] + towards_eye[ch]);
@@ -402,12 +405,7 @@ impl Solution {
             if let Some(l) = cache.and_then(|c| c.radiance(hit.surface, uv)) {
                 return l;
             }
-            let reconstructed = match settings.mode {
-                Reconstruction::Haar => {
-                    radiance_at(&self.trees[s], &self.radiance[s], uv, settings.mode)
-                }
-                _ => reader.smooth[s].radiance(&self.trees[s], &self.radiance[s], uv),
-            };
+            let reconstructed = element();
             let local = settings.on_receiver(reader.caustic[s]);
             let gathering = GatheringRays::new(n, local.gathers_among(n));
             let rank = gathering.rank(k);
