@@ -14,10 +14,9 @@ use wavrad_core::solve::{push_pull::push_pull, solve, Silent, Solution, SolveSet
 fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
     for (p, surface) in s.scene.surfaces.iter().enumerate() {
         let rho = surface.brdf.diffuse_reflectance().expect("diffuse scene");
-        let nodes = s.trees[p].nodes.len();
         let gathered = s
             .interactions
-            .gather(p, rho, nodes, radiance, &s.directional);
+            .gather(p, rho, &s.trees[p], radiance, &s.directional);
         let exposure = Some(&s.interactions.exposure[p][..]);
         radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure);
     }
@@ -58,7 +57,7 @@ fn gauss_seidel(c: &mut Criterion) {
             s.interactions.gather(
                 busiest,
                 rho,
-                tree.nodes.len(),
+                tree,
                 black_box(&s.radiance),
                 &s.directional,
             )
@@ -66,7 +65,7 @@ fn gauss_seidel(c: &mut Criterion) {
     });
     let gathered =
         s.interactions
-            .gather(busiest, rho, tree.nodes.len(), &s.radiance, &s.directional);
+            .gather(busiest, rho, tree, &s.radiance, &s.directional);
     group.throughput(Throughput::Elements(tree.nodes.len() as u64));
     group.bench_function("push_pull (busiest surface)", |b| {
         let exposure = Some(&s.interactions.exposure[busiest][..]);

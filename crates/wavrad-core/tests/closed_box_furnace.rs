@@ -59,16 +59,18 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings, triangles: bool) -> (f64
 
 #[test]
 fn closed_box_furnace_radiance_is_le_over_one_minus_rho() {
-    // Energy is conserved surface by surface; single elements in the box's
-    // corners carry the error of projecting a kernel that is singular there
-    // at the default threshold (the area-weighted error is ~4 %).
+    // Energy is conserved surface by surface and element by element: a
+    // coarse link's form factor is spread over its receiver's leaves with
+    // its gradient, so a leaf at the box's corners does not get its
+    // ancestors' average form factors to the far walls (with a uniform
+    // spread, the worst leaf was 15 % off at ρ 0.5, 28 % at 0.8).
     let settings = SolveSettings::default();
     let (surfaces, elements) = furnace(0.5, 1.0, &settings, false);
-    assert!(surfaces < 0.01, "worst surface error {surfaces}");
-    assert!(elements < 0.16, "worst element error {elements}");
+    assert!(surfaces < 0.001, "worst surface error {surfaces}");
+    assert!(elements < 0.03, "worst element error {elements}");
     let (surfaces, elements) = furnace(0.8, 2.0, &settings, false);
-    assert!(surfaces < 0.03, "worst surface error {surfaces}");
-    assert!(elements < 0.28, "worst element error {elements}");
+    assert!(surfaces < 0.001, "worst surface error {surfaces}");
+    assert!(elements < 0.04, "worst element error {elements}");
 }
 
 #[test]
@@ -77,8 +79,8 @@ fn closed_box_of_triangles_furnace() {
     // Their acute corners (45°, against the box's edges) are the worst
     // elements: the look-ahead only reads parallelogram quadrants.
     let (surfaces, elements) = furnace(0.5, 1.0, &SolveSettings::default(), true);
-    assert!(surfaces < 0.01, "worst surface error {surfaces}");
-    assert!(elements < 0.3, "worst element error {elements}");
+    assert!(surfaces < 0.002, "worst surface error {surfaces}");
+    assert!(elements < 0.15, "worst element error {elements}");
 }
 
 #[test]
@@ -90,8 +92,8 @@ fn weighted_oracles_conserve_energy_in_the_furnace() {
         ..SolveSettings::for_oracle(Oracle::Power)
     };
     let (surfaces, elements) = furnace(0.5, 1.0, &settings, false);
-    assert!(surfaces < 0.01, "worst surface error {surfaces}");
-    assert!(elements < 0.16, "worst element error {elements}");
+    assert!(surfaces < 0.001, "worst surface error {surfaces}");
+    assert!(elements < 0.01, "worst element error {elements}");
 }
 
 #[test]

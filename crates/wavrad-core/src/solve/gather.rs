@@ -17,10 +17,14 @@
 
 use crate::directional::PairTree;
 use crate::exposure::PairExposure;
-use crate::hierarchy::ElementTree;
+use crate::hierarchy::{ElementTree, Hierarchy};
+use crate::kernel::form_factor::relative_gradient;
 use crate::link::Link;
-use crate::scene::{Rgb, Scene};
+use crate::scene::{Patch, Rgb, Scene};
+use crate::solve::push_pull::Gathered;
 use crate::three_point::ThreePointLink;
+use glam::DVec3;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::ops::Range;
 
@@ -78,6 +82,9 @@ pub struct Transfer {
     pub source: Source,
     /// Form factor F(receiver element, source element).
     pub form_factor: f64,
+    /// How the form factor varies over the receiving element
+    /// ([`relative_gradient`]); zero for a leaf, which holds one value.
+    pub gradient: DVec3,
 }
 
 /// A three-point link as seen by its receiving directional structure.
@@ -113,6 +120,30 @@ pub struct Interactions {
     /// Exposed fraction of every node (a, b) of every directional
     /// structure: directional radiance is averaged over exposed pairs.
     pub pair_exposure: Vec<Vec<f64>>,
+}
+
+impl Source {
+    /// The source element: (surface, node in its tree).
+    pub fn element(&self) -> (u32, u32) {
+        match *self {
+            Source::Element { surface, node } | Source::Glossy { surface, node, .. } => {
+                (surface, node)
+            }
+        }
+    }
+}
+
+/// The gradient of a form factor to `source` over the element `node` of
+/// `tree` (zero for a leaf): fitted at the centroids of its children.
+pub fn receiver_gradient(tree: &ElementTree, node: usize, source: &Patch) -> DVec3 {
+    let Some(first) = tree.first_child(node) else {
+        return DVec3::ZERO;
+    };
+    let points: Vec<DVec3> = (first..first + 4)
+        .map(|k| tree.nodes[k].patch.centroid())
+        .collect();
+    let normal = tree.nodes[node].patch.normal();
+    relative_gradient(&points, normal, &source.vertices(), source.normal())
 }
 
 impl Interactions {
@@ -170,6 +201,7 @@ impl Interactions {
                     receiver,
                     source,
                     form_factor: form_factor(l.throughput, area, exposed),
+                    gradient: DVec3::ZERO,
                 });
             }
         }
@@ -188,8 +220,13 @@ impl Interactions {
                 coefficient: l.coefficient.map(|k| k * scale),
             });
         }
-        for list in &mut out.incoming {
+        for (p, list) in out.incoming.iter_mut().enumerate() {
             list.sort_by_key(|t| t.receiver);
+            list.par_iter_mut().for_each(|t| {
+                let (r, c) = t.source.element();
+                let source = &trees[r as usize].nodes[c as usize].patch;
+                t.gradient = receiver_gradient(&trees[p], t.receiver as usize, source);
+            });
         }
         out
     }
@@ -249,25 +286,25 @@ impl Interactions {
         }
     }
 
-    /// Radiance reflected at each node of diffuse surface `p` from the
-    /// current solution: `ρ · Σ F · L_{c→a}` (eq. 12, before push–pull).
+    /// Radiance reflected at each node of diffuse surface `p` (whose tree
+    /// is `tree`) from the current solution: `ρ · Σ F · L_{c→a}` (eq. 12,
+    /// before push–pull), each term spread over its receiver with the
+    /// transfer's gradient.
     pub fn gather(
         &self,
         p: usize,
         reflectance: Rgb,
-        nodes: usize,
+        tree: &ElementTree,
         radiance: &[Vec<Rgb>],
         directional: &[Vec<Rgb>],
     ) -> Vec<Rgb> {
-        let mut gathered = vec![[0.0; 3]; nodes];
+        let mut gathered = Gathered::new(tree.nodes.len());
         for t in &self.incoming[p] {
             let l = self.read(&t.source, radiance, directional);
-            let g = &mut gathered[t.receiver as usize];
-            for ch in 0..3 {
-                g[ch] += reflectance[ch] * t.form_factor * l[ch];
-            }
+            let value = [0, 1, 2].map(|ch| reflectance[ch] * t.form_factor * l[ch]);
+            gathered.add(t.receiver as usize, value, t.gradient);
         }
-        gathered
+        gathered.into_averages(tree)
     }
 
     /// Radiance reflected at each node of directional structure `s`:

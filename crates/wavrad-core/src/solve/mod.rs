@@ -340,7 +340,7 @@ impl Solution {
                 let tree = &self.trees[p];
                 let gathered =
                     self.interactions
-                        .gather(p, rho, tree.nodes.len(), &emission, &directional);
+                        .gather(p, rho, tree, &emission, &directional);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 push_pull::push_pull(tree, &gathered, [0.0; 3], exposure)
             })
@@ -508,7 +508,7 @@ impl System {
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 if let Some(rho) = surface.brdf.lambertian() {
                     let gathered =
-                        interactions.gather(p, rho, trees[p].nodes.len(), radiance, directional);
+                        interactions.gather(p, rho, &trees[p], radiance, directional);
                     let exposure = Some(&interactions.exposure[p][..]);
                     let updated =
                         push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);

@@ -4,8 +4,9 @@
 //! the average radiance over its element. The same holds for the element-pair
 //! trees of directional radiance (the paper's 3d_reconstruct_decompose).
 
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::{ElementTree, Hierarchy};
 use crate::scene::Rgb;
+use glam::DVec3;
 
 /// Given the radiance `gathered` at each node of `tree` and the surface's
 /// emitted radiance, return the new radiance average of every node.
@@ -66,6 +67,69 @@ impl<T: Hierarchy> Pass<'_, T> {
     }
 }
 
+/// Radiance gathered at the nodes of an element tree, each a linear function
+/// over its element: an average and, per channel, a gradient
+/// ([`crate::kernel::form_factor::relative_gradient`]).
+#[derive(Debug, Clone)]
+pub struct Gathered {
+    average: Vec<Rgb>,
+    gradient: Vec<[DVec3; 3]>,
+}
+
+impl Gathered {
+    /// Nothing gathered yet at the `nodes` nodes of a tree.
+    pub fn new(nodes: usize) -> Gathered {
+        Gathered {
+            average: vec![[0.0; 3]; nodes],
+            gradient: Vec::new(),
+        }
+    }
+
+    /// Gather `value` at `node`, varying over its element as
+    /// `value · (1 + relative_gradient·(x − centroid))`.
+    pub fn add(&mut self, node: usize, value: Rgb, relative_gradient: DVec3) {
+        let a = &mut self.average[node];
+        (0..3).for_each(|ch| a[ch] += value[ch]);
+        if relative_gradient != DVec3::ZERO {
+            if self.gradient.is_empty() {
+                self.gradient = vec![[DVec3::ZERO; 3]; self.average.len()];
+            }
+            let g = &mut self.gradient[node];
+            (0..3).for_each(|ch| g[ch] += value[ch] * relative_gradient);
+        }
+    }
+
+    /// The averages to push down ([`push_pull`]), with every node's linear
+    /// part moved to the leaves under it, each getting its value at the
+    /// leaf's centroid (a linear function's average over the leaf).
+    pub fn into_averages(mut self, tree: &ElementTree) -> Vec<Rgb> {
+        if !self.gradient.is_empty() {
+            self.push_linear(tree, 0, [DVec3::ZERO; 3], [0.0; 3]);
+        }
+        self.average
+    }
+
+    /// Visit `node` with the ancestors' linear parts Σ g·(x − c) written as
+    /// `slope·x − offset` per channel.
+    fn push_linear(&mut self, tree: &ElementTree, node: usize, slope: [DVec3; 3], offset: Rgb) {
+        let centroid = tree.nodes[node].patch.centroid();
+        match tree.first_child(node) {
+            None => {
+                let a = &mut self.average[node];
+                (0..3).for_each(|ch| a[ch] += slope[ch].dot(centroid) - offset[ch]);
+            }
+            Some(first) => {
+                let g = self.gradient[node];
+                let slope = [0, 1, 2].map(|ch| slope[ch] + g[ch]);
+                let offset = [0, 1, 2].map(|ch| offset[ch] + g[ch].dot(centroid));
+                for child in first..first + 4 {
+                    self.push_linear(tree, child, slope, offset);
+                }
+            }
+        }
+    }
+}
+
 fn add(a: Rgb, b: Rgb) -> Rgb {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
@@ -94,5 +158,39 @@ mod tests {
         let l = push_pull(&tree, &gathered, [0.5, 0.5, 0.5], None);
         assert_eq!(l[deep], [17.5, 2.5, 3.5]);
         assert_eq!(l[0], [2.5, 2.5, 3.5]);
+    }
+
+    #[test]
+    fn gathered_gradients_reach_the_leaves_and_keep_the_average() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let deep = ElementId::ROOT.child(3).child(0);
+        let tree = ElementTree::build(&root, &[deep].into_iter().collect());
+        let mut gathered = Gathered::new(tree.nodes.len());
+        let g = DVec3::new(0.4, -0.2, 0.0);
+        gathered.add(0, [1.0, 2.0, 0.0], g);
+        let child = tree.index_of(ElementId::ROOT.child(3)).unwrap() as usize;
+        gathered.add(child, [0.0, 0.0, 4.0], -g);
+        let averages = gathered.into_averages(&tree);
+        assert_eq!(averages[0], [1.0, 2.0, 0.0]); // the constant stays put
+        let l = push_pull(&tree, &averages, [0.0; 3], None);
+        // Each leaf holds the linear functions over it at its centroid.
+        let leaf = tree.index_of(deep).unwrap() as usize;
+        let x = DVec3::new(0.625, 0.625, 0.0);
+        let (centre, quadrant) = (DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.75, 0.75, 0.0));
+        let expect = [
+            1.0 + g.dot(x - centre),
+            2.0 * (1.0 + g.dot(x - centre)),
+            4.0 * (1.0 - g.dot(x - quadrant)),
+        ];
+        // And every element's average is what it gathered.
+        for ch in 0..3 {
+            assert!((l[leaf][ch] - expect[ch]).abs() < 1e-12, "{l:?}");
+            assert!((l[0][ch] - [1.0, 2.0, 1.0][ch]).abs() < 1e-12, "{l:?}");
+            assert!((l[child][ch] - [1.0, 2.0, 4.0][ch] - g.dot(quadrant - centre) * [1.0, 2.0, 0.0][ch]).abs() < 1e-12, "{l:?}");
+        }
     }
 }

@@ -54,7 +54,8 @@
 //! ```
 
 use super::estimate::LightEstimate;
-use super::gather::{form_factor, Interactions};
+use super::gather::{form_factor, receiver_gradient, Interactions};
+use super::push_pull::Gathered;
 use super::{push_pull, Progress, Silent, Solution, SolveSettings, System};
 use crate::exposure::exposed_fractions;
 use crate::hierarchy::{ElementId, ElementTree};
@@ -273,18 +274,19 @@ impl SurfaceState {
             .unwrap_or([0.0; 3]);
         let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
         self.grow((scene, tracer, r), links.iter().map(|l| ends(l).0));
-        let mut gathered = vec![[0.0; 3]; self.tree.nodes.len()];
+        let mut gathered = Gathered::new(self.tree.nodes.len());
         for l in links {
             let (a, c) = ends(l);
             let node = self.tree.index_of(a).expect("link element is in its tree") as usize;
             let area = self.tree.nodes[node].patch.area();
             let form_factor = form_factor(l.throughput, area, self.exposure[node]);
             let sent = unshot[tree.node_containing(c) as usize];
-            for ch in 0..3 {
-                gathered[node][ch] += rho[ch] * form_factor * sent[ch];
-            }
+            let value = [0, 1, 2].map(|ch| rho[ch] * form_factor * sent[ch]);
+            let gradient = receiver_gradient(&self.tree, node, &c.patch(&tree.nodes[0].patch));
+            gathered.add(node, value, gradient);
         }
-        let received = push_pull::push_pull(&self.tree, &gathered, [0.0; 3], Some(&self.exposure));
+        let averages = gathered.into_averages(&self.tree);
+        let received = push_pull::push_pull(&self.tree, &averages, [0.0; 3], Some(&self.exposure));
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             for ch in 0..3 {
                 l[ch] += d[ch];
