@@ -54,18 +54,13 @@ fn gauss_seidel(c: &mut Criterion) {
     ));
     group.bench_function("gather (busiest surface)", |b| {
         b.iter(|| {
-            s.interactions.gather(
-                busiest,
-                rho,
-                tree,
-                black_box(&s.radiance),
-                &s.directional,
-            )
+            s.interactions
+                .gather(busiest, rho, tree, black_box(&s.radiance), &s.directional)
         })
     });
-    let gathered =
-        s.interactions
-            .gather(busiest, rho, tree, &s.radiance, &s.directional);
+    let gathered = s
+        .interactions
+        .gather(busiest, rho, tree, &s.radiance, &s.directional);
     group.throughput(Throughput::Elements(tree.nodes.len() as u64));
     group.bench_function("push_pull (busiest surface)", |b| {
         let exposure = Some(&s.interactions.exposure[busiest][..]);

@@ -338,9 +338,9 @@ impl Solution {
                     return Vec::new();
                 };
                 let tree = &self.trees[p];
-                let gathered =
-                    self.interactions
-                        .gather(p, rho, tree, &emission, &directional);
+                let gathered = self
+                    .interactions
+                    .gather(p, rho, tree, &emission, &directional);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 push_pull::push_pull(tree, &gathered, [0.0; 3], exposure)
             })
@@ -507,8 +507,7 @@ impl System {
             residual = 0.0;
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 if let Some(rho) = surface.brdf.lambertian() {
-                    let gathered =
-                        interactions.gather(p, rho, &trees[p], radiance, directional);
+                    let gathered = interactions.gather(p, rho, &trees[p], radiance, directional);
                     let exposure = Some(&interactions.exposure[p][..]);
                     let updated =
                         push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);

@@ -190,7 +190,14 @@ mod tests {
         for ch in 0..3 {
             assert!((l[leaf][ch] - expect[ch]).abs() < 1e-12, "{l:?}");
             assert!((l[0][ch] - [1.0, 2.0, 1.0][ch]).abs() < 1e-12, "{l:?}");
-            assert!((l[child][ch] - [1.0, 2.0, 4.0][ch] - g.dot(quadrant - centre) * [1.0, 2.0, 0.0][ch]).abs() < 1e-12, "{l:?}");
+            assert!(
+                (l[child][ch]
+                    - [1.0, 2.0, 4.0][ch]
+                    - g.dot(quadrant - centre) * [1.0, 2.0, 0.0][ch])
+                    .abs()
+                    < 1e-12,
+                "{l:?}"
+            );
         }
     }
 }
