@@ -1,6 +1,7 @@
 //! The exposed part of an element: the points of a surface that can exchange
 //! light at all, as opposed to those buried under a box resting on it, inside
-//! a closed solid, or behind a coincident one-sided surface.
+//! a closed solid, behind a coincident one-sided surface, or outside the
+//! scene's walls (a box's sides reaching through the floor).
 //!
 //! A floor element straddling the base of a box has a buried part whose
 //! radiance no path can reach or leave. Its links already carry that through
@@ -35,9 +36,12 @@ const PROBES: [(f64, f64, f64); 5] = [
 ];
 
 /// True when the point `x` of surface `surface` (front normal `normal`) is
-/// buried: every probe ray from it first meets the back of a surface (it is
-/// inside a closed solid, or under a one-sided surface) or a surface within
-/// `coincident` of it (a face lying on it).
+/// buried: no probe ray from it meets the front of another surface, and
+/// some meet the back of one (it is inside a closed solid, under a
+/// one-sided surface, or outside the scene's walls: the part of a box's side
+/// reaching through the floor) or one within `coincident` of it (a face
+/// lying on it). A point whose probes all leave the scene is exposed: it
+/// may still see an emitter the probes miss.
 pub fn is_buried(
     scene: &Scene,
     tracer: &SceneTracer,
@@ -47,17 +51,22 @@ pub fn is_buried(
     coincident: f64,
 ) -> bool {
     let (t, b) = tangents(normal);
-    PROBES.iter().all(|&(u, v, w)| {
+    let mut covered = false;
+    for &(u, v, w) in &PROBES {
         let dir = (u * t + v * b + w * normal).normalize();
         match tracer.trace(x, dir, coincident * 1e-3, f64::INFINITY) {
-            None => false,
-            Some(hit) if hit.surface == surface => false,
+            None => {}
+            Some(hit) if hit.surface == surface => return false,
             Some(hit) => {
                 let facing = scene.surfaces[hit.surface as usize].patch.normal().dot(dir);
-                hit.distance <= coincident || facing > 0.0
+                if hit.distance > coincident && facing <= 0.0 {
+                    return false;
+                }
+                covered = true;
             }
         }
-    })
+    }
+    covered
 }
 
 /// Exposed fraction of every node of `tree`, the element tree of `surface`,
@@ -103,27 +112,41 @@ fn fraction(
     exposed / total
 }
 
-/// True when `element` (a part of `surface`) is partly buried: some points
-/// of a 4×4 grid over it, reaching to 1 % of its edges, are [`is_buried`]
-/// and some are not. Such an element straddles the base of a box; when its
-/// exposed part is a strip narrower than its Gauss points' inset (0.21 of
-/// the element), all of them are buried and the strip, the floor right
-/// against the box, would be lost to its links and to its exposed fraction
-/// alike.
-pub fn straddles(scene: &Scene, tracer: &SceneTracer, surface: u32, element: &Patch) -> bool {
+/// True when `element` (a part of `surface`) straddles the boundary of the
+/// exposed part and some of its Gauss points (of `quadrature`) are buried:
+/// points of a 4×4 grid over it, reaching to 1 % of its edges, are buried
+/// and exposed, and not all the Gauss points are exposed. Such an element
+/// straddles the base of a box: when its exposed part is a strip narrower
+/// than the points' inset (0.21 of the element), all of them are buried and
+/// the strip, the floor right against the box, would be lost to its links
+/// and to its exposed fraction alike; when the boundary runs between its
+/// points, its links average light over the few exposed ones. An element
+/// whose Gauss points are all exposed, the buried part a strip along its
+/// edge (a box's side reaching through the floor), is not refined for it:
+/// its form factors are right for its exposed part.
+pub fn straddles(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    (surface, element): (u32, &Patch),
+    quadrature: Quadrature,
+) -> bool {
     const AT: [f64; 4] = [0.01, 1.0 / 3.0, 2.0 / 3.0, 0.99];
     let root = &scene.surfaces[surface as usize].patch;
     let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
-    let mut seen = [false; 2];
-    for k in 0..16 {
+    let buried = |x: DVec3| is_buried(scene, tracer, surface, x, normal, coincident);
+    let grid = (0..16).map(|k| {
         let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
-        let x = element.point_at(element.square_to_param(uv));
-        seen[usize::from(is_buried(scene, tracer, surface, x, normal, coincident))] = true;
-        if seen == [true; 2] {
-            return true;
-        }
+        buried(element.point_at(element.square_to_param(uv)))
+    });
+    let mut seen = [false; 2];
+    for b in grid {
+        seen[usize::from(b)] = true;
     }
-    false
+    seen == [true; 2]
+        && element
+            .gauss_points(quadrature.points)
+            .iter()
+            .any(|p| buried(p.position))
 }
 
 /// Exposed fractions of the elements of the directional structures' pairs,
@@ -209,10 +232,16 @@ mod tests {
             .iter()
             .all(|p| is_buried(&scene, &tracer, 0, p.position, DVec3::Z, 1e-7));
         assert!(gauss_buried);
-        assert!(straddles(&scene, &tracer, 0, &thin));
-        // Wholly under the box, wholly beside it: neither.
-        assert!(!straddles(&scene, &tracer, 0, &square(0.7, 0.7, 0.5)));
-        assert!(!straddles(&scene, &tracer, 0, &square(1.55, 0.0, 0.4)));
+        let q = Quadrature::default();
+        assert!(straddles(&scene, &tracer, (0, &thin), q));
+        // Half under it, with Gauss points on both sides, too.
+        assert!(straddles(&scene, &tracer, (0, &square(0.25, 0.25, 0.5)), q));
+        // Wholly under the box, wholly beside it: neither. Under it along
+        // one edge only, its Gauss points all beside it: its exposed points
+        // stand for it.
+        assert!(!straddles(&scene, &tracer, (0, &square(0.7, 0.7, 0.5)), q));
+        assert!(!straddles(&scene, &tracer, (0, &square(1.55, 0.0, 0.4)), q));
+        assert!(!straddles(&scene, &tracer, (0, &square(0.0, 0.0, 0.51)), q));
     }
 
     #[test]
@@ -236,6 +265,44 @@ mod tests {
             2,
             top.centroid(),
             top.normal(),
+            1e-7
+        ));
+    }
+
+    #[test]
+    fn a_side_reaching_through_the_floor_is_buried_below_it() {
+        // The same cube sunk 0.1 into the floor: below the floor its sides
+        // meet the floor's back and the empty space under the scene.
+        let floor = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X * 2.0,
+            edge_t: DVec3::Y * 2.0,
+        };
+        let cube = inward_box(DVec3::new(0.5, 0.5, -0.1), DVec3::new(1.5, 1.5, 1.0));
+        let mut surfaces = vec![grey(floor)];
+        surfaces.extend(cube.iter().map(|f| grey(f.flipped())));
+        let scene = Scene::from_surfaces(surfaces);
+        let tracer = SceneTracer::new(&scene);
+        let side = 3; // y = 0.5, facing −y
+        let normal = scene.surfaces[side].patch.normal();
+        assert!(normal.dot(-DVec3::Y) > 0.99);
+        for (z, buried) in [(-0.05, true), (0.05, false), (0.5, false)] {
+            let x = DVec3::new(1.0, 0.5, z);
+            assert_eq!(
+                is_buried(&scene, &tracer, side as u32, x, normal, 1e-7),
+                buried,
+                "{z}"
+            );
+        }
+        // A floor with nothing on it, in the open: exposed.
+        let alone = Scene::from_surfaces(vec![grey(floor)]);
+        let tracer = SceneTracer::new(&alone);
+        assert!(!is_buried(
+            &alone,
+            &tracer,
+            0,
+            DVec3::ONE.with_z(0.0),
+            DVec3::Z,
             1e-7
         ));
     }

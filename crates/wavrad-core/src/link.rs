@@ -107,16 +107,19 @@ impl<'a> PairRefiner<'a> {
     }
 
     /// True for an element above the maximum level that straddles a
-    /// contact line: no link may keep it whole.
+    /// contact line with its Gauss points all buried
+    /// ([`crate::exposure::straddles`]): no link may keep it whole.
     fn straddles(&mut self, side: &Side) -> bool {
         if side.id.level >= self.settings.max_level {
             return false;
         }
-        let (scene, tracer) = (self.scene, self.tracer);
+        let (scene, tracer, quadrature) = (self.scene, self.tracer, self.settings.quadrature);
         *self
             .straddling
             .entry((side.surface, side.id))
-            .or_insert_with(|| crate::exposure::straddles(scene, tracer, side.surface, &side.patch))
+            .or_insert_with(|| {
+                crate::exposure::straddles(scene, tracer, (side.surface, &side.patch), quadrature)
+            })
     }
 
     fn surface(&self, s: u32) -> (f64, f64) {
