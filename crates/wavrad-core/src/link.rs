@@ -36,6 +36,34 @@ pub struct Link {
     /// the refine–solve loop re-weighs it without new quadrature. Zero
     /// under the kernel oracle and for links at the maximum level.
     pub detail: f32,
+    /// How the throughput divides between the children of one of the
+    /// elements, where refinement integrated them to decide to keep the
+    /// link.
+    pub children: Option<ChildShares>,
+}
+
+/// Each child's share of a link's throughput T(a,c), from its own
+/// quadrature (visibility included): how the kernel varies over the element
+/// it subdivides, which gathering spreads the link's light with
+/// ([`crate::solve::gather`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChildShares {
+    /// Whether the subdivided element is `a` (else `c`).
+    pub of_a: bool,
+    /// T(child k, other) / T(a,c), in [`Patch::subdivide`] order.
+    pub shares: [f32; 4],
+}
+
+impl ChildShares {
+    /// The shares of the children's throughputs `t` of `a` (`of_a`) or `c`;
+    /// `None` when they sum to nothing.
+    pub fn new(of_a: bool, t: &[f64]) -> Option<ChildShares> {
+        let total: f64 = t.iter().sum();
+        (total > 0.0).then(|| ChildShares {
+            of_a,
+            shares: [0, 1, 2, 3].map(|k| (t[k] / total) as f32),
+        })
+    }
 }
 
 /// Settings of the adaptive kernel projection.
@@ -312,7 +340,13 @@ impl<'a> PairRefiner<'a> {
         (children_verdict, other_verdict)
     }
 
-    fn push(&mut self, a: &Side, c: &Side, throughput: f64, detail: f64) {
+    fn push(
+        &mut self,
+        (a, c): (&Side, &Side),
+        throughput: f64,
+        detail: f64,
+        children: Option<ChildShares>,
+    ) {
         if throughput > 0.0 {
             self.links.push(Link {
                 p: a.surface,
@@ -321,6 +355,7 @@ impl<'a> PairRefiner<'a> {
                 c: c.id,
                 throughput,
                 detail: detail as f32,
+                children,
             });
         }
     }
@@ -330,7 +365,7 @@ impl<'a> PairRefiner<'a> {
     fn refine(&mut self, a: Side, c: Side, throughput: f64, clear: bool) {
         let max = self.settings.max_level;
         let split_a = match (a.id.level < max, c.id.level < max) {
-            (false, false) => return self.push(&a, &c, throughput, 0.0),
+            (false, false) => return self.push((&a, &c), throughput, 0.0, None),
             (true, false) => true,
             (false, true) => false,
             (true, true) => a.patch.area() >= c.patch.area(),
@@ -380,7 +415,8 @@ impl<'a> PairRefiner<'a> {
                 .detail
                 .max(children_verdict.detail)
                 .max(other_verdict.detail);
-            return self.push(&a, &c, t.iter().sum(), detail);
+            let children = ChildShares::new(split_a, &t);
+            return self.push((&a, &c), t.iter().sum(), detail, children);
         }
         if split_smooth {
             let (split, other) = (*other, *split);
@@ -548,12 +584,17 @@ pub fn resolve_emitter_links(
             _ => return vec![*l],
         };
         let source = c.patch(&scene.surfaces[emitter as usize].patch);
-        let link = |element: ElementId, throughput: f64| {
+        // A link kept at its own receiver stays as it was.
+        let link = |element: ElementId, throughput: f64, t: Option<&[f64]>| {
+            if element == a {
+                return *l;
+            }
             let (a, c) = if flipped { (c, element) } else { (element, c) };
             Link {
                 a,
                 c,
                 throughput,
+                children: t.and_then(|t| ChildShares::new(!flipped, t)),
                 ..*l
             }
         };
@@ -562,7 +603,7 @@ pub fn resolve_emitter_links(
         let mut stack = vec![(a, patch, l.throughput)];
         while let Some((id, patch, throughput)) = stack.pop() {
             if id.level >= max_level {
-                out.push(link(id, throughput));
+                out.push(link(id, throughput, None));
                 continue;
             }
             let children = patch.subdivide();
@@ -586,7 +627,7 @@ pub fn resolve_emitter_links(
             let means = [0, 1, 2, 3].map(|k| t[k] / children[k].area());
             let mean = means.iter().sum::<f64>() / 4.0;
             if mean <= 0.0 || average_detail(means) <= EMITTER_LINK_VARIATION * mean {
-                out.push(link(id, throughput));
+                out.push(link(id, throughput, Some(&t)));
                 continue;
             }
             // Children in reverse so the links come out in tree order.
@@ -663,6 +704,37 @@ mod tests {
         // for parallel unit squares at distance 0.3.
         let t: f64 = links.iter().map(|l| l.throughput).sum();
         assert!((t - 0.579_530_8).abs() < 1e-4, "{t}");
+        // A link kept above the maximum level knows how its throughput
+        // divides between the children of the element it split: their own
+        // quadratures.
+        let split: Vec<&Link> = links.iter().filter(|l| l.children.is_some()).collect();
+        assert!(!split.is_empty());
+        let root = |s: u32| scene.surfaces[s as usize].patch;
+        for l in split {
+            let shares = l.children.unwrap();
+            let ((s, e), (o, f)) = if shares.of_a {
+                ((l.p, l.a), (l.r, l.c))
+            } else {
+                ((l.r, l.c), (l.p, l.a))
+            };
+            let other = f.patch(&root(o));
+            for (k, share) in shares.shares.into_iter().enumerate() {
+                let child = e.child(k).patch(&root(s));
+                let t = kernel::throughput(
+                    &tracer,
+                    settings.quadrature,
+                    KernelElement {
+                        patch: &child,
+                        surface: s,
+                    },
+                    KernelElement {
+                        patch: &other,
+                        surface: o,
+                    },
+                );
+                assert!((t / l.throughput - f64::from(share)).abs() < 1e-6, "{l:?}");
+            }
+        }
     }
 
     /// An emitter over a dark floor, and a second dark square facing the
@@ -761,6 +833,7 @@ mod tests {
                 c: ElementId::ROOT,
                 throughput: t,
                 detail: 0.0,
+                children: None,
             }
         };
         let resolve = |scene: &Scene, tracer: &SceneTracer, link: Link| {

@@ -63,40 +63,32 @@ pub fn point_to_polygon(x: DVec3, n_x: DVec3, polygon: &[DVec3], n_polygon: DVec
     (sum / (2.0 * std::f64::consts::PI)).abs()
 }
 
-/// How the unoccluded form factor to `source` varies over a receiving
-/// element: the relative gradient g with F(x) ≈ F̄·(1 + g·(x − x̄)), fitted
-/// by least squares to [`point_to_polygon`] at `points` on the receiver's
-/// plane (normal `n`; x̄ their mean, F̄ the mean of their values). Zero when
-/// nothing of the source is in front of them.
-///
-/// A two-point link holds one form factor for its whole receiver (the Haar
-/// scaling coefficient); spreading it over the receiver's descendants with
-/// this gradient, rather than uniformly, is what makes the form factors of
-/// the leaves of a concave corner sum to one: uniformly, a leaf at the
-/// corner gets both fine links to the adjacent wall and its ancestors'
-/// average form factors to the far walls, too large there, and the leaves a
-/// few elements in get too little.
-pub fn relative_gradient(points: &[DVec3], n: DVec3, source: &[DVec3], n_source: DVec3) -> DVec3 {
-    let values: Vec<f64> = points
-        .iter()
-        .map(|&x| point_to_polygon(x, n, source, n_source))
-        .collect();
+/// The relative gradient g of a quantity sampled as `values` at `points` of
+/// a plane with normal `n`: F(x) ≈ F̄·(1 + g·(x − x̄)), fitted by least
+/// squares (x̄ the points' mean, F̄ the values'). Zero when F̄ is, or when the
+/// points do not span the plane (fewer than three).
+pub fn relative_gradient(points: &[DVec3], values: &[f64], n: DVec3) -> DVec3 {
     let count = points.len() as f64;
     let mean = values.iter().sum::<f64>() / count;
-    if mean <= 0.0 {
+    if points.len() < 3 || mean <= 0.0 {
         return DVec3::ZERO;
     }
     let centre = points.iter().copied().sum::<DVec3>() / count;
-    // Normal equations (Σ d dᵀ) g = Σ d (F − F̄) in the plane; n nᵀ makes the
-    // matrix invertible without giving g a normal component.
-    let mut m = glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    // Normal equations (Σ d dᵀ) g = Σ d (F − F̄) in the plane; n nᵀ, scaled
+    // to the points' spread, makes the matrix invertible without giving g
+    // a normal component.
+    let spread = points
+        .iter()
+        .map(|&x| (x - centre).length_squared())
+        .sum::<f64>();
+    let mut m = glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z) * spread;
     let mut b = DVec3::ZERO;
-    for (&x, f) in points.iter().zip(&values) {
+    for (&x, f) in points.iter().zip(values) {
         let d = x - centre;
         m += glam::DMat3::from_cols(d * d.x, d * d.y, d * d.z);
         b += d * (f - mean);
     }
-    if m.determinant().abs() <= 1e-300 {
+    if m.determinant().abs() <= 1e-9 * spread.powi(3) {
         return DVec3::ZERO;
     }
     m.inverse() * b / mean
@@ -155,7 +147,7 @@ mod tests {
     }
 
     #[test]
-    fn relative_gradient_is_the_derivative_of_the_form_factor() {
+    fn relative_gradient_of_lambert_is_the_derivative_of_the_form_factor() {
         // A 0.1-wide receiver on z = 0 under the unit square at z = 1, off to
         // one side: the fitted gradient matches the central difference of
         // Lambert's formula at its centre, and vanishes where symmetry does.
@@ -165,18 +157,23 @@ mod tests {
             [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
                 .map(|(i, j)| c + 0.025 * DVec3::new(i, j, 0.0))
         };
+        let gradient = |points: [DVec3; 4], n_square: DVec3| {
+            let values = points.map(|x| point_to_polygon(x, DVec3::Z, &square, n_square));
+            relative_gradient(&points, &values, DVec3::Z)
+        };
         let c = DVec3::new(1.3, 0.5, 0.0);
-        let g = relative_gradient(&quadrants(c), DVec3::Z, &square, -DVec3::Z);
+        let g = gradient(quadrants(c), -DVec3::Z);
         let h = 1e-4;
         let dx = (f(c + h * DVec3::X) - f(c - h * DVec3::X)) / (2.0 * h) / f(c);
         assert!(dx < -0.5, "{dx}");
         assert!((g.x - dx).abs() < 0.02 * dx.abs(), "{g} vs {dx}");
         assert!(g.y.abs() < 1e-9 && g.z.abs() < 1e-12, "{g}");
         let centre = DVec3::new(0.5, 0.5, 0.0);
-        let g = relative_gradient(&quadrants(centre), DVec3::Z, &square, -DVec3::Z);
+        let g = gradient(quadrants(centre), -DVec3::Z);
         assert!(g.length() < 1e-9, "{g}");
-        // Nothing in front: no gradient.
-        let g = relative_gradient(&quadrants(c), DVec3::Z, &square, DVec3::Z);
-        assert_eq!(g, DVec3::ZERO);
+        // Nothing in front: no gradient; nor from two points.
+        assert_eq!(gradient(quadrants(c), DVec3::Z), DVec3::ZERO);
+        let two = relative_gradient(&quadrants(c)[..2], &[1.0, 2.0], DVec3::Z);
+        assert_eq!(two, DVec3::ZERO);
     }
 }

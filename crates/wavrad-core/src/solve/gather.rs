@@ -18,7 +18,7 @@
 use crate::directional::PairTree;
 use crate::exposure::PairExposure;
 use crate::hierarchy::{ElementTree, Hierarchy};
-use crate::kernel::form_factor::relative_gradient;
+use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
 use crate::link::Link;
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::push_pull::Gathered;
@@ -133,17 +133,43 @@ impl Source {
     }
 }
 
-/// The gradient of a form factor to `source` over the element `node` of
-/// `tree` (zero for a leaf): fitted at the centroids of its children.
-pub fn receiver_gradient(tree: &ElementTree, node: usize, source: &Patch) -> DVec3 {
+/// How the form factor of a link to `source` varies over its receiving
+/// element `node` of `tree` (zero for a leaf): the relative gradient
+/// ([`relative_gradient`]) through its children's values, per exposed
+/// area, which are `shares` of the link's throughput when refinement
+/// integrated them (visibility included), else Lambert's formula at their
+/// centroids. Children with nothing exposed take no part.
+///
+/// A link holds one form factor for its whole receiver (the Haar scaling
+/// coefficient); spread evenly over the receiver's descendants, a leaf at a
+/// concave corner got both its fine links to the adjacent wall and its
+/// ancestors' average form factors to the far walls, too large there, and
+/// the leaves a few elements in too little.
+pub fn receiver_gradient(
+    (tree, exposure): (&ElementTree, &[f64]),
+    node: usize,
+    source: &Patch,
+    shares: Option<[f32; 4]>,
+) -> DVec3 {
     let Some(first) = tree.first_child(node) else {
         return DVec3::ZERO;
     };
-    let points: Vec<DVec3> = (first..first + 4)
-        .map(|k| tree.nodes[k].patch.centroid())
-        .collect();
     let normal = tree.nodes[node].patch.normal();
-    relative_gradient(&points, normal, &source.vertices(), source.normal())
+    let (mut points, mut values) = (Vec::with_capacity(4), Vec::with_capacity(4));
+    for k in 0..4 {
+        let (child, exposed) = (&tree.nodes[first + k].patch, exposure[first + k]);
+        if exposed <= 0.0 {
+            continue;
+        }
+        let x = child.centroid();
+        let value = match shares {
+            Some(shares) => f64::from(shares[k]) / exposed,
+            None => point_to_polygon(x, normal, &source.vertices(), source.normal()),
+        };
+        points.push(x);
+        values.push(value);
+    }
+    relative_gradient(&points, &values, normal)
 }
 
 impl Interactions {
@@ -188,8 +214,12 @@ impl Interactions {
                 .index_of(id)
                 .expect("link element is in its tree")
         };
+        // (receiver surface, transfer, the children's shares of the link
+        // when they are the receiver's), gradients to come.
+        let mut transfers = Vec::new();
         for l in links {
-            for (p, a, r, c) in [(l.p, l.a, l.r, l.c), (l.r, l.c, l.p, l.a)] {
+            let shares = |of_a: bool| l.children.filter(|s| s.of_a == of_a).map(|s| s.shares);
+            for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
                 if scene.surfaces[p as usize].brdf.lambertian().is_none() {
                     continue; // they gather through three-point links alone
                 }
@@ -197,13 +227,23 @@ impl Interactions {
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
                 let exposed = out.exposure[p as usize][receiver as usize];
                 let source = out.source(scene, trees, r, c, p, a);
-                out.incoming[p as usize].push(Transfer {
+                let transfer = Transfer {
                     receiver,
                     source,
                     form_factor: form_factor(l.throughput, area, exposed),
                     gradient: DVec3::ZERO,
-                });
+                };
+                transfers.push((p, transfer, shares(of_a)));
             }
+        }
+        transfers.par_iter_mut().for_each(|(p, t, shares)| {
+            let (r, c) = t.source.element();
+            let source = &trees[r as usize].nodes[c as usize].patch;
+            let receiver = (&trees[*p as usize], &out.exposure[*p as usize][..]);
+            t.gradient = receiver_gradient(receiver, t.receiver as usize, source, *shares);
+        });
+        for (p, t, _) in transfers {
+            out.incoming[p as usize].push(t);
         }
         for l in three_point {
             let s = out.structure_of[&(l.p, l.q)];
@@ -220,13 +260,8 @@ impl Interactions {
                 coefficient: l.coefficient.map(|k| k * scale),
             });
         }
-        for (p, list) in out.incoming.iter_mut().enumerate() {
+        for list in &mut out.incoming {
             list.sort_by_key(|t| t.receiver);
-            list.par_iter_mut().for_each(|t| {
-                let (r, c) = t.source.element();
-                let source = &trees[r as usize].nodes[c as usize].patch;
-                t.gradient = receiver_gradient(&trees[p], t.receiver as usize, source);
-            });
         }
         out
     }
@@ -325,5 +360,49 @@ impl Interactions {
             }
         }
         gathered
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hierarchy::ElementId;
+
+    #[test]
+    fn receiver_gradient_follows_the_childrens_shares_per_exposed_area() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ids = [ElementId::ROOT.child(0)].into_iter().collect();
+        let tree = ElementTree::build(&root, &ids);
+        let source = Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, 1.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        // Children 1 and 3 (x > 0.5) get twice the share of 0 and 2: the
+        // form factor rises along x, g·(x − x̄) = ±1/3 at their centroids.
+        let exposed = vec![1.0; tree.nodes.len()];
+        let shares = Some([1.0 / 6.0, 2.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0]);
+        let g = receiver_gradient((&tree, &exposed), 0, &source, shares);
+        assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
+        // Child 1 half buried: per exposed area it gets as much as 3.
+        let mut half = exposed.clone();
+        half[2] = 0.5; // node 2 is child 1
+        let shares = Some([1.0 / 5.0, 1.0 / 5.0, 1.0 / 5.0, 2.0 / 5.0]);
+        let g = receiver_gradient((&tree, &half), 0, &source, shares);
+        assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
+        // Without shares, Lambert's formula: the square straight above is
+        // symmetric about the receiver's centre.
+        let g = receiver_gradient((&tree, &exposed), 0, &source, None);
+        assert!(g.length() < 1e-9, "{g}");
+        // A leaf has none.
+        let leaf = tree.index_of(ElementId::ROOT.child(1)).unwrap() as usize;
+        assert_eq!(
+            receiver_gradient((&tree, &exposed), leaf, &source, shares),
+            DVec3::ZERO
+        );
     }
 }

@@ -282,7 +282,13 @@ impl SurfaceState {
             let form_factor = form_factor(l.throughput, area, self.exposure[node]);
             let sent = unshot[tree.node_containing(c) as usize];
             let value = [0, 1, 2].map(|ch| rho[ch] * form_factor * sent[ch]);
-            let gradient = receiver_gradient(&self.tree, node, &c.patch(&tree.nodes[0].patch));
+            let shares = l
+                .children
+                .filter(|s| s.of_a == (l.p == r))
+                .map(|s| s.shares);
+            let source = c.patch(&tree.nodes[0].patch);
+            let receiver = (&self.tree, &self.exposure[..]);
+            let gradient = receiver_gradient(receiver, node, &source, shares);
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
