@@ -200,7 +200,7 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
 /// from the solution alone, so the highlight's edges must be resolved by
 /// the refinement, with the weighted oracle driven by the light the
 /// reflector sends (`docs/figure3.md`, `benches/figure3.py`). The paper's
-/// kernel-only oracle does not place elements there (18 % at its settings).
+/// kernel-only oracle does not place elements there (16 % at its settings).
 #[test]
 fn figure3_highlight_is_resolved_in_direct_mode() {
     let dir = repo().join("scenes/figure3");

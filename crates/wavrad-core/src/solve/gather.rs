@@ -23,7 +23,7 @@ use crate::link::Link;
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::push_pull::Gathered;
 use crate::three_point::ThreePointLink;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -83,8 +83,9 @@ pub struct Transfer {
     /// Form factor F(receiver element, source element).
     pub form_factor: f64,
     /// How the form factor varies over the receiving element
-    /// ([`relative_gradient`]); zero for a leaf, which holds one value.
-    pub gradient: DVec3,
+    /// ([`relative_gradient`]), per unit length; zero for a leaf, which
+    /// holds one value (single precision is ample for a shape).
+    pub gradient: Vec3,
 }
 
 /// A three-point link as seen by its receiving directional structure.
@@ -214,9 +215,9 @@ impl Interactions {
                 .index_of(id)
                 .expect("link element is in its tree")
         };
-        // (receiver surface, transfer, the children's shares of the link
-        // when they are the receiver's), gradients to come.
-        let mut transfers = Vec::new();
+        // The children's shares of each transfer's link, when they are the
+        // receiver's, beside `incoming` until the gradients are made.
+        let mut shares_of = vec![Vec::new(); scene.surfaces.len()];
         for l in links {
             let shares = |of_a: bool| l.children.filter(|s| s.of_a == of_a).map(|s| s.shares);
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
@@ -227,23 +228,26 @@ impl Interactions {
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
                 let exposed = out.exposure[p as usize][receiver as usize];
                 let source = out.source(scene, trees, r, c, p, a);
-                let transfer = Transfer {
+                out.incoming[p as usize].push(Transfer {
                     receiver,
                     source,
                     form_factor: form_factor(l.throughput, area, exposed),
-                    gradient: DVec3::ZERO,
-                };
-                transfers.push((p, transfer, shares(of_a)));
+                    gradient: Vec3::ZERO,
+                });
+                shares_of[p as usize].push(shares(of_a));
             }
         }
-        transfers.par_iter_mut().for_each(|(p, t, shares)| {
-            let (r, c) = t.source.element();
-            let source = &trees[r as usize].nodes[c as usize].patch;
-            let receiver = (&trees[*p as usize], &out.exposure[*p as usize][..]);
-            t.gradient = receiver_gradient(receiver, t.receiver as usize, source, *shares);
-        });
-        for (p, t, _) in transfers {
-            out.incoming[p as usize].push(t);
+        for (p, shares) in shares_of.into_iter().enumerate() {
+            let receiver = (&trees[p], &out.exposure[p][..]);
+            out.incoming[p]
+                .par_iter_mut()
+                .zip(shares)
+                .for_each(|(t, shares)| {
+                    let (r, c) = t.source.element();
+                    let source = &trees[r as usize].nodes[c as usize].patch;
+                    let g = receiver_gradient(receiver, t.receiver as usize, source, shares);
+                    t.gradient = g.as_vec3();
+                });
         }
         for l in three_point {
             let s = out.structure_of[&(l.p, l.q)];
@@ -337,7 +341,7 @@ impl Interactions {
         for t in &self.incoming[p] {
             let l = self.read(&t.source, radiance, directional);
             let value = [0, 1, 2].map(|ch| reflectance[ch] * t.form_factor * l[ch]);
-            gathered.add(t.receiver as usize, value, t.gradient);
+            gathered.add(t.receiver as usize, value, t.gradient.as_dvec3());
         }
         gathered.into_averages(tree)
     }
