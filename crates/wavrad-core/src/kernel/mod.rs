@@ -98,9 +98,9 @@ impl OuterSamples {
 
 /// Geometric throughput T(a,c) with visibility, point by point.
 ///
-/// The outer integral runs over one element ([`outer_is_a`]: the smaller,
-/// unless it straddles the other's plane) with Gauss–Legendre points; the
-/// inner one is Lambert's closed form over the other element
+/// The outer integral runs over one element (the smaller, unless only it
+/// straddles the other's plane: `outer_is_a`) with Gauss–Legendre points;
+/// the inner one is Lambert's closed form over the other element
 /// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
 /// from the point to a grid of points on it, where the shaft between the
 /// elements is not `known_clear` (a part of a clear one) or found clear.
