@@ -4,6 +4,12 @@
 //! (eq. 13). L_{c→a} is the source element's radiance when the source is
 //! diffuse, and its directional radiance towards the receiver when glossy.
 //!
+//! Beyond the paper's piecewise-constant push, a two-point transfer into an
+//! element with children carries how its form factor varies over that
+//! element ([`receiver_gradient`]), and the light it gathers reaches the
+//! leaves with that slope ([`Gathered`]): the form factors of every leaf,
+//! not only of every element a link names, then sum to what they should.
+//!
 //! A glossy surface with a Lambertian lobe ([`crate::brdf::Brdf::lambertian`])
 //! is both: its elements gather ρ_d·F·L_{c→a} over two-point links like a
 //! diffuse surface's, and its element pairs only the light the rest of its
