@@ -139,13 +139,16 @@ fn a_box_resting_on_the_floor_leaves_the_furnace_exact() {
         if surface.name == "bottom" {
             continue; // sees nothing: it faces the floor it lies on
         }
-        // Every surface within 1 %. The floor elements along the box's
+        // Every surface within 0.4 %. The floor elements along the box's
         // base straddle it; those exposed in a strip narrower than their
         // Gauss points' inset lost the strip (two sides were 1.5–1.6 %
         // dark) until straddling elements were refined to the maximum
-        // level (`exposure::straddles`; now ≤ 0.7 %).
+        // level (`exposure::straddles`). The cube's top, 0.9 high, cut the
+        // walls' elements near their top edge: as outer elements they lost
+        // the strip in front of it (0.56 % dark) until the outer integral
+        // went to the element not cut (`kernel::outer_is_a`; now ≤ 0.25 %).
         let l = solution.radiance[s][0][0];
-        let bound = 0.01;
+        let bound = 0.004;
         assert!((l / 2.0 - 1.0).abs() < bound, "surface {s}: {l}");
     }
 }
