@@ -134,19 +134,23 @@ pub fn straddles(
     let root = &scene.surfaces[surface as usize].patch;
     let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
     let buried = |x: DVec3| is_buried(scene, tracer, surface, x, normal, coincident);
-    let grid = (0..16).map(|k| {
-        let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
-        buried(element.point_at(element.square_to_param(uv)))
-    });
-    let mut seen = [false; 2];
-    for b in grid {
-        seen[usize::from(b)] = true;
+    // The Gauss points first: most elements have none buried.
+    if !element
+        .gauss_points(quadrature.points)
+        .iter()
+        .any(|p| buried(p.position))
+    {
+        return false;
     }
-    seen == [true; 2]
-        && element
-            .gauss_points(quadrature.points)
-            .iter()
-            .any(|p| buried(p.position))
+    let mut seen = [false; 2];
+    for k in 0..16 {
+        let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
+        seen[usize::from(buried(element.point_at(element.square_to_param(uv))))] = true;
+        if seen == [true; 2] {
+            return true;
+        }
+    }
+    false
 }
 
 /// Exposed fractions of the elements of the directional structures' pairs,

@@ -162,21 +162,20 @@ pub fn receiver_gradient(
         return DVec3::ZERO;
     };
     let normal = tree.nodes[node].patch.normal();
-    let (mut points, mut values) = (Vec::with_capacity(4), Vec::with_capacity(4));
+    let (mut points, mut values, mut count) = ([DVec3::ZERO; 4], [0.0; 4], 0);
     for k in 0..4 {
         let (child, exposed) = (&tree.nodes[first + k].patch, exposure[first + k]);
         if exposed <= 0.0 {
             continue;
         }
-        let x = child.centroid();
-        let value = match shares {
+        points[count] = child.centroid();
+        values[count] = match shares {
             Some(shares) => f64::from(shares[k]) / exposed,
-            None => point_to_polygon(x, normal, &source.vertices(), source.normal()),
+            None => point_to_polygon(points[count], normal, &source.vertices(), source.normal()),
         };
-        points.push(x);
-        values.push(value);
+        count += 1;
     }
-    relative_gradient(&points, &values, normal)
+    relative_gradient(&points[..count], &values[..count], normal)
 }
 
 impl Interactions {
