@@ -8,8 +8,12 @@
 //! * indirect light, `ρ/N · Σ L_solution(y_i)` over N cosine-distributed rays
 //!   hitting points y_i, with the solution's radiance there less its emission
 //!   (already counted as direct).
+//!
+//! ρ is the albedo of the surface's Lambertian lobe: a diffuse surface's, or
+//! ρ_d of a glossy one whose BRDF has such a lobe besides others (Ward's),
+//! whose other lobes [`glossy_radiance`] gathers through the BRDF.
 
-use crate::brdf::BrdfModel;
+use crate::brdf::{Brdf, BrdfModel};
 use crate::kernel::form_factor::point_to_polygon;
 use crate::render::mirror::MirrorImage;
 use crate::render::sampling::Samples;
@@ -45,7 +49,7 @@ pub fn direct_radiance(
         normal,
         samples,
     } = *point;
-    let rho = diffuse_reflectance(scene, surface);
+    let rho = lambertian_albedo(scene, surface);
     let mut out = [0.0; 3];
     for &e in emitters {
         if e == surface {
@@ -98,6 +102,18 @@ pub struct GatherSources<'a> {
     pub grid: u32,
 }
 
+/// What [`indirect_radiance`] finds at a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Indirect {
+    /// The reflected radiance.
+    pub radiance: Rgb,
+    /// Harmonic mean of the distances at which the cosine rays meet a
+    /// surface (infinite if none does): how far from the point the light
+    /// it gathers can be taken as varying slowly, the radius of Ward,
+    /// Rubinstein & Clear's irradiance cache (SIGGRAPH 1988, eq. 2).
+    pub reach: f64,
+}
+
 /// Indirect radiance reflected at the diffuse `point` from the solution,
 /// each sample looking up `outgoing(surface, point)`, the solution's radiance
 /// leaving the point it reaches minus its emission: `rays` cosine-distributed
@@ -110,7 +126,7 @@ pub fn indirect_radiance(
     rays: u32,
     sources: GatherSources,
     outgoing: impl Fn(u32, DVec3) -> Rgb,
-) -> Rgb {
+) -> Indirect {
     let GatherPoint {
         surface,
         position: x,
@@ -122,7 +138,7 @@ pub fn indirect_radiance(
         mirrors,
         grid,
     } = sources;
-    let rho = diffuse_reflectance(scene, surface);
+    let rho = lambertian_albedo(scene, surface);
     let (t, b) = orthonormal_basis(normal);
     let (n_cos, n_grid) = (f64::from(rays), f64::from(grid * grid));
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
@@ -172,6 +188,7 @@ pub fn indirect_radiance(
             }
         }
     }
+    let mut inverse_distances = 0.0;
     for k in 0..rays {
         // Cosine-weighted (Malley).
         let local = crate::brdf::cosine_hemisphere(samples.point(0x5bd1_e995, rays, k));
@@ -179,6 +196,7 @@ pub fn indirect_radiance(
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
         };
+        inverse_distances += 1.0 / hit.distance;
         if hit.surface == surface {
             continue;
         }
@@ -188,7 +206,10 @@ pub fn indirect_radiance(
         }
         add(hit.surface, dir, hit.position);
     }
-    [0, 1, 2].map(|ch| rho[ch] * sum[ch])
+    Indirect {
+        radiance: [0, 1, 2].map(|ch| rho[ch] * sum[ch]),
+        reach: f64::from(rays) / inverse_distances,
+    }
 }
 
 /// Solid-angle density of picking a point of `patch` uniformly by area,
@@ -235,8 +256,9 @@ fn area_samples(
     out
 }
 
-/// Radiance leaving the glossy point `point` towards the world direction
-/// `wo`: its emission, light reflected straight from `emitters` by light
+/// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
+/// world direction `wo` (its surface's BRDF, or only some of its lobes;
+/// emission not included): light straight from `emitters` by light
 /// sampling and BRDF sampling combined with the balance heuristic (Veach
 /// 1997), and the rest of the solution by BRDF sampling, each sampled
 /// direction looking up `outgoing(surface, point)`, the solution's radiance
@@ -247,7 +269,7 @@ pub fn glossy_radiance(
     tracer: &SceneTracer,
     emitters: &[u32],
     point: &GatherPoint,
-    wo: DVec3,
+    (brdf, wo): (&Brdf, DVec3),
     grid: u32,
     outgoing: impl Fn(u32, DVec3) -> Rgb,
 ) -> Rgb {
@@ -263,7 +285,7 @@ pub fn glossy_radiance(
     if wo_local.z <= 0.0 {
         return [0.0; 3];
     }
-    let mut out = s.emission;
+    let mut out = [0.0; 3];
     let samples = grid * grid;
     let n = f64::from(samples.max(1));
     // Light sampling.
@@ -274,8 +296,8 @@ pub fn glossy_radiance(
         let light = &scene.surfaces[e as usize];
         for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, 0x2545_f491) {
             let wi_local = frame.to_local(wi);
-            let f = s.brdf.eval(wi_local, wo_local);
-            let p_brdf = s.brdf.pdf(wo_local, wi_local);
+            let f = brdf.eval(wi_local, wo_local);
+            let p_brdf = brdf.pdf(wo_local, wi_local);
             let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
             (0..3).for_each(|ch| out[ch] += w * f[ch] * light.emission[ch]);
         }
@@ -285,7 +307,7 @@ pub fn glossy_radiance(
     for k in 0..samples {
         let u = sample_points.point(0x9e37_79b9, samples, k);
         let lobe = sample_points.third(0x9e37_79b9, samples, k);
-        let Some(sample) = s.brdf.sample(wo_local, u, lobe) else {
+        let Some(sample) = brdf.sample(wo_local, u, lobe) else {
             continue;
         };
         let wi = frame.to_world(sample.direction);
@@ -311,12 +333,13 @@ pub fn glossy_radiance(
     out
 }
 
-/// ρ of a diffuse surface (black for any other: glossy surfaces are gathered
-/// through their BRDF, not here).
-fn diffuse_reflectance(scene: &Scene, surface: u32) -> Rgb {
+/// The albedo of the surface's Lambertian lobe ([`Brdf::lambertian`]):
+/// what the diffuse gathers above reflect (black for a model without one,
+/// which is gathered through its whole BRDF instead).
+fn lambertian_albedo(scene: &Scene, surface: u32) -> Rgb {
     scene.surfaces[surface as usize]
         .brdf
-        .diffuse_reflectance()
+        .lambertian()
         .unwrap_or([0.0; 3])
 }
 
@@ -379,7 +402,7 @@ mod tests {
             grid: 1,
         };
         let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| [2.0; 3]);
-        assert!((l[0] - 1.0).abs() < 1e-12, "{}", l[0]);
+        assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
     }
 
     #[test]
@@ -424,7 +447,8 @@ mod tests {
                     normal,
                     samples: Samples::Hashed(seed),
                 };
-                let v = indirect_radiance(&scene, &tracer, &point, 16, sources, outgoing)[0];
+                let v =
+                    indirect_radiance(&scene, &tracer, &point, 16, sources, outgoing).radiance[0];
                 (sum, sq) = (sum + v, sq + v * v);
             }
             let mean = sum / runs as f64;
@@ -509,7 +533,8 @@ mod tests {
                 samples,
             };
             let ceiling = |q: u32, _| [if q == 1 { 1.0 } else { 0.0 }; 3];
-            glossy_radiance(&scene, &tracer, &[], &point, wo, 2, ceiling)[0]
+            let brdf = (&floor.brdf, wo);
+            glossy_radiance(&scene, &tracer, &[], &point, brdf, 2, ceiling)[0]
         };
         let mean_and_error = |values: Vec<f64>| {
             let m = values.len() as f64;
