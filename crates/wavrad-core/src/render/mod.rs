@@ -65,8 +65,9 @@ pub struct RenderSettings {
     pub caustic_gathers: u32,
     /// Shadow rays per emitter for each gathering camera ray: a
     /// `gather_grid` × `gather_grid` jittered grid. Bright surfaces (glossy
-    /// ones and strongly lit diffuse ones) get a grid of about as many area
-    /// samples as the gathering ray has indirect rays, and at least this.
+    /// ones and strongly lit diffuse ones) get grids of about as many area
+    /// samples in all as the gathering ray has indirect rays, and each at
+    /// least this.
     pub gather_grid: u32,
     /// Indirect gather rays per gathering camera ray of an interior pixel;
     /// in a pixel with more gathering rays, as many indirect rays in total
@@ -534,8 +535,14 @@ impl Solution {
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
     /// the light straight from the emitters (`shadow_grid` × `shadow_grid`
     /// shadow rays to each) and `rays` cosine rays' worth of the rest of
-    /// the solution, with about as many samples of each bright surface and
-    /// mirror image ([`gather::indirect_radiance`]).
+    /// the solution, with about as many samples of the bright surfaces
+    /// together, and of each mirror image ([`gather::indirect_radiance`]).
+    /// The bright surfaces share their samples: each glossy face of a box
+    /// counts as one, and area samples each cost a shadow ray and a glossy
+    /// evaluation (on the glossy Cornell box, as many per face as cosine
+    /// rays took the gather cache's build from 1.4 s to 3.8 s for a view-0
+    /// error of 0.79 % instead of 0.80 %, and per-pixel gathers from 0.94 s
+    /// to 1.63 s for 0.84 % instead of 0.90 %, measured while choosing).
     fn final_gather(
         &self,
         reader: &SolutionReader,
@@ -558,7 +565,10 @@ impl Solution {
         let sources = gather::GatherSources {
             bright: &reader.bright,
             mirrors: &reader.mirrors,
-            grid: ((f64::from(rays).sqrt().round()) as u32).max(settings.gather_grid),
+            grid: ((f64::from(rays) / reader.bright.len().max(1) as f64)
+                .sqrt()
+                .round() as u32)
+                .max(settings.gather_grid),
         };
         let to = (point.surface, point.position);
         let seed = point.samples.seed();
