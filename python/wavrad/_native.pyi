@@ -148,7 +148,7 @@ def solve(
     ``threshold``: the oracle's threshold (kernel oracle: default 1e-3; the
     paper uses 1e-4); ``max_level``: deepest element level (default 5; the
     paper uses 8); ``three_point_threshold``: the oracle's threshold for
-    three-point (glossy) links (kernel oracle: default 1e-4);
+    three-point (glossy) links (kernel oracle: default 1e-5);
     ``three_point_max_level``: deepest element level of three-point (glossy)
     links (default 2); ``three_point_receiver_levels``: levels the receiving
     element of a three-point link may go further (default 0; sharper

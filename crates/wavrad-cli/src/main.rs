@@ -124,7 +124,7 @@ struct SolveArgs {
     /// for no extra ray queries [default: 0].
     #[arg(long)]
     three_point_receiver_levels: Option<u32>,
-    /// Oracle threshold of three-point (glossy) links [default: 1e-4].
+    /// Oracle threshold of three-point (glossy) links [default: 1e-5].
     #[arg(long)]
     three_point_threshold: Option<f64>,
     /// Write statistics (counts per level, times, memory) as JSON to this file.

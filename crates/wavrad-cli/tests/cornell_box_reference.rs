@@ -151,9 +151,9 @@ fn glossy_cornell_box_matches_mitsuba_path_tracer() {
     // deeper than the solve's). The gather cache holds the glossy
     // surfaces' Lambertian lobes too.
     for (mode, eye, gather_cache, bound) in [
-        (Reconstruction::Gather, true, false, 0.0095),
-        (Reconstruction::Gather, true, true, 0.0087),
-        (Reconstruction::Direct, true, false, 0.02),
+        (Reconstruction::Gather, true, false, 0.0090),
+        (Reconstruction::Gather, true, true, 0.0080),
+        (Reconstruction::Direct, true, false, 0.016),
         (Reconstruction::Direct, false, false, 0.048),
     ] {
         let image = solution
