@@ -84,9 +84,9 @@ class Solution:
         from their directional radiance towards the eye), ``"smooth"``
         (bilinear reconstruction of the Haar solution) or ``"haar"`` (the
         piecewise-constant projection). ``spp``: camera rays
-        per pixel where an edge shows (default 512, or the scene sampler's
-        sample_count if larger; pixels that show one surface get an eighth,
-        and an eighth of a pixel's camera rays final-gather). ``eye``:
+        per pixel where an edge shows (default 256, or the scene sampler's
+        sample_count if larger; pixels that show one surface get a quarter,
+        and an eighth of those final-gather). ``eye``:
         outside ``"gather"``, glossy surfaces show their radiance gathered
         once into the eye as a hypothetical receiver
         (``True``), or read from the view-independent solution alone

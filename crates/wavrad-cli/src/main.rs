@@ -37,9 +37,9 @@ enum Command {
         /// How radiance is reconstructed on surfaces (default: the most accurate).
         #[arg(long, value_enum, default_value_t = Mode::Gather)]
         mode: Mode,
-        /// Camera rays per pixel where an edge shows [default: 512, or the
+        /// Camera rays per pixel where an edge shows [default: 256, or the
         /// scene sampler's sample_count if larger]; pixels that show one
-        /// surface (as do their neighbours) get an eighth.
+        /// surface (as do their neighbours) get a quarter.
         #[arg(long)]
         spp: Option<u32>,
         /// Of an interior pixel's camera rays, how many also final-gather,
