@@ -403,9 +403,9 @@ impl Solution {
             // diffuse ones the cache holds, their final gather.
             let seen = |q: u32, z: DVec3| {
                 let source = &self.scene.surfaces[q as usize];
-                let uv = || source.patch.clamp_param(source.patch.param_of(z));
+                let at = || source.patch.clamp_param(source.patch.param_of(z));
                 let cached = cache.filter(|_| source.is_diffuse());
-                if let Some(l) = cached.and_then(|c| c.radiance(q, uv())) {
+                if let Some(l) = cached.and_then(|c| c.radiance(q, at())) {
                     return l;
                 }
                 let to = (hit.surface, hit.position);
