@@ -126,25 +126,28 @@ fn sobol(index: u32, scramble: u64, dimension: u32) -> f64 {
 pub fn pixel_offsets(pixel: u64, samples_per_pixel: u32) -> Vec<DVec2> {
     let n = (samples_per_pixel.max(1) as f64).sqrt().ceil() as u32;
     // A permutation of 0..n per column (salt 0) and per row (salt 1)
-    // (Fisher–Yates).
-    let shuffle = |salt: u64, line: u32| {
-        let mut order: Vec<u32> = (0..n).collect();
-        let seed = pixel ^ (u64::from(line) << 33 | salt << 32).wrapping_mul(0xd6e8_feb8_6659_fd93);
-        for i in (1..n as usize).rev() {
+    // (Fisher–Yates), the 2n of them in one buffer: line `line` of kind
+    // `salt` at `(salt · n + line) · n`.
+    let side = n as usize;
+    let mut orders: Vec<u32> = (0..2 * side * side).map(|t| (t % side) as u32).collect();
+    for (index, order) in orders.chunks_exact_mut(side).enumerate() {
+        let (salt, line) = ((index / side) as u64, (index % side) as u64);
+        let seed = pixel ^ (line << 33 | salt << 32).wrapping_mul(0xd6e8_feb8_6659_fd93);
+        for i in (1..side).rev() {
             let r = hash2(seed, i as u64).x;
             order.swap(i, ((r * (i + 1) as f64) as usize).min(i));
         }
-        order
+    }
+    let order = |salt: usize, line: u32, at: u32| {
+        orders[(salt * side + line as usize) * side + at as usize]
     };
-    let columns: Vec<Vec<u32>> = (0..n).map(|i| shuffle(0, i)).collect();
-    let rows: Vec<Vec<u32>> = (0..n).map(|j| shuffle(1, j)).collect();
     let n_f = f64::from(n);
     (0..pixel_offsets_len(samples_per_pixel))
         .map(|k| {
             let (i, j) = (k % n, k / n);
             let r = hash2(pixel, u64::from(k));
-            let sub_x = f64::from(columns[i as usize][j as usize]);
-            let sub_y = f64::from(rows[j as usize][i as usize]);
+            let sub_x = f64::from(order(0, i, j));
+            let sub_y = f64::from(order(1, j, i));
             DVec2::new(
                 (f64::from(i) + (sub_x + r.x) / n_f) / n_f,
                 (f64::from(j) + (sub_y + r.y) / n_f) / n_f,
