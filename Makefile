@@ -1,6 +1,6 @@
 # One developer loop, used by CI too (.ci/run calls `make test`).
 #   make example   build the CLI and render the bundled Cornell box
-#   make test      build everything (Rust + Python package) and run every test
+#   make test      lint, then build everything (Rust + Python package) and run every test
 #   make lint      rustfmt, clippy -D warnings, rustdoc, ruff
 #   make bench     wavrad against Mitsuba 3 end to end -> docs/benchmarks.md
 
@@ -35,13 +35,13 @@ test-rust:
 test-python: python
 	$(PYTHON) -m pytest -q tests
 
-test: test-rust test-python
+test: lint test-rust test-python
 
 lint: venv
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --workspace --no-deps --exclude wavrad-py
-	$(VENV)/bin/pip install --quiet ruff && $(VENV)/bin/ruff check python tests scenes benches
+	$(VENV)/bin/pip install --quiet "ruff>=0.6,<1" && $(VENV)/bin/ruff check python tests scenes benches
 
 # Mitsuba's llvm_ad_rgb variant (the one a user would time) needs libLLVM >= 17;
 # Debian bookworm's is libllvm19 (as root, or set APT to "sudo apt-get").

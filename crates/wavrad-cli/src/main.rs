@@ -10,11 +10,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
-use wavrad_core::oracle::Oracle;
+use wavrad_core::progress::Progress;
+use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
 use wavrad_core::solve::shoot::{solve_shooting, Step};
-use wavrad_core::solve::{solve, Progress, Solution, SolveSettings, Solver};
+use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
 
 /// Haar-wavelet global illumination (Pattanaik & Bouatouch 1994) for Mitsuba 3
 /// XML scenes.
@@ -249,7 +250,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 .render(&settings)
                 .map_err(|e| format!("{}: {e}", args.scene.display()))?;
             solution.stats.times.render_s = clock.elapsed().as_secs_f64();
-            solution.stats.peak_memory_bytes = wavrad_core::stats::peak_memory_bytes();
+            solution.stats.peak_memory_bytes = wavrad_core::solve::stats::peak_memory_bytes();
             wavrad_io::write_image(&output, image.width, image.height, &image.rgb)
                 .map_err(|e| e.to_string())?;
             report(&solution, Some(&output));

@@ -6,9 +6,10 @@
 //! the walls), so the error away from it is checked separately.
 
 use std::path::PathBuf;
+use wavrad_core::progress::Silent;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
-use wavrad_core::solve::{solve, Silent, SolveSettings};
+use wavrad_core::solve::{solve, SolveSettings};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -210,7 +211,7 @@ fn figure3_highlight_is_resolved_in_direct_mode() {
     let dir = repo().join("scenes/figure3");
     let scene = wavrad_io::load_scene(&dir.join("specular.xml")).unwrap();
     let (_, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference-specular.exr")).unwrap();
-    let mut settings = SolveSettings::for_oracle(wavrad_core::oracle::Oracle::Importance);
+    let mut settings = SolveSettings::for_oracle(wavrad_core::refine::oracle::Oracle::Importance);
     settings.refine.oracle.threshold = 2e-6;
     settings.refine.max_level = 8;
     settings.three_point_threshold = 1e-6;

@@ -8,11 +8,11 @@ mod support;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use support::{pick_pair, share_an_edge, surface, Element};
-use wavrad_core::brdf::Brdf;
-use wavrad_core::hierarchy::ElementId;
-use wavrad_core::kernel::three_point::{coefficient, GlossyElement, IncidentLight};
+use wavrad_core::geometry::hierarchy::ElementId;
+use wavrad_core::geometry::tracing::SceneTracer;
+use wavrad_core::kernel::three_point_quadrature::{coefficient, GlossyElement, IncidentLight};
 use wavrad_core::kernel::{throughput, Quadrature};
-use wavrad_core::tracing::SceneTracer;
+use wavrad_core::scene::brdf::Brdf;
 
 fn two_point(c: &mut Criterion) {
     let scene = support::bundled("cornell-box");

@@ -6,8 +6,9 @@ mod support;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
+use wavrad_core::progress::Silent;
 use wavrad_core::scene::Rgb;
-use wavrad_core::solve::{push_pull::push_pull, solve, Silent, Solution, SolveSettings};
+use wavrad_core::solve::{push_pull::push_pull, solve, Solution, SolveSettings};
 
 /// One sweep as `solve` does it (diffuse surfaces only: the Cornell box has
 /// no glossy one), updating `radiance` in place.

@@ -12,9 +12,9 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 use support::{Element, Query};
+use wavrad_core::geometry::tracing::SceneTracer;
 use wavrad_core::kernel::{throughput, Quadrature};
 use wavrad_core::scene::Scene;
-use wavrad_core::tracing::SceneTracer;
 
 /// Element level of the pairs: level 1 gives 4 × 4 element pairs per
 /// surface pair.

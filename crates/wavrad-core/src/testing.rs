@@ -1,7 +1,7 @@
 //! Scene fixtures shared by tests, examples and benchmarks.
 
-use crate::brdf::ward::{Ward, WardVariant};
-use crate::brdf::Brdf;
+use crate::scene::brdf::ward::{Ward, WardVariant};
+use crate::scene::brdf::Brdf;
 use crate::scene::{Patch, Scene, Surface};
 use glam::DVec3;
 

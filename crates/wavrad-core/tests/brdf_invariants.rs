@@ -8,8 +8,8 @@ mod support {
 
 use glam::{DVec2, DVec3};
 use support::chi2::{chi2_test, Rng};
-use wavrad_core::brdf::fresnel::conductor_ior;
-use wavrad_core::brdf::{
+use wavrad_core::scene::brdf::fresnel::conductor_ior;
+use wavrad_core::scene::brdf::{
     Brdf, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams,
     Ward, WardVariant,
 };

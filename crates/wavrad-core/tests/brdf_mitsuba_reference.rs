@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 use serde_json::Value;
-use wavrad_core::brdf::fresnel::{conductor_ior, dielectric_ior};
-use wavrad_core::brdf::{
+use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior};
+use wavrad_core::scene::brdf::{
     Brdf, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams,
     Ward, WardVariant,
 };

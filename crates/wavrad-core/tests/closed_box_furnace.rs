@@ -4,9 +4,10 @@
 //! that gathering with push–pull converges to the right fixed point.
 
 use glam::DVec3;
-use wavrad_core::oracle::Oracle;
+use wavrad_core::progress::Silent;
+use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::scene::{Patch, Scene, Surface};
-use wavrad_core::solve::{solve, Silent, SolveSettings};
+use wavrad_core::solve::{solve, SolveSettings};
 use wavrad_core::testing::inward_box;
 
 /// The box's faces, optionally each cut into two triangles.
@@ -31,7 +32,7 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings, triangles: bool) -> (f64
         .map(|patch| Surface {
             name: "wall".into(),
             patch,
-            brdf: wavrad_core::brdf::Brdf::diffuse([rho; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([rho; 3]),
             emission: [le; 3],
         })
         .collect();
@@ -103,7 +104,7 @@ fn the_importance_oracle_without_a_sensor_is_a_clear_error() {
         .map(|patch| Surface {
             name: "wall".into(),
             patch,
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
             emission: [1.0; 3],
         })
         .collect();
@@ -129,7 +130,7 @@ fn a_box_resting_on_the_floor_leaves_the_furnace_exact() {
         .map(|patch| Surface {
             name: if patch == bottom { "bottom" } else { "wall" }.into(),
             patch,
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
             emission: [1.0; 3],
         })
         .collect();

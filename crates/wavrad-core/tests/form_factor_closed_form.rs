@@ -2,11 +2,12 @@
 //! configuration factors, and reciprocity A_a F(a,c) = A_c F(c,a).
 
 use glam::DVec3;
-use wavrad_core::link::refine_links;
+use wavrad_core::geometry::tracing::SceneTracer;
+use wavrad_core::progress::Silent;
+use wavrad_core::refine::two_point_projection::refine_links;
 use wavrad_core::scene::{Patch, Scene};
-use wavrad_core::solve::{Silent, SolveSettings};
+use wavrad_core::solve::SolveSettings;
 use wavrad_core::testing::grey;
-use wavrad_core::tracing::SceneTracer;
 
 /// Form factor from surface 0 to surface 1, summed over the adaptive links.
 fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {

@@ -5,9 +5,10 @@
 //! identity, and glossy surfaces with albedo ≤ 1 never create energy.
 
 use glam::DVec3;
-use wavrad_core::brdf::{Brdf, Ward, WardVariant};
+use wavrad_core::progress::Silent;
+use wavrad_core::scene::brdf::{Brdf, Ward, WardVariant};
 use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
-use wavrad_core::solve::{solve, Silent, Solution, SolveSettings};
+use wavrad_core::solve::{solve, Solution, SolveSettings};
 use wavrad_core::testing::{inward_box, unit_floor, unit_square_midpoints};
 
 /// Ward with no specular lobe: Lambertian, but a glossy surface's BRDF.

@@ -2,11 +2,12 @@
 //! results that do not depend on the number of threads.
 
 use glam::DVec3;
-use wavrad_core::oracle::Oracle;
+use wavrad_core::progress::Silent;
+use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
 use wavrad_core::scene::{Camera, Film, FovAxis, Patch, PixelFilter, Projection, Scene, Surface};
-use wavrad_core::solve::{solve, Silent, SolveSettings};
+use wavrad_core::solve::{solve, SolveSettings};
 
 fn square(z: f64, up: bool) -> Patch {
     let (s, t) = if up {
@@ -31,13 +32,13 @@ fn open_scene_energy_balance_single_bounce() {
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.6, 0.3, 0.1]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.6, 0.3, 0.1]),
             emission: [0.0; 3],
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.0; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.0; 3]),
             emission: [5.0, 5.0, 5.0],
         },
     ]);
@@ -68,13 +69,13 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.8; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.8; 3]),
             emission: [0.0; 3],
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.8; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.8; 3]),
             emission: [5.0; 3],
         },
     ]);
@@ -128,12 +129,12 @@ fn results_do_not_depend_on_thread_count() {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                brdf: wavrad_core::brdf::Brdf::diffuse([0.7, 0.5, 0.3]),
+                brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.7, 0.5, 0.3]),
                 emission: [0.0; 3],
             })
             .collect();
     surfaces[1].emission = [3.0; 3];
-    surfaces[2].brdf = wavrad_core::brdf::Brdf::Ward(wavrad_core::brdf::Ward {
+    surfaces[2].brdf = wavrad_core::scene::brdf::Brdf::Ward(wavrad_core::scene::brdf::Ward {
         alpha_u: 0.15,
         alpha_v: 0.3,
         ..Default::default()
@@ -145,7 +146,7 @@ fn results_do_not_depend_on_thread_count() {
             DVec3::new(0.5, -0.5, 0.0),
             DVec3::new(0.0, 0.5, 0.2),
         ]),
-        brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     });
     let mut scene = Scene::from_surfaces(surfaces);
@@ -233,7 +234,7 @@ fn too_many_surfaces_is_a_clear_error() {
     let tiny = Surface {
         name: "t".into(),
         patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
-        brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
         emission: [0.0; 3],
     };
     let scene = Scene::from_surfaces(vec![tiny; wavrad_core::solve::MAX_SURFACES + 1]);

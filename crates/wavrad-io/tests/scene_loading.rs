@@ -377,15 +377,15 @@ fn film_filter_sampler_and_orthographic() {
     assert_eq!(s.hints.samples_per_pixel, Some(4));
 }
 
-fn bsdf_of(bsdf: &str) -> wavrad_core::brdf::Brdf {
+fn bsdf_of(bsdf: &str) -> wavrad_core::scene::brdf::Brdf {
     let s = scene(&format!("<shape type=\"rectangle\">{bsdf}</shape>"));
     s.surfaces[0].brdf.clone()
 }
 
 #[test]
 fn glossy_bsdfs_and_their_defaults() {
-    use wavrad_core::brdf::fresnel::conductor_ior;
-    use wavrad_core::brdf::{
+    use wavrad_core::scene::brdf::fresnel::conductor_ior;
+    use wavrad_core::scene::brdf::{
         Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
         WardVariant,
     };

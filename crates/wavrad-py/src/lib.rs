@@ -20,11 +20,12 @@ use numpy::{
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ops::ControlFlow;
-use wavrad_core::oracle::Oracle;
+use wavrad_core::progress::Silent;
+use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
 use wavrad_core::solve::shoot::{solve_shooting, Step};
-use wavrad_core::solve::{Silent, SolveSettings, Solver};
+use wavrad_core::solve::{SolveSettings, Solver};
 
 use error::{Error, Result, SceneError, SolveError, WavradError};
 

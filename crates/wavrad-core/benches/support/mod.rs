@@ -10,11 +10,11 @@ use criterion::Criterion;
 use glam::DVec3;
 use std::path::PathBuf;
 use std::time::Duration;
-use wavrad_core::element::AreaSample;
-use wavrad_core::hierarchy::ElementId;
+use wavrad_core::geometry::element::AreaSample;
+use wavrad_core::geometry::hierarchy::ElementId;
+use wavrad_core::geometry::tracing::SceneTracer;
 use wavrad_core::kernel::{faces_away, form_factor, KernelElement, Quadrature};
 use wavrad_core::scene::{Patch, Scene, Surface};
-use wavrad_core::tracing::SceneTracer;
 
 /// Short runs: the whole `cargo bench -p wavrad-core` takes a few minutes
 /// on two cores. Pass `--measurement-time` / `--sample-size` to criterion
@@ -214,7 +214,7 @@ pub fn cornell_box_with_sphere(subdivisions: u32) -> Scene {
         scene.surfaces.push(Surface {
             name: "sphere".into(),
             patch,
-            brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]),
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
             emission: [0.0; 3],
         });
     }

@@ -6,12 +6,13 @@
 //! directions of a link follow: `F(a,c) = T/|a|`, `F(c,a) = T/|c|`
 //! (reciprocity holds by construction).
 
+pub mod exposure;
 pub mod form_factor;
-pub mod three_point;
+pub mod three_point_quadrature;
 
-use crate::element::AreaSample;
+use crate::geometry::element::AreaSample;
+use crate::geometry::tracing::SceneTracer;
 use crate::scene::Patch;
-use crate::tracing::SceneTracer;
 use glam::{DVec2, DVec3};
 
 /// Quadrature settings for kernel coefficients.
@@ -84,7 +85,7 @@ pub struct OuterSamples {
     /// weight times the visible point-to-polygon factor.
     pub contributions: Vec<f64>,
     /// Nothing blocks the shaft between the two elements
-    /// ([`Occluder::clear_between`](crate::visibility::Occluder::clear_between)),
+    /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)),
     /// nor any shaft between parts of them.
     pub clear: bool,
 }
@@ -162,7 +163,7 @@ pub fn throughput_samples(
 /// Lambert's formula still counts), the centroid of that part stands in for
 /// them. 0 when nothing is in front. With `clear`, the caller knows that
 /// nothing blocks the shaft between `x`'s element and the polygon
-/// ([`Occluder::clear_between`](crate::visibility::Occluder::clear_between)):
+/// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)):
 /// no ray is traced, and the result is the same.
 pub fn visible_fraction(
     tracer: &SceneTracer,

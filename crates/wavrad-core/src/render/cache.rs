@@ -33,9 +33,9 @@
 //! beside the light, which hangs 1 cm below it) made both worse.
 
 use super::gather::GatherPoint;
-use super::sampling::Samples;
 use super::{FinalGather, RenderSettings, SolutionReader};
-use crate::exposure::is_buried;
+use crate::kernel::exposure::is_buried;
+use crate::sampling::Samples;
 use crate::scene::{Patch, Rgb};
 use crate::solve::Solution;
 use glam::DVec2;
@@ -253,7 +253,8 @@ fn smooth_indirect(
 mod tests {
     use super::*;
     use crate::kernel::form_factor::point_to_polygon;
-    use crate::solve::{solve, Silent, SolveSettings};
+    use crate::progress::Silent;
+    use crate::solve::{solve, SolveSettings};
 
     /// A floor lit by a light that reflects nothing, 0.5 above it, is lit
     /// directly and by nothing else: the cache must give ρ·Le·F(x, light)
@@ -264,14 +265,14 @@ mod tests {
     #[test]
     fn cached_floor_radiance_is_the_closed_form_direct_light() {
         let mut scene = crate::testing::light_over_a_corner(0.5);
-        scene.surfaces[1].brdf = crate::brdf::Brdf::diffuse([0.0; 3]);
+        scene.surfaces[1].brdf = crate::scene::brdf::Brdf::diffuse([0.0; 3]);
         // Off the diagonal, so that the light is not symmetric in u and v.
         scene.surfaces[1].patch = Patch::Parallelogram {
             origin: glam::DVec3::new(0.6, 0.1, 0.5),
             edge_s: glam::DVec3::Y * 0.2,
             edge_t: glam::DVec3::X * 0.2,
         };
-        let cache_with = |brdf: crate::brdf::Brdf| {
+        let cache_with = |brdf: crate::scene::brdf::Brdf| {
             let mut scene = scene.clone();
             scene.surfaces[0].brdf = brdf;
             let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -280,14 +281,14 @@ mod tests {
         };
         let (floor, light) = (&scene.surfaces[0].patch, &scene.surfaces[1].patch);
         for (brdf, rho) in [
-            (crate::brdf::Brdf::diffuse([0.5; 3]), 0.5),
+            (crate::scene::brdf::Brdf::diffuse([0.5; 3]), 0.5),
             (crate::testing::rolled_aluminium(), 0.1),
         ] {
             let cache = cache_with(brdf);
             assert!(cache.texels() > 1000, "{} texels", cache.texels());
             let mut worst: f64 = 0.0;
             for k in 0..400 {
-                let uv = crate::render::sampling::hash2(11, k);
+                let uv = crate::sampling::hash2(11, k);
                 let x = floor.point_at(uv);
                 let expect =
                     rho * point_to_polygon(x, floor.normal(), &light.vertices(), light.normal());
@@ -296,7 +297,7 @@ mod tests {
             }
             assert!(worst < 0.005, "ρ {rho}: worst relative error {worst}");
         }
-        let conductor = crate::brdf::Brdf::RoughConductor(Default::default());
+        let conductor = crate::scene::brdf::Brdf::RoughConductor(Default::default());
         assert_eq!(cache_with(conductor).radiance(0, DVec2::splat(0.5)), None);
     }
 

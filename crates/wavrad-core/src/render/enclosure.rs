@@ -11,14 +11,15 @@
 //! softer: on the glossy Cornell box `direct` mode gives 6.2 % instead of
 //! the eye's 4.5 %.
 
-use crate::directional::PairTree;
-use crate::exposure::PairExposure;
-use crate::hierarchy::ElementId;
+use crate::geometry::hierarchy::ElementId;
+use crate::geometry::pair_tree::PairTree;
+use crate::kernel::exposure::PairExposure;
 use crate::kernel::faces_away;
+use crate::progress::Progress;
 use crate::render::eye::glossy_sources;
 use crate::render::reconstruct::{radiance_at, Reconstruction};
 use crate::scene::{Patch, Rgb, Scene};
-use crate::solve::{push_pull::push_pull, Progress, Solution};
+use crate::solve::{push_pull::push_pull, Solution};
 use glam::DVec3;
 use std::collections::BTreeMap;
 
@@ -159,7 +160,7 @@ impl Solution {
     /// The enclosure's radiance, gathered on first use.
     pub fn enclosure(&self) -> &EnclosureRadiance {
         self.enclosure
-            .get_or_init(|| self.enclosure_radiance(&crate::solve::Silent))
+            .get_or_init(|| self.enclosure_radiance(&crate::progress::Silent))
     }
 
     /// Radiance leaving point `y` of glossy surface `p` in the unit

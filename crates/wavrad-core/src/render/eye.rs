@@ -8,12 +8,13 @@
 //! behind it along the view axis, so that every point sees it along the view
 //! direction) and is never subdivided.
 
-use crate::exposure::PairExposure;
-use crate::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::kernel::exposure::PairExposure;
+use crate::progress::Progress;
+use crate::refine::estimate::LightEstimate;
+use crate::refine::three_point_projection::{refine_three_point_links, ThreePointLink};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
-use crate::solve::estimate::LightEstimate;
-use crate::solve::{push_pull::push_pull, Progress, Solution};
-use crate::three_point::{refine_three_point_links, ThreePointLink};
+use crate::solve::{push_pull::push_pull, Solution};
 use glam::DVec3;
 use std::collections::BTreeSet;
 
@@ -56,7 +57,7 @@ pub fn eye_patch(scene: &Scene, camera: &Camera) -> Patch {
 /// The (source r, glossy p) surface pairs through which light reaches a
 /// receiver from a glossy surface, in order.
 pub(crate) fn glossy_sources(scene: &Scene) -> BTreeSet<(u32, u32)> {
-    crate::three_point::surface_triples(scene)
+    crate::refine::three_point_projection::surface_triples(scene)
         .into_iter()
         .map(|(r, p, _)| (r, p))
         .collect()
@@ -141,8 +142,7 @@ impl Solution {
                 &self.scene,
                 self.trees.clone(),
                 &self.radiance,
-                &self.interactions,
-                &self.directional,
+                self.interactions.directional_radiance(&self.directional),
                 None,
             )
         });

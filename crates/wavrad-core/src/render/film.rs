@@ -1,7 +1,7 @@
 //! Film: pixel sample positions and the reconstruction filter (Mitsuba 3's
 //! `box` and `gaussian` rfilters), so images compare pixel for pixel.
 
-use crate::render::sampling::pixel_offsets;
+use crate::sampling::pixel_offsets;
 use crate::scene::{Film, PixelFilter};
 use rayon::prelude::*;
 

@@ -13,12 +13,12 @@
 //! ρ_d of a glossy one whose BRDF has such a lobe besides others (Ward's),
 //! whose other lobes [`glossy_radiance`] gathers through the BRDF.
 
-use crate::brdf::{Brdf, BrdfModel};
+use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
 use crate::render::mirror::MirrorImage;
-use crate::render::sampling::Samples;
+use crate::sampling::Samples;
+use crate::scene::brdf::{Brdf, BrdfModel};
 use crate::scene::{Rgb, Scene};
-use crate::tracing::SceneTracer;
 use glam::DVec3;
 
 /// A visible point where light is gathered.
@@ -191,7 +191,7 @@ pub fn indirect_radiance(
     let mut inverse_distances = 0.0;
     for k in 0..rays {
         // Cosine-weighted (Malley).
-        let local = crate::brdf::cosine_hemisphere(samples.point(0x5bd1_e995, rays, k));
+        let local = crate::scene::brdf::cosine_hemisphere(samples.point(0x5bd1_e995, rays, k));
         let dir = local.x * t + local.y * b + local.z * normal;
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
@@ -382,7 +382,7 @@ mod tests {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
+                brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
                 emission: [0.0; 3],
             })
             .collect();
@@ -580,13 +580,13 @@ mod tests {
             Surface {
                 name: "floor".into(),
                 patch: floor,
-                brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
+                brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
                 emission: [0.0; 3],
             },
             Surface {
                 name: "light".into(),
                 patch: light,
-                brdf: crate::brdf::Brdf::diffuse([0.0; 3]),
+                brdf: crate::scene::brdf::Brdf::diffuse([0.0; 3]),
                 emission: [1.0; 3],
             },
         ]);

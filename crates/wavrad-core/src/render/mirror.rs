@@ -14,8 +14,8 @@
 //! Written here because it is a few lines of plane geometry on wavrad's own
 //! patches.
 
-use crate::brdf::BrdfModel;
 use crate::kernel::faces_away;
+use crate::scene::brdf::BrdfModel;
 use crate::scene::{Patch, Scene, Surface};
 use glam::{DMat3, DMat4, DVec2, DVec3};
 
@@ -140,8 +140,8 @@ fn reflection(patch: &Patch) -> DMat4 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::brdf::{Brdf, Ward};
-    use crate::render::sampling::hash2;
+    use crate::sampling::hash2;
+    use crate::scene::brdf::{Brdf, Ward};
     use crate::testing::{grey, mirror_floor_and_light};
 
     #[test]

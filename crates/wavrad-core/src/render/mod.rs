@@ -10,10 +10,10 @@ pub mod film;
 pub mod gather;
 pub mod mirror;
 pub mod reconstruct;
-pub mod sampling;
 
-use crate::brdf::Brdf;
-use crate::hierarchy::ElementId;
+use crate::geometry::hierarchy::ElementId;
+use crate::sampling::Samples;
+use crate::scene::brdf::Brdf;
 use crate::scene::{Camera, Film, Rgb, Scene};
 use crate::solve::Solution;
 use crate::{Error, Result};
@@ -23,7 +23,6 @@ use glam::{DVec2, DVec3};
 use mirror::MirrorImage;
 use rayon::prelude::*;
 use reconstruct::{radiance_at, Reconstruction, SmoothLookup};
-use sampling::Samples;
 
 /// How to render a view.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -140,8 +139,8 @@ impl RenderSettings {
     /// How many of a pixel's `n` camera rays gather: in proportion to `n`,
     /// as in an interior pixel, up to as many as an edge pixel's.
     fn gathers_among(&self, n: usize) -> u32 {
-        let n = n.min(sampling::pixel_offsets_len(self.samples_per_pixel) as usize);
-        let interior = sampling::pixel_offsets_len(self.interior_samples_per_pixel) as usize;
+        let n = n.min(crate::sampling::pixel_offsets_len(self.samples_per_pixel) as usize);
+        let interior = crate::sampling::pixel_offsets_len(self.interior_samples_per_pixel) as usize;
         let share = self.gather_samples_per_pixel as f64 / interior as f64;
         ((n as f64 * share).round() as u32).max(1)
     }
@@ -356,7 +355,7 @@ impl Solution {
         // this view, gathered once into the eye.
         let any_glossy = self.scene.surfaces.iter().any(|s| !s.is_diffuse());
         let eye = (settings.eye && any_glossy && settings.mode != Reconstruction::Gather)
-            .then(|| self.eye_radiance(camera, &crate::solve::Silent));
+            .then(|| self.eye_radiance(camera, &crate::progress::Silent));
         let cache = (settings.mode == Reconstruction::Gather && settings.gather_cache)
             .then(|| self.gather_cache(&reader, settings));
         // Pixels showing one surface, as do their eight neighbours

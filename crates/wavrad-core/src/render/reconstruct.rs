@@ -16,7 +16,7 @@
 //!   floor or towards a contact line, keeps its slope up to the edge instead
 //!   of flattening to the boundary element's average.
 
-use crate::hierarchy::ElementTree;
+use crate::geometry::hierarchy::ElementTree;
 use crate::scene::{Patch, Rgb};
 use glam::DVec2;
 
@@ -217,7 +217,7 @@ pub fn hat_stencil(uv: DVec2, level: u32) -> impl Iterator<Item = (DVec2, f64)> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hierarchy::ElementId;
+    use crate::geometry::hierarchy::ElementId;
     use glam::DVec3;
     use std::collections::BTreeSet;
 

@@ -10,7 +10,7 @@
 //! leaves with that slope ([`Gathered`]): the form factors of every leaf,
 //! not only of every element a link names, then sum to what they should.
 //!
-//! A glossy surface with a Lambertian lobe ([`crate::brdf::Brdf::lambertian`])
+//! A glossy surface with a Lambertian lobe ([`crate::scene::brdf::Brdf::lambertian`])
 //! is both: its elements gather ρ_d·F·L_{c→a} over two-point links like a
 //! diffuse surface's, and its element pairs only the light the rest of its
 //! BRDF reflects (R projects f less ρ_d/π). Its radiance towards a receiver
@@ -21,14 +21,14 @@
 //! its specular lobe off, the same surface as a diffuse one) left the small
 //! box's sides next to it 11–45 % off their diffuse-floor values.
 
-use crate::directional::PairTree;
-use crate::exposure::PairExposure;
-use crate::hierarchy::{ElementTree, Hierarchy};
+use crate::geometry::hierarchy::{ElementTree, Hierarchy};
+use crate::geometry::pair_tree::PairTree;
+use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
-use crate::link::Link;
+use crate::refine::three_point_projection::ThreePointLink;
+use crate::refine::two_point_projection::Link;
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::push_pull::Gathered;
-use crate::three_point::ThreePointLink;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -122,7 +122,7 @@ pub struct Interactions {
     /// (node, weight) lists that sources and receivers refer to.
     pub covers: Vec<(u32, f64)>,
     /// Exposed fraction of every node of every element tree
-    /// ([`crate::exposure`]); radiance is averaged over exposed areas.
+    /// ([`crate::kernel::exposure`]); radiance is averaged over exposed areas.
     pub exposure: Vec<Vec<f64>>,
     /// Exposed fraction of every node (a, b) of every directional
     /// structure: directional radiance is averaged over exposed pairs.
@@ -179,6 +179,18 @@ pub fn receiver_gradient(
 }
 
 impl Interactions {
+    /// Each directional structure's (p, q), pair tree and the radiance
+    /// `values` of its nodes, as the light estimate reads them.
+    pub fn directional_radiance<'a>(
+        &'a self,
+        values: &'a [Vec<Rgb>],
+    ) -> impl Iterator<Item = ((u32, u32), &'a PairTree, &'a [Rgb])> {
+        self.directional
+            .iter()
+            .zip(values)
+            .map(|(d, v)| ((d.p, d.q), &d.tree, &v[..]))
+    }
+
     /// Arrange `links` and `three_point` for gathering over the element
     /// `trees`, whose nodes have the exposed fractions `exposure`;
     /// `directional` lists every (glossy p, q) pair that gets a structure,
@@ -287,9 +299,9 @@ impl Interactions {
         scene: &Scene,
         trees: &[ElementTree],
         r: u32,
-        c: crate::hierarchy::ElementId,
+        c: crate::geometry::hierarchy::ElementId,
         p: u32,
-        a: crate::hierarchy::ElementId,
+        a: crate::geometry::hierarchy::ElementId,
     ) -> Source {
         let node = trees[r as usize]
             .index_of(c)
@@ -375,7 +387,7 @@ impl Interactions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hierarchy::ElementId;
+    use crate::geometry::hierarchy::ElementId;
 
     #[test]
     fn receiver_gradient_follows_the_childrens_shares_per_exposed_area() {

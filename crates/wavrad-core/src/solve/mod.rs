@@ -1,34 +1,34 @@
 //! The whole solution (paper §4.2, wavelet_radiance): compute kernels
-//! ([`crate::link::refine_links`]), build the element hierarchies, then
+//! ([`crate::refine::two_point_projection::refine_links`]), build the element hierarchies, then
 //! Gauss–Seidel gathering with push–pull until the coarsest coefficients
 //! settle. [`shoot`] solves diffuse scenes by progressive shooting instead,
 //! projecting kernels only where light flows (the paper's §6).
 
-pub mod estimate;
 pub mod gather;
-pub mod importance;
 pub mod push_pull;
 pub mod shoot;
+pub mod stats;
 
-use crate::directional::PairTree;
-use crate::exposure::{exposed_fractions, PairExposure};
-use crate::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::pair_tree::PairTree;
+use crate::geometry::tracing::SceneTracer;
+use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::Quadrature;
-use crate::link::{
-    refine_links, refine_links_further, resolve_emitter_links, Link, RefineSettings,
-};
-use crate::oracle::Oracle;
-use crate::scene::{Rgb, Scene};
-use crate::stats::{PhaseTimes, Stats};
-use crate::three_point::{
+use crate::progress::Progress;
+use crate::refine::estimate::LightEstimate;
+use crate::refine::importance::Importance;
+use crate::refine::oracle::Oracle;
+use crate::refine::three_point_projection::{
     refine_three_point_links, refine_three_point_links_further, surface_triples, ThreePointLink,
     ThreePointSettings,
 };
-use crate::tracing::SceneTracer;
+use crate::refine::two_point_projection::{
+    refine_links, refine_links_further, resolve_emitter_links, Link, RefineSettings,
+};
+use crate::scene::{Rgb, Scene};
+use crate::solve::stats::{PhaseTimes, Stats};
 use crate::{Error, Result};
-use estimate::LightEstimate;
 use gather::{Directional, Interactions};
-use importance::Importance;
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::fmt;
@@ -119,21 +119,6 @@ impl FromStr for Solver {
         }
     }
 }
-
-/// Receives progress of the long phases (the CLI draws bars; default: none).
-pub trait Progress: Sync {
-    /// A phase with `total` steps starts.
-    fn start(&self, _phase: &str, _total: u64) {}
-    /// `steps` more steps are done.
-    fn advance(&self, _steps: u64) {}
-    /// The phase is over.
-    fn finish(&self) {}
-}
-
-/// Progress that reports nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Silent;
-impl Progress for Silent {}
 
 /// A view-independent radiance solution.
 pub struct Solution {
@@ -257,8 +242,9 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             scene,
             system.trees.clone(),
             &system.radiance,
-            &system.interactions,
-            &system.directional,
+            system
+                .interactions
+                .directional_radiance(&system.directional),
             importance(&links),
         );
         let (more, refined) =
@@ -295,7 +281,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (sweeps.0, sweeps.1, passes),
         times,
     );
-    stats.exchanging_pairs = crate::link::linked_pairs(scene).len();
+    stats.exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
     stats.kernel_pairs = stats.exchanging_pairs;
     Ok(Solution {
         scene: scene.clone(),
@@ -558,7 +544,7 @@ impl SolveSettings {
         ThreePointSettings {
             refine: RefineSettings {
                 max_level: self.three_point_max_level,
-                oracle: crate::oracle::KernelSmoothness {
+                oracle: crate::refine::oracle::KernelSmoothness {
                     threshold: self.three_point_threshold,
                 },
                 ..self.refine
@@ -642,7 +628,7 @@ impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
             refine: RefineSettings {
-                oracle: crate::oracle::KernelSmoothness { threshold: 1e-3 },
+                oracle: crate::refine::oracle::KernelSmoothness { threshold: 1e-3 },
                 max_level: 5,
                 quadrature: crate::kernel::Quadrature::default(),
             },

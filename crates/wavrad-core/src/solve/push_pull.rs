@@ -4,7 +4,7 @@
 //! the average radiance over its element. The same holds for the element-pair
 //! trees of directional radiance (the paper's 3d_reconstruct_decompose).
 
-use crate::hierarchy::{ElementTree, Hierarchy};
+use crate::geometry::hierarchy::{ElementTree, Hierarchy};
 use crate::scene::Rgb;
 use glam::DVec3;
 
@@ -12,7 +12,7 @@ use glam::DVec3;
 /// emitted radiance, return the new radiance average of every node.
 ///
 /// `exposure`, the exposed fraction of each node's area
-/// ([`crate::exposure`]), makes the averages over exposed areas; without it
+/// ([`crate::kernel::exposure`]), makes the averages over exposed areas; without it
 /// they are over whole elements.
 pub fn push_pull(
     tree: &impl Hierarchy,
@@ -137,7 +137,7 @@ fn add(a: Rgb, b: Rgb) -> Rgb {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hierarchy::{ElementId, ElementTree};
+    use crate::geometry::hierarchy::{ElementId, ElementTree};
     use crate::scene::Patch;
     use glam::DVec3;
     use std::collections::BTreeSet;

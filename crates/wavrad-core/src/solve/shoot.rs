@@ -7,10 +7,10 @@
 //! start with unshot radiance = emission. Each step shoots the surface with
 //! the most unshot power (area × unshot radiance, largest channel): for
 //! every diffuse surface it can light (the pairs of
-//! [`crate::link::linked_pairs`]), the pair's links are projected the first
+//! [`crate::refine::two_point_projection::linked_pairs`]), the pair's links are projected the first
 //! time power flows through them, with the power-weighted oracle weighing
 //! the kernel by the shooter's unshot radiance, and re-tested from their
-//! stored details ([`crate::link::refine_links_further`]) when a later shot
+//! stored details ([`crate::refine::two_point_projection::refine_links_further`]) when a later shot
 //! carries more power than they were refined for. Each receiver element
 //! gains ρ·F·ΔL, push–pull keeps its averages, and the shooter's unshot
 //! radiance becomes zero. Kernels between surfaces no light flows between
@@ -30,14 +30,15 @@
 //! ```
 //! use std::ops::ControlFlow;
 //! use wavrad_core::scene::{Scene, Surface};
-//! use wavrad_core::solve::{shoot::solve_shooting, Silent, SolveSettings};
+//! use wavrad_core::solve::{shoot::solve_shooting, SolveSettings};
+//! use wavrad_core::progress::Silent;
 //! use glam::DVec3;
 //!
 //! // A unit cube seen from inside: every face reflects 50 % and emits 1.
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
 //!     .collect();
 //! let mut settings = SolveSettings::default();
 //! settings.refine.max_level = 3;
@@ -53,18 +54,21 @@
 //! assert_eq!(solution.stats.shooting_steps, steps);
 //! ```
 
-use super::estimate::LightEstimate;
 use super::gather::{form_factor, receiver_gradient, Interactions};
 use super::push_pull::Gathered;
-use super::{push_pull, Progress, Silent, Solution, SolveSettings, System};
-use crate::exposure::exposed_fractions;
-use crate::hierarchy::{ElementId, ElementTree};
+use super::{push_pull, Solution, SolveSettings, System};
+use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::tracing::SceneTracer;
+use crate::kernel::exposure::exposed_fractions;
 use crate::kernel::Quadrature;
-use crate::link::{linked_pairs, refine_links_further, refine_pair, resolve_emitter_links, Link};
-use crate::oracle::Oracle;
+use crate::progress::{Progress, Silent};
+use crate::refine::estimate::LightEstimate;
+use crate::refine::oracle::Oracle;
+use crate::refine::two_point_projection::{
+    linked_pairs, refine_links_further, refine_pair, resolve_emitter_links, Link,
+};
 use crate::scene::{Rgb, Scene};
-use crate::stats::{PhaseTimes, Stats};
-use crate::tracing::SceneTracer;
+use crate::solve::stats::{PhaseTimes, Stats};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
@@ -207,7 +211,7 @@ struct SurfaceState {
     /// Elements any link of the surface mentioned (the tree holds them).
     ids: BTreeSet<ElementId>,
     tree: ElementTree,
-    /// Exposed fraction of each node ([`crate::exposure`]) under
+    /// Exposed fraction of each node ([`crate::kernel::exposure`]) under
     /// `quadrature`, the kernels' quadrature.
     exposure: Vec<f64>,
     quadrature: Quadrature,
@@ -476,7 +480,7 @@ impl<'a> Shooting<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::brdf::Brdf;
+    use crate::scene::brdf::Brdf;
     use crate::scene::{Patch, Surface};
     use crate::solve::solve;
     use glam::DVec3;
@@ -629,7 +633,7 @@ mod tests {
         let mut scene = open_box();
         let err = shoot_err(&scene, Oracle::Importance);
         assert!(err.contains("kernel and power"), "{err}");
-        scene.surfaces[0].brdf = Brdf::Ward(crate::brdf::Ward::default());
+        scene.surfaces[0].brdf = Brdf::Ward(crate::scene::brdf::Ward::default());
         let err = shoot_err(&scene, Oracle::Power);
         assert!(err.contains("diffuse scenes"), "{err}");
     }

@@ -6,7 +6,7 @@
 
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
-use wavrad_core::brdf::BrdfModel;
+use wavrad_core::scene::brdf::BrdfModel;
 
 /// A seeded SplitMix64 stream of uniform numbers in [0, 1).
 pub struct Rng(u64);
@@ -130,5 +130,5 @@ pub fn chi2_survival(x: f64, k: f64) -> f64 {
 }
 
 fn erfc(x: f64) -> f64 {
-    1.0 - wavrad_core::brdf::microfacet::erf(x)
+    1.0 - wavrad_core::scene::brdf::microfacet::erf(x)
 }

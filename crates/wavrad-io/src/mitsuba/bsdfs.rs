@@ -34,8 +34,8 @@
 //! Without `twosided` a surface reflects on its front side only, as in
 //! Mitsuba. Textures and every other plugin are rejected.
 
-use wavrad_core::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
-use wavrad_core::brdf::{
+use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
+use wavrad_core::scene::brdf::{
     Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
     WardVariant,
 };

@@ -4,17 +4,17 @@
 //! Starting from every pair of surfaces that can exchange light, the four
 //! children of the *larger* element of the pair are computed by quadrature
 //! ([`crate::kernel::throughput`]); if the kernel's Haar details over them
-//! pass the [`crate::oracle`], one link is kept at this level with the
+//! pass the [`crate::refine::oracle`], one link is kept at this level with the
 //! coefficient assembled from the children (hierarchical decomposition), else
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
-use crate::hierarchy::ElementId;
+use crate::geometry::hierarchy::ElementId;
+use crate::geometry::tracing::SceneTracer;
 use crate::kernel::{self, KernelElement, OuterSamples, Quadrature};
-use crate::oracle::{average_detail, KernelSmoothness};
+use crate::progress::Progress;
+use crate::refine::estimate::LightEstimate;
+use crate::refine::oracle::{average_detail, KernelSmoothness};
 use crate::scene::{Patch, Scene, Surface};
-use crate::solve::estimate::LightEstimate;
-use crate::solve::Progress;
-use crate::tracing::SceneTracer;
 use rayon::prelude::*;
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
@@ -87,7 +87,7 @@ struct Side {
 struct PairRefiner<'a> {
     scene: &'a Scene,
     tracer: &'a SceneTracer,
-    /// Which elements [`crate::exposure::straddles`] a contact, as found.
+    /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<(u32, ElementId), bool>,
     settings: RefineSettings,
     /// Light carried, for the weighted oracles; `None`: the paper's oracle.
@@ -136,7 +136,7 @@ impl<'a> PairRefiner<'a> {
 
     /// True for an element above the maximum level that straddles a
     /// contact line with its Gauss points all buried
-    /// ([`crate::exposure::straddles`]): no link may keep it whole.
+    /// ([`crate::kernel::exposure::straddles`]): no link may keep it whole.
     fn straddles(&mut self, side: &Side) -> bool {
         if side.id.level >= self.settings.max_level {
             return false;
@@ -146,7 +146,12 @@ impl<'a> PairRefiner<'a> {
             .straddling
             .entry((side.surface, side.id))
             .or_insert_with(|| {
-                crate::exposure::straddles(scene, tracer, (side.surface, &side.patch), quadrature)
+                crate::kernel::exposure::straddles(
+                    scene,
+                    tracer,
+                    (side.surface, &side.patch),
+                    quadrature,
+                )
             })
     }
 
@@ -449,7 +454,7 @@ impl<'a> PairRefiner<'a> {
 /// All two-point links of a scene (compute_kernel of §4.2 for pairs with a
 /// diffuse surface), refined in parallel over surface pairs; the result does not
 /// depend on the number of threads. With an `estimate` the weighted oracles
-/// decide (see [`crate::oracle::Oracle`]), else the paper's.
+/// decide (see [`crate::refine::oracle::Oracle`]), else the paper's.
 pub fn refine_links(
     scene: &Scene,
     tracer: &SceneTracer,
@@ -473,7 +478,7 @@ pub fn refine_links(
 
 /// The surface pairs (p < r) that get two-point links: those not facing
 /// away from each other, at least one of which has a Lambertian lobe
-/// ([`crate::brdf::Brdf::lambertian`]; the rest of a glossy receiver's
+/// ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a glossy receiver's
 /// reflection goes through three-point links), in order.
 pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
     let n = scene.surfaces.len() as u32;
@@ -669,9 +674,9 @@ pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::oracle::KernelSmoothness;
+    use crate::progress::Silent;
+    use crate::refine::oracle::KernelSmoothness;
     use crate::scene::Surface;
-    use crate::solve::Silent;
     use glam::DVec3;
 
     /// Two directly facing squares: the kernel over the four children of one
@@ -687,7 +692,7 @@ mod tests {
                 edge_s: if flip { DVec3::Y } else { DVec3::X },
                 edge_t: if flip { DVec3::X } else { DVec3::Y },
             },
-            brdf: crate::brdf::Brdf::diffuse([0.8; 3]),
+            brdf: crate::scene::brdf::Brdf::diffuse([0.8; 3]),
             emission: [0.0; 3],
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);
@@ -747,7 +752,7 @@ mod tests {
                 edge_s: if up { DVec3::X } else { DVec3::Y },
                 edge_t: if up { DVec3::Y } else { DVec3::X },
             },
-            brdf: crate::brdf::Brdf::diffuse([0.5; 3]),
+            brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
             emission: [emission; 3],
         };
         Scene::from_surfaces(vec![square(0.0, true, 0.0), square(0.5, false, 4.0)])
@@ -893,9 +898,8 @@ mod tests {
     /// above (surface 1), with an estimate of the floor's radiance towards
     /// the square whose four quadrants get `towards_quadrants`.
     fn glossy_floor_lighting(towards_quadrants: [f64; 4]) -> (Scene, LightEstimate) {
-        use crate::directional::PairTree;
-        use crate::hierarchy::ElementTree;
-        use crate::solve::gather::{Directional, Interactions};
+        use crate::geometry::hierarchy::ElementTree;
+        use crate::geometry::pair_tree::PairTree;
         let floor = crate::testing::unit_floor();
         let ceiling = Patch::Parallelogram {
             origin: DVec3::new(0.0, 0.0, 2.0),
@@ -919,10 +923,6 @@ mod tests {
         for &l in &towards_quadrants {
             values.push([l; 3]);
         }
-        let interactions = Interactions {
-            directional: vec![Directional { p: 0, q: 1, tree }],
-            ..Interactions::default()
-        };
         let trees = [floor, ceiling]
             .iter()
             .map(|p| ElementTree::build(p, &Default::default()))
@@ -931,8 +931,7 @@ mod tests {
             &scene,
             trees,
             &[vec![[0.0; 3]], vec![[0.0; 3]]],
-            &interactions,
-            &[values],
+            [((0, 1), &tree, &values[..])],
             None,
         );
         (scene, estimate)

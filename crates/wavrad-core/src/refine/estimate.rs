@@ -1,12 +1,11 @@
-//! What the weighted oracles ([`crate::oracle::Oracle::Power`] and
+//! What the weighted oracles ([`crate::refine::oracle::Oracle::Power`] and
 //! `Importance`) expect a link to carry: the radiance L_{c→a} its source
 //! sends, from the last solution of the refine–solve loop (or from the
 //! emission alone before the first), and the importance of its receiver.
 
-use super::gather::Interactions;
 use super::importance::Importance;
-use crate::directional::PairTree;
-use crate::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::pair_tree::PairTree;
 use crate::scene::{Rgb, Scene};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -54,24 +53,21 @@ impl LightEstimate {
     }
 
     /// From a solution: element radiance of diffuse surfaces over `trees`,
-    /// directional radiance of glossy ones over `interactions`' structures.
-    pub fn from_solution(
+    /// directional radiance of glossy ones, by (p, q), over their pair trees.
+    pub fn from_solution<'a>(
         scene: &Scene,
         trees: Vec<ElementTree>,
         radiance: &[Vec<Rgb>],
-        interactions: &Interactions,
-        directional: &[Vec<Rgb>],
+        directional: impl IntoIterator<Item = ((u32, u32), &'a PairTree, &'a [Rgb])>,
         importance: Option<Importance>,
     ) -> LightEstimate {
         let values = |v: &[Rgb]| v.iter().map(largest).collect::<Vec<f64>>();
         LightEstimate {
             trees,
             radiance: radiance.iter().map(|r| values(r)).collect(),
-            directional: interactions
-                .directional
-                .iter()
-                .zip(directional)
-                .map(|(d, v)| ((d.p, d.q), (d.tree.clone(), values(v))))
+            directional: directional
+                .into_iter()
+                .map(|(pair, tree, v)| (pair, (tree.clone(), values(v))))
                 .collect(),
             ..LightEstimate::emission(scene, importance)
         }

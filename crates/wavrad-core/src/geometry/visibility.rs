@@ -453,7 +453,7 @@ mod tests {
         // Wherever a shaft is called clear, no segment in it is blocked.
         let mut clear = 0;
         for i in 0..200 {
-            let r = |k: u64| crate::render::sampling::hash2(i, k);
+            let r = |k: u64| crate::sampling::hash2(i, k);
             let (p, q) = (r(0), r(1));
             let a = square(4.0 * p.x - 2.0, 4.0 * p.y - 2.0, -1.0 - q.x, 0.3);
             let c = square(4.0 * q.y - 2.0, 4.0 * r(2).x - 2.0, 0.5 + r(2).y, 0.3);

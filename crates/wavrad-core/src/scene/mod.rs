@@ -6,7 +6,9 @@
 //! normal points to, as Mitsuba's `diffuse` BSDF and `area` emitter do. A
 //! `twosided` material becomes two surfaces, one per side.
 
-use crate::brdf::{Brdf, Frame};
+pub mod brdf;
+
+use crate::scene::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
 /// Linear RGB triple (reflectance, radiance).

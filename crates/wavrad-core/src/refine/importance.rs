@@ -15,12 +15,12 @@
 //! none: importance only steers refinement, and this keeps it a few cheap
 //! sweeps over the links.
 
-use crate::brdf::BrdfModel;
-use crate::hierarchy::ElementId;
-use crate::link::Link;
-use crate::render::sampling::hash2;
+use crate::geometry::hierarchy::ElementId;
+use crate::geometry::tracing::SceneTracer;
+use crate::refine::two_point_projection::Link;
+use crate::sampling::hash2;
+use crate::scene::brdf::BrdfModel;
 use crate::scene::{Camera, Film, Scene, Surface};
-use crate::tracing::SceneTracer;
 use glam::{DVec2, DVec3};
 
 /// Importance density per element of a fixed grid on every surface,
@@ -156,10 +156,10 @@ fn spread(cells: &mut [f64], id: ElementId, value: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::{refine_links, RefineSettings};
-    use crate::oracle::KernelSmoothness;
+    use crate::progress::Silent;
+    use crate::refine::oracle::KernelSmoothness;
+    use crate::refine::two_point_projection::{refine_links, RefineSettings};
     use crate::scene::{FovAxis, Projection};
-    use crate::solve::Silent;
     use crate::testing::{grey, inward_box};
 
     /// A unit box seen from just under its ceiling, looking straight down

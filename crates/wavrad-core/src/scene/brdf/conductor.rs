@@ -105,7 +105,7 @@ impl BrdfModel for RoughConductor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::brdf::MicrofacetType;
+    use crate::scene::brdf::MicrofacetType;
 
     #[test]
     fn default_is_a_white_mirror_lobe() {

@@ -6,7 +6,7 @@
 //! triangle splits into four by its edge midpoints. Both give children of a
 //! quarter of the parent's area, so the Haar scaling function of an element is
 //! a box over it and its coefficient is 2^{-J}·(element average) (see
-//! [`crate::haar`]).
+//! [`crate::geometry::haar`]).
 
 use crate::scene::Patch;
 use glam::{DVec2, DVec3};

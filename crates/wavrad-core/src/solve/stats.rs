@@ -2,8 +2,8 @@
 //! point nodes", "two point interactions"), per-level counts, time per phase
 //! and peak memory.
 
-use crate::hierarchy::ElementTree;
-use crate::link::Link;
+use crate::geometry::hierarchy::ElementTree;
+use crate::refine::two_point_projection::Link;
 use crate::scene::Scene;
 use crate::solve::gather::Directional;
 use crate::solve::SolveSettings;

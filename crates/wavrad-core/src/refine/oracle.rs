@@ -3,7 +3,7 @@
 //! The paper's oracle (§4.2, Compute_2point_Kernel) looks at the kernel
 //! alone: a link is kept at a level when every Haar detail coefficient of the
 //! kernel one level down is at most a threshold, in the orthonormal
-//! normalisation of [`crate::haar`]. It refines wherever the kernel varies,
+//! normalisation of [`crate::geometry::haar`]. It refines wherever the kernel varies,
 //! whether or not light flows there (the paper's §6 calls it overkill).
 //!
 //! The power-weighted oracle (Hanrahan, Salzman & Aupperle 1991, "BF"
@@ -15,7 +15,7 @@
 //! receiver matters to the image. Both need an estimate of the solution,
 //! so they run in a refine–solve loop ([`crate::solve`]).
 
-use crate::haar;
+use crate::geometry::haar;
 use std::fmt;
 use std::str::FromStr;
 

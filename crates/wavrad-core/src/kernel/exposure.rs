@@ -17,10 +17,10 @@
 //! no link reaches it and nothing sees it. Directional radiance of glossy
 //! surfaces does the same over element pairs ([`PairExposure`]).
 
-use crate::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::tracing::SceneTracer;
 use crate::kernel::Quadrature;
 use crate::scene::{Patch, Scene};
-use crate::tracing::SceneTracer;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};

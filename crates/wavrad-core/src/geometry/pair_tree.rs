@@ -2,7 +2,7 @@
 //! Figure 2): for a glossy surface p and each surface q it sends light to, the
 //! radiance L_{a→b} leaving element a of p towards element b of q, stored as
 //! averages over element pairs (the Haar scaling coefficients of the 4D
-//! function L_pq up to the factor of [`crate::haar`]).
+//! function L_pq up to the factor of [`crate::geometry::haar`]).
 //!
 //! Three-point links refine with *virtual resolution*: each step subdivides
 //! only one of the elements, so the pairs a link writes to are (a, b) with
@@ -12,7 +12,7 @@
 //! split is represented by the nodes that tile it. Push–pull then works as on
 //! a surface's quadtree ([`crate::solve::push_pull`]).
 
-use crate::hierarchy::{ElementId, Hierarchy};
+use crate::geometry::hierarchy::{ElementId, Hierarchy};
 
 /// A node of a [`PairTree`]: the pair of elements (a on p, b on q).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -16,9 +16,9 @@
 //! for a BRDF constant over c.
 
 use super::{form_factor, interleaved_targets, visible_fraction, KernelElement, Quadrature};
-use crate::brdf::{Brdf, BrdfModel, Frame};
+use crate::geometry::tracing::SceneTracer;
+use crate::scene::brdf::{Brdf, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb};
-use crate::tracing::SceneTracer;
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -225,8 +225,8 @@ mod tests {
     fn incident_light_reused_over_receivers_is_bit_identical() {
         let ([floor, light, wall], tracer) = floor_light_wall();
         let q = Quadrature::default();
-        let brdf = Brdf::Ward(crate::brdf::Ward {
-            variant: crate::brdf::WardVariant::Balanced,
+        let brdf = Brdf::Ward(crate::scene::brdf::Ward {
+            variant: crate::scene::brdf::WardVariant::Balanced,
             alpha_u: 0.1,
             alpha_v: 0.35,
             specular_reflectance: [0.15; 3],

@@ -1,8 +1,8 @@
 //! The scene as triangles for ray queries: every surface becomes one or two
 //! triangles in the [`Occluder`], and each primitive remembers its surface.
 
+use crate::geometry::visibility::{Hit, Occluder};
 use crate::scene::{Patch, Scene};
-use crate::visibility::{Hit, Occluder};
 use glam::DVec3;
 
 /// Ray-tracing view of a scene's surfaces.

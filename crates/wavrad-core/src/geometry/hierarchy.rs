@@ -1,6 +1,6 @@
-//! Element hierarchies: one quadtree of [`crate::element`]s per surface, the
+//! Element hierarchies: one quadtree of [`crate::geometry::element`]s per surface, the
 //! multiresolution structure over which radiance is stored as element averages
-//! (Haar scaling coefficients up to the factor of [`crate::haar`]).
+//! (Haar scaling coefficients up to the factor of [`crate::geometry::haar`]).
 //!
 //! Refinement works on [`ElementId`]s (a level and a path of child indices),
 //! so surface pairs can be refined independently and in parallel; the trees
@@ -82,7 +82,7 @@ impl ElementId {
 
 /// A tree whose inner nodes have four consecutive children: element trees,
 /// and the element-pair trees of directional radiance
-/// ([`crate::directional::PairTree`]); push–pull works on either.
+/// ([`crate::geometry::pair_tree::PairTree`]); push–pull works on either.
 pub trait Hierarchy {
     /// Number of nodes (node 0 is the root).
     fn node_count(&self) -> usize;

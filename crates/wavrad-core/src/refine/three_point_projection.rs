@@ -4,22 +4,22 @@
 //! For every glossy surface p, every surface r that can light it and every
 //! surface q it can light, the triple of whole surfaces is refined: the four
 //! children of the *largest* of the three elements are integrated
-//! ([`crate::kernel::three_point::coefficient`]); if the kernel's Haar
+//! ([`crate::kernel::three_point_quadrature::coefficient`]); if the kernel's Haar
 //! details over them pass the oracle the link is kept at this level with the
 //! coefficient assembled from the children, else each child triple is
 //! refined in turn. Source and glossy elements never go below `max_level`;
 //! the receiving element may go further ([`ThreePointSettings`]).
 
-use crate::brdf::{Brdf, Frame};
-use crate::hierarchy::ElementId;
-use crate::kernel::three_point::{GlossyElement, IncidentLight};
+use crate::geometry::hierarchy::ElementId;
+use crate::geometry::tracing::SceneTracer;
+use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
 use crate::kernel::{faces_away, KernelElement};
-use crate::link::{refine_each, RefineSettings};
-use crate::oracle::average_detail;
+use crate::progress::Progress;
+use crate::refine::estimate::LightEstimate;
+use crate::refine::oracle::average_detail;
+use crate::refine::two_point_projection::{refine_each, RefineSettings};
+use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::{Patch, Rgb, Scene};
-use crate::solve::estimate::LightEstimate;
-use crate::solve::Progress;
-use crate::tracing::SceneTracer;
 use rayon::prelude::*;
 
 /// A three-point interaction r → p → q: `L_{a→b} += coefficient · L_{c→a}`.
@@ -41,7 +41,7 @@ pub struct ThreePointLink {
     /// R(c, a, b) per channel (element-average form of eq. 13).
     pub coefficient: Rgb,
     /// Largest detail of R the weighted oracles saw when they kept the link
-    /// (see [`crate::link::Link::detail`]).
+    /// (see [`crate::refine::two_point_projection::Link::detail`]).
     pub detail: f32,
 }
 
@@ -322,7 +322,7 @@ pub fn refine_three_point_links(
 }
 
 /// One pass of the refine–solve loop for three-point links (see
-/// [`crate::link::refine_links_further`]); the receivers are the scene's
+/// [`crate::refine::two_point_projection::refine_links_further`]); the receivers are the scene's
 /// surfaces. Returns the links and how many were refined.
 pub fn refine_three_point_links_further(
     scene: &Scene,

@@ -1,0 +1,10 @@
+//! The geometry the method works on: a surface's dyadic elements and their
+//! hierarchy, the Haar basis over them (paper eqs. 5–8), the pair
+//! hierarchies that hold directional radiance (Figure 2), and ray queries.
+
+pub mod element;
+pub mod haar;
+pub mod hierarchy;
+pub mod pair_tree;
+pub mod tracing;
+pub mod visibility;
