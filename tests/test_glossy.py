@@ -90,5 +90,5 @@ def test_the_view_independent_lookup_agrees_with_the_eye(glossy: wavrad.Solution
 
 def test_negative_three_point_threshold_is_a_solve_error() -> None:
     scene = wavrad.load_scene(SCENES / "figure3" / "specular.xml", res=8)
-    with pytest.raises(wavrad.SolveError, match="three-point threshold"):
+    with pytest.raises(wavrad.SolveError, match="three_point_threshold"):
         wavrad.solve(scene, three_point_threshold=-1.0)

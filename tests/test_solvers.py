@@ -72,13 +72,13 @@ def test_threshold_and_refine_passes_override_the_oracles_defaults(
 
 
 def test_zero_refine_passes_is_a_solve_error(scene: wavrad.Scene) -> None:
-    with pytest.raises(wavrad.SolveError, match="refine passes"):
+    with pytest.raises(wavrad.SolveError, match="refine_passes"):
         wavrad.solve(scene, oracle="power", refine_passes=0)
 
 
-def test_unknown_oracle_is_a_value_error_naming_the_choices(scene: wavrad.Scene) -> None:
-    message = "unknown oracle 'nope' (expected one of: kernel, power, importance)"
-    with pytest.raises(ValueError, match=re.escape(message)):
+def test_unknown_oracle_is_a_solve_error_naming_the_choices(scene: wavrad.Scene) -> None:
+    message = 'oracle: "nope" is not one of: kernel, power, importance'
+    with pytest.raises(wavrad.SolveError, match=re.escape(message)):
         wavrad.solve(scene, oracle="nope")  # type: ignore[arg-type]
 
 
@@ -125,10 +125,22 @@ def test_shooting_with_the_importance_oracle_is_a_solve_error(scene: wavrad.Scen
         wavrad.solve(scene, oracle="importance", solver="shoot")
 
 
-def test_unknown_solver_is_a_value_error_naming_the_choices(scene: wavrad.Scene) -> None:
-    message = "unknown solver 'nope' (expected one of: gather, shoot)"
-    with pytest.raises(ValueError, match=re.escape(message)):
+def test_unknown_solver_is_a_solve_error_naming_the_choices(scene: wavrad.Scene) -> None:
+    message = 'unknown solver "nope" (expected one of: gather, shoot)'
+    with pytest.raises(wavrad.SolveError, match=re.escape(message)):
         wavrad.solve(scene, solver="nope")  # type: ignore[arg-type]
+
+
+def test_unknown_setting_is_a_type_error(scene: wavrad.Scene) -> None:
+    with pytest.raises(TypeError, match="colour"):
+        wavrad.solve(scene, colour=1)  # type: ignore[call-arg]
+
+
+def test_settings_of_the_wrong_kind_name_the_setting(scene: wavrad.Scene) -> None:
+    with pytest.raises(ValueError, match="max_level: expected a whole number"):
+        wavrad.solve(scene, max_level=2.5)  # type: ignore[arg-type]
+    with pytest.raises(wavrad.SolveError, match="max_level: must be in 0..=16"):
+        wavrad.solve(scene, max_level=17)
 
 
 # Progressive shooting: a callback after every step

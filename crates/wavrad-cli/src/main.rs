@@ -2,18 +2,19 @@
 //! image and statistics. Option strings become core enums here; everything
 //! else lives in `wavrad-core` and `wavrad-io`.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Arg, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
+use std::marker::PhantomData;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
 use wavrad_core::progress::Progress;
-use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
+use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
 
@@ -85,55 +86,76 @@ enum Command {
 struct SolveArgs {
     /// Mitsuba 3 XML scene.
     scene: PathBuf,
-    /// Refinement oracle: `kernel` (the paper's: Haar details of the kernel
-    /// alone), `power` (kernel variation × radiance carried, Hanrahan et al.
-    /// 1991) or `importance` (power × the receiver's importance for the
-    /// scene's sensor, Smits et al. 1992). The last two run a refine–solve
-    /// loop.
-    #[arg(long, default_value = "kernel", value_parser = parse_oracle)]
-    oracle: Oracle,
+    /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE", help_heading = "Scene options")]
+    define: Vec<String>,
     /// How the radiance system is solved: `gather` (every kernel projected
     /// up front, then Gauss–Seidel gathering; the paper's §4.2) or `shoot`
     /// (progressive shooting from the emitters, kernels projected only where
     /// light flows; the paper's §6; diffuse scenes only for now).
-    #[arg(long, default_value = "gather", value_parser = parse_solver)]
+    #[arg(long, default_value = "gather", value_parser = |s: &str| s.parse::<Solver>(), help_heading = Group::Solve.heading())]
     solver: Solver,
+    #[command(flatten)]
+    settings: Given<SolveSettings>,
     /// With `--solver shoot`: after every shooting step, write a quick image
     /// of the solution so far (smooth reconstruction, 4 rays per pixel, the
     /// scene's sensor) to DIR/step-0001.exr, DIR/step-0002.exr, ...
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", help_heading = "Output options")]
     progressive: Option<PathBuf>,
-    /// Oracle threshold. Kernel oracle: on the kernel's Haar detail
-    /// coefficients in the paper's orthonormal normalisation (the paper uses
-    /// 1e-4) [default: 1e-3]. Weighted oracles: on the estimated error of a
-    /// receiver's radiance relative to the brightest emission [default: see
-    /// README].
-    #[arg(long)]
-    threshold: Option<f64>,
-    /// Most projections of the refine–solve loop of the weighted oracles.
-    #[arg(long)]
-    refine_passes: Option<u32>,
-    /// Maximum subdivision level of an element (the paper uses 8).
-    #[arg(long)]
-    max_level: Option<u32>,
-    /// Maximum subdivision level of the elements of three-point (glossy)
-    /// links [default: 2].
-    #[arg(long)]
-    three_point_max_level: Option<u32>,
-    /// Levels the receiving element of a three-point link may go below
-    /// --three-point-max-level: sharper highlights on diffuse receivers
-    /// for no extra ray queries [default: 0].
-    #[arg(long)]
-    three_point_receiver_levels: Option<u32>,
-    /// Oracle threshold of three-point (glossy) links [default: 1e-5].
-    #[arg(long)]
-    three_point_threshold: Option<f64>,
-    /// Write statistics (counts per level, times, memory) as JSON to this file.
-    #[arg(long)]
+    /// Write statistics (counts per level, times, memory, settings) as JSON to this file.
+    #[arg(long, help_heading = "Output options")]
     stats: Option<PathBuf>,
-    /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
-    #[arg(short = 'D', value_name = "NAME=VALUE")]
-    define: Vec<String>,
+}
+
+/// The settings of `S` given on the command line, by name: one option per
+/// setting its description lists ([`Described::SETTINGS`]), under the
+/// setting's group, with its default in the help.
+#[derive(Debug)]
+struct Given<S> {
+    values: Vec<(&'static str, Value)>,
+    described: PhantomData<S>,
+}
+
+impl<S: Described> FromArgMatches for Given<S> {
+    fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
+        let values = S::SETTINGS
+            .iter()
+            .filter_map(|s| matches.get_one::<Value>(s.name).map(|&v| (s.name, v)))
+            .collect();
+        Ok(Given {
+            values,
+            described: PhantomData,
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
+    }
+}
+
+impl<S: Described> Args for Given<S> {
+    fn augment_args(command: clap::Command) -> clap::Command {
+        S::SETTINGS.iter().fold(command, |command, setting| {
+            command.arg(
+                Arg::new(setting.name)
+                    .long(setting.flag().trim_start_matches('-').to_string())
+                    .value_name(match setting.domain {
+                        Domain::Real { .. } => "X",
+                        Domain::Count { .. } => "N",
+                        Domain::Flag => "BOOL",
+                        Domain::Choice(_) => "NAME",
+                    })
+                    .help(format!("{} [default: {}]", setting.help, setting.default))
+                    .help_heading(setting.group.heading())
+                    .value_parser(move |text: &str| setting.parse(text)),
+            )
+        })
+    }
+
+    fn augment_args_for_update(command: clap::Command) -> clap::Command {
+        Self::augment_args(command)
+    }
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
@@ -270,25 +292,8 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
         })
         .collect::<Result<Vec<_>, _>>()?;
     let scene = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
-    let mut settings = SolveSettings::for_oracle(args.oracle);
-    if let Some(n) = args.refine_passes {
-        settings.refine_passes = n;
-    }
-    if let Some(t) = args.threshold {
-        settings.refine.oracle.threshold = t;
-    }
-    if let Some(j) = args.max_level {
-        settings.refine.max_level = j;
-    }
-    if let Some(j) = args.three_point_max_level {
-        settings.three_point_max_level = j;
-    }
-    if let Some(j) = args.three_point_receiver_levels {
-        settings.three_point_receiver_levels = j;
-    }
-    if let Some(t) = args.three_point_threshold {
-        settings.three_point_threshold = t;
-    }
+    let settings = SolveSettings::from_values(&args.settings.values)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
     match (args.solver, &args.progressive) {
         (Solver::Gather, None) => solve(&scene, &settings, progress).map_err(in_scene),
@@ -329,14 +334,6 @@ fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Resu
     let image = solution.preview().map_err(|e| e.to_string())?;
     let path = dir.join(format!("step-{:04}.exr", step.index));
     wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
-}
-
-fn parse_oracle(s: &str) -> Result<Oracle, String> {
-    s.parse()
-}
-
-fn parse_solver(s: &str) -> Result<Solver, String> {
-    s.parse()
 }
 
 fn check_output_extension(output: &Path) -> Result<(), String> {

@@ -65,15 +65,36 @@ fn unknown_output_format_fails_before_solving() {
 fn invalid_settings_and_defines_are_reported() {
     let dir = tempfile::tempdir().unwrap();
     let scene = write(dir.path(), "s.xml", SMALL);
+    // A value outside a setting's documented range is a usage error (exit
+    // 2) that names the setting and the range, before the scene is read.
     let o = wavrad(&["solve", &scene, "--threshold=-1"]);
-    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("threshold"), "{}", stderr(&o));
     let o = wavrad(&["solve", &scene, "-D", "novalue"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("NAME=VALUE"), "{}", stderr(&o));
     let o = wavrad(&["solve", &scene, "--max-level", "99"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("max_level: must be in 0..=16"),
+        "{}",
+        stderr(&o)
+    );
+    // Settings each in range but not together are refused before solving.
+    let o = wavrad(&[
+        "solve",
+        &scene,
+        "--three-point-max-level",
+        "10",
+        "--three-point-receiver-levels",
+        "7",
+    ]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("max level"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("three-point max level plus receiver levels"),
+        "{}",
+        stderr(&o)
+    );
     // Malformed numbers are clap's usage errors (exit 2).
     let o = wavrad(&["solve", &scene, "--threshold", "abc"]);
     assert_eq!(o.status.code(), Some(2));

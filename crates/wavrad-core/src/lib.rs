@@ -32,10 +32,12 @@
 // The stages, in the order data flows; a module imports only from its own
 // stage and earlier ones (checked by `tests/stage_imports.rs`).
 
-// 0. Foundations: errors, progress reporting, sample streams.
+// 0. Foundations: errors, settings' descriptions, progress reporting,
+// sample streams.
 mod error;
 pub mod progress;
 pub mod sampling;
+pub mod setting;
 
 // 1. Scene description: surfaces, BRDFs, sensor; test fixtures built of them.
 pub mod scene;

@@ -12,6 +12,7 @@ const STAGES: &[(&str, usize)] = &[
     ("error", 0),
     ("progress", 0),
     ("sampling", 0),
+    ("setting", 0),
     // 1. Scene description.
     ("scene", 1),
     ("testing", 1),

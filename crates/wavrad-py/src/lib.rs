@@ -17,13 +17,14 @@ use numpy::{
     AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike1, PyArrayLike3, PyArrayLikeDyn,
     PyUntypedArrayMethods,
 };
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ops::ControlFlow;
 use wavrad_core::progress::Silent;
-use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::reconstruct::Reconstruction;
 use wavrad_core::render::RenderSettings;
+use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{SolveSettings, Solver};
 
@@ -179,53 +180,19 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
     Ok(Scene(scene))
 }
 
-/// Solve `scene`; unset settings keep the defaults of the oracle (the core
-/// defaults for the paper's kernel oracle).
+/// Solve `scene` with the settings given by name (those of
+/// [`SolveSettings::SETTINGS`]); unset ones keep the defaults of the oracle.
 #[pyfunction]
-#[pyo3(signature = (scene, *, threshold=None, max_level=None, three_point_threshold=None, three_point_max_level=None, three_point_receiver_levels=None, tolerance=None, max_iterations=None, oracle=None, refine_passes=None, solver=None, on_step=None))]
-#[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
+#[pyo3(signature = (scene, *, solver=None, on_step=None, **settings))]
 fn solve(
     py: Python<'_>,
     scene: &Scene,
-    threshold: Option<f64>,
-    max_level: Option<u32>,
-    three_point_threshold: Option<f64>,
-    three_point_max_level: Option<u32>,
-    three_point_receiver_levels: Option<u32>,
-    tolerance: Option<f64>,
-    max_iterations: Option<u32>,
-    oracle: Option<&str>,
-    refine_passes: Option<u32>,
     solver: Option<&str>,
     on_step: Option<PyObject>,
+    settings: Option<&Bound<'_, PyDict>>,
 ) -> Result<Solution> {
-    let oracle: Oracle = oracle.map_or(Ok(Oracle::default()), parse)?;
-    let solver: Solver = solver.map_or(Ok(Solver::default()), parse)?;
-    let mut settings = SolveSettings::for_oracle(oracle);
-    if let Some(threshold) = threshold {
-        settings.refine.oracle.threshold = threshold;
-    }
-    if let Some(max_level) = max_level {
-        settings.refine.max_level = max_level;
-    }
-    if let Some(level) = three_point_max_level {
-        settings.three_point_max_level = level;
-    }
-    if let Some(levels) = three_point_receiver_levels {
-        settings.three_point_receiver_levels = levels;
-    }
-    if let Some(t) = three_point_threshold {
-        settings.three_point_threshold = t;
-    }
-    if let Some(tolerance) = tolerance {
-        settings.tolerance = tolerance;
-    }
-    if let Some(max_iterations) = max_iterations {
-        settings.max_iterations = max_iterations;
-    }
-    if let Some(passes) = refine_passes {
-        settings.refine_passes = passes;
-    }
+    let solver: Solver = solver.map_or(Ok(Solver::default()), str::parse)?;
+    let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
     if on_step.is_some() && solver != Solver::Shoot {
         return Err(Error::Argument(
             "solve: on_step is called after each shooting step; it needs solver=\"shoot\"".into(),
@@ -290,8 +257,41 @@ fn call_on_step(
 
 /// A core enum named by a Python string (`mode`, `oracle`, `solver`); an unknown
 /// name is a `ValueError` listing the valid ones.
+/// `name` parsed as a core enum whose errors are plain messages.
 fn parse<T: FromStr<Err = String>>(name: &str) -> Result<T> {
     name.parse().map_err(Error::Argument)
+}
+
+/// The keyword arguments `given` as values of the settings `S` describes.
+fn described_values<S: Described>(
+    given: Option<&Bound<'_, PyDict>>,
+) -> Result<Vec<(&'static str, Value)>> {
+    let Some(given) = given else {
+        return Ok(Vec::new());
+    };
+    given
+        .iter()
+        .map(|(key, value)| {
+            let name = key.extract::<String>()?;
+            let setting = S::setting(&name).map_err(|_| {
+                PyTypeError::new_err(format!("unexpected keyword argument {name:?}"))
+            })?;
+            let wrong = |kind: &str| {
+                Error::Argument(format!("{}: expected {kind}, got {value}", setting.name))
+            };
+            let value = match setting.domain {
+                Domain::Real { .. } => Value::Real(value.extract().map_err(|_| wrong("a number"))?),
+                Domain::Count { .. } => {
+                    Value::Count(value.extract().map_err(|_| wrong("a whole number >= 0"))?)
+                }
+                Domain::Flag => Value::Flag(value.extract().map_err(|_| wrong("True or False"))?),
+                Domain::Choice(_) => {
+                    return Ok((setting.name, setting.parse(&value.extract::<String>()?)?))
+                }
+            };
+            Ok((setting.name, setting.check(value)?))
+        })
+        .collect()
 }
 
 /// Relative RMSE of `a` against the reference `b` (any shape, same size).

@@ -16,8 +16,7 @@
 //! so they run in a refine–solve loop ([`crate::solve`]).
 
 use crate::geometry::haar;
-use std::fmt;
-use std::str::FromStr;
+use crate::setting::Choice;
 
 /// Which test decides that a link is projected finely enough.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -35,9 +34,6 @@ pub enum Oracle {
 }
 
 impl Oracle {
-    /// The names accepted by [`Oracle::from_str`], in declaration order.
-    pub const NAMES: [&'static str; 3] = ["kernel", "power", "importance"];
-
     /// True for the oracles that weigh the kernel by an estimate of the
     /// solution (and so need a refine–solve loop).
     pub fn is_weighted(self) -> bool {
@@ -45,26 +41,12 @@ impl Oracle {
     }
 }
 
-impl fmt::Display for Oracle {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(Self::NAMES[*self as usize])
-    }
+impl Choice for Oracle {
+    const KIND: &'static str = "oracle";
+    const ALL: &'static [Self] = &[Oracle::Kernel, Oracle::Power, Oracle::Importance];
+    const NAMES: &'static [&'static str] = &["kernel", "power", "importance"];
 }
-
-impl FromStr for Oracle {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "kernel" => Ok(Oracle::Kernel),
-            "power" => Ok(Oracle::Power),
-            "importance" => Ok(Oracle::Importance),
-            _ => Err(format!(
-                "unknown oracle '{s}' (expected one of: {})",
-                Self::NAMES.join(", ")
-            )),
-        }
-    }
-}
+crate::named_choice!(Oracle);
 
 /// Largest Haar detail of a function over the four children of an element,
 /// in element-average units (the level-0 normalisation of
@@ -122,9 +104,9 @@ mod tests {
     #[test]
     fn oracle_names_round_trip() {
         for name in Oracle::NAMES {
-            assert_eq!(name.parse::<Oracle>().unwrap().to_string(), name);
+            assert_eq!(name.parse::<Oracle>().unwrap().to_string(), *name);
         }
-        let err = "bf".parse::<Oracle>().unwrap_err();
+        let err = "bf".parse::<Oracle>().unwrap_err().to_string();
         assert!(err.contains("kernel, power, importance"), "{err}");
         assert!(!Oracle::Kernel.is_weighted() && Oracle::Power.is_weighted());
     }

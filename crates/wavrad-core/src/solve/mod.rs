@@ -6,6 +6,7 @@
 
 pub mod gather;
 pub mod push_pull;
+pub mod settings;
 pub mod shoot;
 pub mod stats;
 
@@ -31,8 +32,6 @@ use crate::{Error, Result};
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
-use std::fmt;
-use std::str::FromStr;
 use std::time::Instant;
 
 /// Most surfaces a scene may have: all pairs are linked (no clustering yet),
@@ -93,31 +92,6 @@ pub enum Solver {
     /// [`shoot::solve_shooting`]: progressive shooting from the emitters,
     /// kernels projected lazily where light flows (the paper's §6).
     Shoot,
-}
-
-impl Solver {
-    /// The names accepted by [`Solver::from_str`], in declaration order.
-    pub const NAMES: [&'static str; 2] = ["gather", "shoot"];
-}
-
-impl fmt::Display for Solver {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(Self::NAMES[*self as usize])
-    }
-}
-
-impl FromStr for Solver {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
-        match s {
-            "gather" => Ok(Solver::Gather),
-            "shoot" => Ok(Solver::Shoot),
-            _ => Err(format!(
-                "unknown solver '{s}' (expected one of: {})",
-                Self::NAMES.join(", ")
-            )),
-        }
-    }
 }
 
 /// A view-independent radiance solution.
