@@ -15,6 +15,7 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::Quadrature;
 use crate::progress::Progress;
+use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
 use crate::refine::oracle::Oracle;
@@ -23,7 +24,7 @@ use crate::refine::three_point_projection::{
     ThreePointSettings,
 };
 use crate::refine::two_point_projection::{
-    refine_links, refine_links_further, resolve_emitter_links, Link, RefineSettings,
+    refine_links, refine_links_further, Link, RefineSettings,
 };
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats};

@@ -62,11 +62,10 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::exposed_fractions;
 use crate::kernel::Quadrature;
 use crate::progress::{Progress, Silent};
+use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
-use crate::refine::two_point_projection::{
-    linked_pairs, refine_links_further, refine_pair, resolve_emitter_links, Link,
-};
+use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats};
 use crate::{Error, Result};
