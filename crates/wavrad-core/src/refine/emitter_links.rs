@@ -3,13 +3,11 @@
 //! brings changes over the receiver's children, after the oracle kept it.
 
 use crate::geometry::hierarchy::ElementId;
-use crate::geometry::tracing::SceneTracer;
-use crate::kernel::{self, KernelElement, Quadrature};
+use crate::kernel::{KernelContext, KernelElement};
 use crate::progress::Progress;
 use crate::refine::oracle::average_detail;
 use crate::refine::refine_each;
 use crate::refine::two_point_projection::{ChildShares, Link};
-use crate::scene::Scene;
 
 /// Relative variation of an emitter link's kernel over its receiver's
 /// children (largest Haar detail of their mean kernel over the mean) above
@@ -33,12 +31,12 @@ pub const EMITTER_LINK_VARIATION: f64 = 0.02;
 /// may be finer than any other link's: build the element trees from the
 /// links it returns.
 pub fn resolve_emitter_links(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    (quadrature, max_level): (Quadrature, u32),
+    ctx: &KernelContext,
+    max_level: u32,
     links: &[Link],
     progress: &dyn Progress,
 ) -> (Vec<Link>, usize) {
+    let scene = ctx.scene;
     let emits = |s: u32| scene.surfaces[s as usize].is_emitter();
     let receives = |s: u32| {
         let surface = &scene.surfaces[s as usize];
@@ -79,9 +77,7 @@ pub fn resolve_emitter_links(
             let t: Vec<f64> = children
                 .iter()
                 .map(|child| {
-                    kernel::throughput(
-                        tracer,
-                        quadrature,
+                    ctx.throughput(
                         KernelElement {
                             patch: child,
                             surface: receiver,
@@ -115,8 +111,10 @@ pub fn resolve_emitter_links(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context as context;
     use crate::progress::Silent;
-    use crate::scene::Surface;
+    use crate::scene::{Scene, Surface};
 
     /// A light close over a corner of the floor lights it unevenly: its
     /// link to the whole floor is carried down to level-2 elements where
@@ -125,12 +123,9 @@ mod tests {
     /// between surfaces that do not emit are never touched.
     #[test]
     fn emitter_links_are_resolved_down_to_the_receivers_elements() {
-        let q = Quadrature::default();
-        let link = |scene: &Scene, tracer: &SceneTracer| {
-            let patch = |s: usize| scene.surfaces[s].patch;
-            let t = kernel::throughput(
-                tracer,
-                q,
+        let link = |ctx: &KernelContext| {
+            let patch = |s: usize| ctx.scene.surfaces[s].patch;
+            let t = ctx.throughput(
                 KernelElement {
                     patch: &patch(0),
                     surface: 0,
@@ -150,13 +145,13 @@ mod tests {
                 children: None,
             }
         };
-        let resolve = |scene: &Scene, tracer: &SceneTracer, link: Link| {
-            resolve_emitter_links(scene, tracer, (q, 2), &[link], &Silent)
-        };
+        let resolve =
+            |ctx: &KernelContext, link: Link| resolve_emitter_links(ctx, 2, &[link], &Silent);
         let scene = crate::testing::light_over_a_corner(0.3);
         let tracer = SceneTracer::new(&scene);
-        let root = link(&scene, &tracer);
-        let (resolved, changed) = resolve(&scene, &tracer, root);
+        let ctx = context(&scene, &tracer);
+        let root = link(&ctx);
+        let (resolved, changed) = resolve(&ctx, root);
         assert_eq!(changed, 1);
         assert!(resolved.iter().any(|l| l.a.level == 2), "{resolved:?}");
         assert!(resolved.iter().all(|l| l.a.level <= 2), "{resolved:?}");
@@ -183,8 +178,9 @@ mod tests {
         // From far above, the light is even over the floor.
         let far = crate::testing::light_over_a_corner(50.0);
         let tracer = SceneTracer::new(&far);
-        let root = link(&far, &tracer);
-        let (same, changed) = resolve(&far, &tracer, root);
+        let ctx = context(&far, &tracer);
+        let root = link(&ctx);
+        let (same, changed) = resolve(&ctx, root);
         assert_eq!((same, changed), (vec![root], 0));
         // No emitter: untouched.
         let dark = crate::testing::light_over_a_corner(0.3);
@@ -198,8 +194,9 @@ mod tests {
                 .collect(),
         );
         let tracer = SceneTracer::new(&dark);
-        let root = link(&dark, &tracer);
-        let (same, changed) = resolve(&dark, &tracer, root);
+        let ctx = context(&dark, &tracer);
+        let root = link(&ctx);
+        let (same, changed) = resolve(&ctx, root);
         assert_eq!((same, changed), (vec![root], 0));
     }
 }

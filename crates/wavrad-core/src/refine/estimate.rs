@@ -73,7 +73,7 @@ impl LightEstimate {
         }
     }
 
-    /// One step of shooting ([`super::shoot`]): only `shooter` sends light,
+    /// One step of shooting ([`crate::solve::shoot`]): only `shooter` sends light,
     /// its radiance `sent` over `tree`; the other surfaces send none in this
     /// step.
     pub fn shot(scene: &Scene, shooter: u32, tree: ElementTree, sent: &[Rgb]) -> LightEstimate {

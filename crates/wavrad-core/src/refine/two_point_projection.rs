@@ -3,14 +3,13 @@
 //!
 //! Starting from every pair of surfaces that can exchange light, the four
 //! children of the *larger* element of the pair are computed by quadrature
-//! ([`crate::kernel::throughput`]); if the kernel's Haar details over them
+//! ([`crate::kernel::KernelContext::throughput`]); if the kernel's Haar details over them
 //! pass the [`crate::refine::oracle`], one link is kept at this level with the
 //! coefficient assembled from the children (hierarchical decomposition), else
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
 use crate::geometry::hierarchy::ElementId;
-use crate::geometry::tracing::SceneTracer;
-use crate::kernel::{self, KernelElement, OuterSamples, Quadrature};
+use crate::kernel::{self, KernelContext, KernelElement, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
@@ -74,8 +73,6 @@ pub struct RefineSettings {
     pub oracle: KernelSmoothness,
     /// Deepest element level (paper: 8).
     pub max_level: u32,
-    /// Quadrature of each kernel coefficient.
-    pub quadrature: Quadrature,
 }
 
 #[derive(Clone, Copy)]
@@ -85,9 +82,17 @@ struct Side {
     patch: Patch,
 }
 
+impl Side {
+    fn kernel(&self) -> KernelElement<'_> {
+        KernelElement {
+            patch: &self.patch,
+            surface: self.surface,
+        }
+    }
+}
+
 struct PairRefiner<'a> {
-    scene: &'a Scene,
-    tracer: &'a SceneTracer,
+    ctx: KernelContext<'a>,
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<(u32, ElementId), bool>,
     settings: RefineSettings,
@@ -111,12 +116,12 @@ struct Verdict {
 
 impl<'a> PairRefiner<'a> {
     fn new(
-        scene: &'a Scene,
-        tracer: &'a SceneTracer,
+        ctx: &KernelContext<'a>,
         settings: RefineSettings,
         estimate: Option<&'a LightEstimate>,
         (p, r): (u32, u32),
     ) -> Self {
+        let scene = ctx.scene;
         let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
         let rho = |s: &Surface| {
             s.brdf
@@ -124,8 +129,7 @@ impl<'a> PairRefiner<'a> {
                 .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
         };
         PairRefiner {
-            scene,
-            tracer,
+            ctx: *ctx,
             straddling: Default::default(),
             settings,
             estimate,
@@ -142,18 +146,11 @@ impl<'a> PairRefiner<'a> {
         if side.id.level >= self.settings.max_level {
             return false;
         }
-        let (scene, tracer, quadrature) = (self.scene, self.tracer, self.settings.quadrature);
+        let ctx = self.ctx;
         *self
             .straddling
             .entry((side.surface, side.id))
-            .or_insert_with(|| {
-                crate::kernel::exposure::straddles(
-                    scene,
-                    tracer,
-                    (side.surface, &side.patch),
-                    quadrature,
-                )
-            })
+            .or_insert_with(|| crate::kernel::exposure::straddles(&ctx, side.kernel()))
     }
 
     fn surface(&self, s: u32) -> (f64, f64) {
@@ -197,7 +194,7 @@ impl<'a> PairRefiner<'a> {
     ) -> f64 {
         let one_way = |receiver: &Side, source: &Side, split_receiver: bool| {
             let (rho, _) = self.surface(receiver.surface);
-            if rho == 0.0 || self.scene.surfaces[source.surface as usize].is_diffuse() {
+            if rho == 0.0 || self.ctx.scene.surfaces[source.surface as usize].is_diffuse() {
                 return 0.0;
             }
             let (_, area) = self.surface(source.surface);
@@ -249,7 +246,7 @@ impl<'a> PairRefiner<'a> {
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
         let threshold = self.settings.oracle.threshold;
-        let glossy = |s: u32| !self.scene.surfaces[s as usize].is_diffuse();
+        let glossy = |s: u32| !self.ctx.scene.surfaces[s as usize].is_diffuse();
         self.estimate.is_none_or(|e| {
             !glossy(l.p)
                 && !glossy(l.r)
@@ -260,18 +257,7 @@ impl<'a> PairRefiner<'a> {
     /// Quadrature of the pair; `clear` when it is part of a pair whose
     /// shaft nothing blocks.
     fn samples(&self, a: &Side, c: &Side, clear: bool) -> OuterSamples {
-        fn element(s: &Side) -> KernelElement<'_> {
-            KernelElement {
-                patch: &s.patch,
-                surface: s.surface,
-            }
-        }
-        kernel::throughput_samples(
-            self.tracer,
-            self.settings.quadrature,
-            (element(a), element(c)),
-            clear,
-        )
+        self.ctx.throughput_samples(a.kernel(), c.kernel(), clear)
     }
 
     /// Mean kernel over each quadrant of `outer` times the whole `inner`
@@ -285,7 +271,7 @@ impl<'a> PairRefiner<'a> {
         outer: &Side,
         inner: &Side,
     ) -> Option<[f64; 4]> {
-        let two_by_two = self.settings.quadrature.points == 2;
+        let two_by_two = self.ctx.quadrature.points == 2;
         if !two_by_two || !matches!(outer.patch, Patch::Parallelogram { .. }) {
             return None;
         }
@@ -457,18 +443,17 @@ impl<'a> PairRefiner<'a> {
 /// depend on the number of threads. With an `estimate` the weighted oracles
 /// decide (see [`crate::refine::oracle::Oracle`]), else the paper's.
 pub fn refine_links(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    let pairs = linked_pairs(scene);
+    let pairs = linked_pairs(ctx.scene);
     progress.start("kernels", pairs.len() as u64);
     let per_pair: Vec<Vec<Link>> = pairs
         .par_iter()
         .map(|&pair| {
-            let links = refine_pair(scene, tracer, settings, estimate, pair);
+            let links = refine_pair(ctx, settings, estimate, pair);
             progress.advance(1);
             links
         })
@@ -496,17 +481,16 @@ pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
 /// The two-point links of one surface pair (p, r), projected from the whole
 /// surfaces down (as [`refine_links`] does for every pair).
 pub fn refine_pair(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
     (p, r): (u32, u32),
 ) -> Vec<Link> {
-    let mut refiner = PairRefiner::new(scene, tracer, settings, estimate, (p, r));
+    let mut refiner = PairRefiner::new(ctx, settings, estimate, (p, r));
     let side = |s: u32| Side {
         surface: s,
         id: ElementId::ROOT,
-        patch: scene.surfaces[s as usize].patch,
+        patch: ctx.scene.surfaces[s as usize].patch,
     };
     let (a, c) = (side(p), side(r));
     let s = refiner.samples(&a, &c, false);
@@ -519,8 +503,7 @@ pub fn refine_pair(
 /// coarsened); the others are kept as they are. Returns the links, in a
 /// deterministic order, and how many were refined.
 pub fn refine_links_further(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: &LightEstimate,
     links: Vec<Link>,
@@ -528,14 +511,14 @@ pub fn refine_links_further(
 ) -> (Vec<Link>, usize) {
     progress.start("kernels", links.len() as u64);
     let out = refine_each(&links, progress, |l| {
-        let mut refiner = PairRefiner::new(scene, tracer, settings, Some(estimate), (l.p, l.r));
+        let mut refiner = PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r));
         if refiner.still_smooth(l) {
             return vec![*l];
         }
         let side = |surface: u32, id: ElementId| Side {
             surface,
             id,
-            patch: id.patch(&scene.surfaces[surface as usize].patch),
+            patch: id.patch(&ctx.scene.surfaces[surface as usize].patch),
         };
         refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput, false);
         match refiner.links[..] {
@@ -551,6 +534,8 @@ pub fn refine_links_further(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context as context;
     use crate::progress::Silent;
     use crate::refine::oracle::KernelSmoothness;
     use crate::scene::Surface;
@@ -574,12 +559,12 @@ mod tests {
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 1e-3 },
             max_level: 4,
-            quadrature: Quadrature::default(),
         };
-        let links = refine_links(&scene, &tracer, settings, None, &Silent);
+        let links = refine_links(&ctx, settings, None, &Silent);
         assert!(links.len() > 16, "{} links", links.len());
         assert!(links.iter().all(|l| l.a.level + l.c.level >= 2));
         // The links partition the pair: they add up to Howell's closed form
@@ -602,9 +587,7 @@ mod tests {
             let other = f.patch(&root(o));
             for (k, share) in shares.shares.into_iter().enumerate() {
                 let child = e.child(k).patch(&root(s));
-                let t = kernel::throughput(
-                    &tracer,
-                    settings.quadrature,
+                let t = ctx.throughput(
                     KernelElement {
                         patch: &child,
                         surface: s,
@@ -639,10 +622,10 @@ mod tests {
     fn power_oracle_refines_where_light_flows_and_the_loop_refines_further() {
         let scene = lit_floor();
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 1e-3 },
             max_level: 4,
-            quadrature: Quadrature::default(),
         };
         let dark = Scene::from_surfaces(
             scene
@@ -656,7 +639,7 @@ mod tests {
         );
         // No light anywhere: nothing to refine.
         let none = LightEstimate::emission(&dark, None);
-        let coarse = refine_links(&dark, &tracer, settings, Some(&none), &Silent);
+        let coarse = refine_links(&context(&dark, &tracer), settings, Some(&none), &Silent);
         assert_eq!(coarse.len(), 1);
         assert_eq!(
             (coarse[0].a, coarse[0].c),
@@ -664,20 +647,18 @@ mod tests {
         );
         // The emitter's light is refined over the floor.
         let lit = LightEstimate::emission(&scene, None);
-        let links = refine_links(&scene, &tracer, settings, Some(&lit), &Silent);
+        let links = refine_links(&ctx, settings, Some(&lit), &Silent);
         assert!(links.len() > 4, "{} links", links.len());
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
         // partition (Howell's parallel unit squares at distance 0.5).
-        let (same, changed) =
-            refine_links_further(&scene, &tracer, settings, &lit, links.clone(), &Silent);
+        let (same, changed) = refine_links_further(&ctx, settings, &lit, links.clone(), &Silent);
         assert_eq!((same.len(), changed), (links.len(), 0));
         let stricter = RefineSettings {
             oracle: KernelSmoothness { threshold: 3e-4 },
             ..settings
         };
-        let (finer, changed) =
-            refine_links_further(&scene, &tracer, stricter, &lit, links.clone(), &Silent);
+        let (finer, changed) = refine_links_further(&ctx, stricter, &lit, links.clone(), &Silent);
         assert!(changed > 0 && finer.len() > links.len());
         assert!(finer.iter().any(|l| l.a.level + l.c.level > 6));
         for set in [&links, &finer] {
@@ -738,14 +719,14 @@ mod tests {
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 2e-3 },
             max_level: 3,
-            quadrature: Quadrature::default(),
         };
         let receiver_levels = |quadrants| {
             let (scene, estimate) = glossy_floor_lighting(quadrants);
             let tracer = SceneTracer::new(&scene);
-            let links = refine_links(&scene, &tracer, settings, Some(&estimate), &Silent);
+            let ctx = context(&scene, &tracer);
+            let links = refine_links(&ctx, settings, Some(&estimate), &Silent);
             let (again, changed) =
-                refine_links_further(&scene, &tracer, settings, &estimate, links.clone(), &Silent);
+                refine_links_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));
             let t: f64 = links.iter().map(|l| l.throughput).sum();
             // Howell's parallel unit squares at distance 2.
