@@ -11,7 +11,7 @@ use support::{pick_pair, share_an_edge, surface, Element};
 use wavrad_core::geometry::hierarchy::ElementId;
 use wavrad_core::geometry::tracing::SceneTracer;
 use wavrad_core::kernel::three_point_quadrature::{coefficient, GlossyElement, IncidentLight};
-use wavrad_core::kernel::{throughput, Quadrature};
+use wavrad_core::kernel::{KernelContext, Quadrature};
 use wavrad_core::scene::brdf::Brdf;
 
 fn two_point(c: &mut Criterion) {
@@ -23,28 +23,31 @@ fn two_point(c: &mut Criterion) {
         surface(&scene, "back"),
     );
     let q = Quadrature::default();
+    let ctx = KernelContext {
+        scene: &scene,
+        tracer: &tracer,
+        quadrature: q,
+    };
     let cases = [
         (
             "distant parallel (floor-ceiling, unoccluded)",
-            pick_pair(&scene, &tracer, (floor, ceiling), 2, |_, _, v| v == 1.0),
+            pick_pair(&ctx, (floor, ceiling), 2, |_, _, v| v == 1.0),
         ),
         (
             "perpendicular sharing an edge (floor-back)",
-            pick_pair(&scene, &tracer, (floor, back), 2, |a, c, _| {
+            pick_pair(&ctx, (floor, back), 2, |a, c, _| {
                 share_an_edge(&a.patch, &c.patch)
             }),
         ),
         (
             "partially occluded (floor-ceiling, 30-70 % visible)",
-            pick_pair(&scene, &tracer, (floor, ceiling), 2, |_, _, v| {
-                (0.3..0.7).contains(&v)
-            }),
+            pick_pair(&ctx, (floor, ceiling), 2, |_, _, v| (0.3..0.7).contains(&v)),
         ),
     ];
     let mut group = c.benchmark_group("two_point_throughput");
     for (name, (a, e)) in &cases {
         let queries = support::kernel_queries(q, a, e).len();
-        let (seen, open) = support::visible_and_open(&scene, &tracer, a, e);
+        let (seen, open) = support::visible_and_open(&ctx, a, e);
         eprintln!(
             "{name}: elements {:?} / {:?}, {queries} occlusion queries, visible fraction {:.3}",
             a.id,
@@ -52,7 +55,7 @@ fn two_point(c: &mut Criterion) {
             seen / open
         );
         group.bench_function(*name, |b| {
-            b.iter(|| throughput(&tracer, q, black_box(a.kernel()), black_box(e.kernel())))
+            b.iter(|| ctx.throughput(black_box(a.kernel()), black_box(e.kernel())))
         });
     }
     group.finish();
@@ -70,7 +73,11 @@ fn three_point(c: &mut Criterion) {
     );
     let glossy = &scene.surfaces[floor as usize];
     assert!(matches!(glossy.brdf, Brdf::Ward(_)), "the floor is Ward");
-    let q = Quadrature::default();
+    let ctx = KernelContext {
+        scene: &scene,
+        tracer: &tracer,
+        quadrature: Quadrature::default(),
+    };
     let at = |s: u32, level: u32, path: u64| Element::new(&scene, s, ElementId { level, path });
     let reflect = |source: &Element, reflector: &Element, receiver: &Element| {
         let a = GlossyElement {
@@ -78,7 +85,7 @@ fn three_point(c: &mut Criterion) {
             brdf: &glossy.brdf,
             frame: glossy.frame(),
         };
-        coefficient(&tracer, q, source.kernel(), a, &receiver.patch)
+        coefficient(&ctx, source.kernel(), a, &receiver.patch)
     };
     // The first floor element (path order) lit by each source.
     let lit = |source: &Element, receiver: &Element| {
@@ -117,8 +124,7 @@ fn three_point(c: &mut Criterion) {
         group.bench_function(*name, |b| {
             b.iter(|| {
                 coefficient(
-                    &tracer,
-                    q,
+                    &ctx,
                     black_box(source.kernel()),
                     black_box(a),
                     black_box(&receiver.patch),
@@ -137,11 +143,11 @@ fn three_point(c: &mut Criterion) {
     };
     let children = receiver.patch.subdivide();
     group.bench_function("receiver split: 4 x coefficient", |b| {
-        b.iter(|| children.map(|child| coefficient(&tracer, q, source.kernel(), a, &child)))
+        b.iter(|| children.map(|child| coefficient(&ctx, source.kernel(), a, &child)))
     });
     group.bench_function("receiver split: IncidentLight + 4 x towards", |b| {
         b.iter(|| {
-            let incident = IncidentLight::new(&tracer, q, black_box(source.kernel()), a);
+            let incident = IncidentLight::new(&ctx, black_box(source.kernel()), a);
             children.map(|child| incident.towards(&child))
         })
     });

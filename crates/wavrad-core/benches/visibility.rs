@@ -13,7 +13,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 use support::{Element, Query};
 use wavrad_core::geometry::tracing::SceneTracer;
-use wavrad_core::kernel::{throughput, Quadrature};
+use wavrad_core::kernel::{KernelContext, Quadrature};
 use wavrad_core::scene::Scene;
 
 /// Element level of the pairs: level 1 gives 4 × 4 element pairs per
@@ -21,6 +21,7 @@ use wavrad_core::scene::Scene;
 const LEVEL: u32 = 1;
 
 struct Workload {
+    scene: Scene,
     tracer: SceneTracer,
     pairs: Vec<(Element, Element)>,
     queries: Vec<Query>,
@@ -37,6 +38,7 @@ impl Workload {
             .flat_map(|(a, c)| support::kernel_queries(q, a, c))
             .collect();
         Workload {
+            scene: scene.clone(),
             tracer: SceneTracer::new(scene),
             pairs,
             queries,
@@ -59,10 +61,14 @@ impl Workload {
 
     /// Kernel: the same queries issued by kernel evaluation.
     fn kernel(&self) -> f64 {
-        let q = Quadrature::default();
+        let ctx = KernelContext {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            quadrature: Quadrature::default(),
+        };
         self.pairs
             .iter()
-            .map(|(a, c)| throughput(&self.tracer, q, a.kernel(), c.kernel()))
+            .map(|(a, c)| ctx.throughput(a.kernel(), c.kernel()))
             .sum()
     }
 }

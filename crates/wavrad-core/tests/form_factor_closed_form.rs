@@ -3,6 +3,7 @@
 
 use glam::DVec3;
 use wavrad_core::geometry::tracing::SceneTracer;
+use wavrad_core::kernel::KernelContext;
 use wavrad_core::progress::Silent;
 use wavrad_core::refine::two_point_projection::refine_links;
 use wavrad_core::scene::{Patch, Scene};
@@ -13,13 +14,13 @@ use wavrad_core::testing::grey;
 fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
     let scene = Scene::from_surfaces(vec![grey(a), grey(c)]);
     let tracer = SceneTracer::new(&scene);
-    let links = refine_links(
-        &scene,
-        &tracer,
-        SolveSettings::default().refine,
-        None,
-        &Silent,
-    );
+    let settings = SolveSettings::default();
+    let ctx = KernelContext {
+        scene: &scene,
+        tracer: &tracer,
+        quadrature: settings.quadrature,
+    };
+    let links = refine_links(&ctx, settings.refine, None, &Silent);
     let t: f64 = links.iter().map(|l| l.throughput).sum();
     (t / a.area(), t / c.area())
 }

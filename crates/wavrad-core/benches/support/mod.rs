@@ -13,7 +13,7 @@ use std::time::Duration;
 use wavrad_core::geometry::element::AreaSample;
 use wavrad_core::geometry::hierarchy::ElementId;
 use wavrad_core::geometry::tracing::SceneTracer;
-use wavrad_core::kernel::{faces_away, form_factor, KernelElement, Quadrature};
+use wavrad_core::kernel::{faces_away, form_factor, KernelContext, KernelElement, Quadrature};
 use wavrad_core::scene::{Patch, Scene, Surface};
 
 /// Short runs: the whole `cargo bench -p wavrad-core` takes a few minutes
@@ -79,21 +79,18 @@ impl Element {
 }
 
 /// T(a,c) with and without the rest of the scene: (visible, unoccluded).
-pub fn visible_and_open(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    a: &Element,
-    c: &Element,
-) -> (f64, f64) {
-    let q = Quadrature::default();
+pub fn visible_and_open(ctx: &KernelContext, a: &Element, c: &Element) -> (f64, f64) {
     let alone = Scene::from_surfaces(vec![
-        scene.surfaces[a.surface as usize].clone(),
-        scene.surfaces[c.surface as usize].clone(),
+        ctx.scene.surfaces[a.surface as usize].clone(),
+        ctx.scene.surfaces[c.surface as usize].clone(),
     ]);
     let open_tracer = SceneTracer::new(&alone);
-    let open = wavrad_core::kernel::throughput(
-        &open_tracer,
-        q,
+    let open_ctx = KernelContext {
+        scene: &alone,
+        tracer: &open_tracer,
+        ..*ctx
+    };
+    let open = open_ctx.throughput(
         KernelElement {
             patch: &a.patch,
             surface: 0,
@@ -103,7 +100,7 @@ pub fn visible_and_open(
             surface: 1,
         },
     );
-    let seen = wavrad_core::kernel::throughput(tracer, q, a.kernel(), c.kernel());
+    let seen = ctx.throughput(a.kernel(), c.kernel());
     (seen, open)
 }
 
@@ -111,16 +108,18 @@ pub fn visible_and_open(
 /// order) for which `accept(a, c, visible_fraction)` holds, where the
 /// visible fraction is T(a,c) with the scene over T(a,c) alone.
 pub fn pick_pair(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     (p, r): (u32, u32),
     level: u32,
     accept: impl Fn(&Element, &Element, f64) -> bool,
 ) -> (Element, Element) {
     for ia in elements(level) {
         for ic in elements(level) {
-            let (a, c) = (Element::new(scene, p, ia), Element::new(scene, r, ic));
-            let (seen, open) = visible_and_open(scene, tracer, &a, &c);
+            let (a, c) = (
+                Element::new(ctx.scene, p, ia),
+                Element::new(ctx.scene, r, ic),
+            );
+            let (seen, open) = visible_and_open(ctx, &a, &c);
             if open > 0.0 && accept(&a, &c, seen / open) {
                 return (a, c);
             }
@@ -171,7 +170,7 @@ pub struct Query {
     pub surfaces: (u32, u32),
 }
 
-/// The occlusion queries `kernel::throughput(tracer, q, a, c)` issues, in
+/// The occlusion queries `KernelContext::throughput(a, c)` issues, in
 /// its order: Gauss points on the smaller element that see the larger one
 /// at all, to the ray targets in front of them (mirrors
 /// `kernel::throughput_samples` and `kernel::visible_fraction`).

@@ -6,6 +6,7 @@ use crate::scene::{Patch, Scene};
 use glam::DVec3;
 
 /// Ray-tracing view of a scene's surfaces.
+#[derive(Debug)]
 pub struct SceneTracer {
     /// Acceleration structure over all surfaces' triangles.
     pub occluder: Occluder,

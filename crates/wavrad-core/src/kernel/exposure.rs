@@ -18,9 +18,7 @@
 //! surfaces does the same over element pairs ([`PairExposure`]).
 
 use crate::geometry::hierarchy::{ElementId, ElementTree};
-use crate::geometry::tracing::SceneTracer;
-use crate::kernel::Quadrature;
-use crate::scene::{Patch, Scene};
+use crate::kernel::{KernelContext, KernelElement};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::{BTreeMap, BTreeSet};
@@ -43,8 +41,7 @@ const PROBES: [(f64, f64, f64); 5] = [
 /// lying on it). A point whose probes all leave the scene is exposed: it
 /// may still see an emitter the probes miss.
 pub fn is_buried(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     surface: u32,
     x: DVec3,
     normal: DVec3,
@@ -54,11 +51,14 @@ pub fn is_buried(
     let mut covered = false;
     for &(u, v, w) in &PROBES {
         let dir = (u * t + v * b + w * normal).normalize();
-        match tracer.trace(x, dir, coincident * 1e-3, f64::INFINITY) {
+        match ctx.tracer.trace(x, dir, coincident * 1e-3, f64::INFINITY) {
             None => {}
             Some(hit) if hit.surface == surface => return false,
             Some(hit) => {
-                let facing = scene.surfaces[hit.surface as usize].patch.normal().dot(dir);
+                let facing = ctx.scene.surfaces[hit.surface as usize]
+                    .patch
+                    .normal()
+                    .dot(dir);
                 if hit.distance > coincident && facing <= 0.0 {
                     return false;
                 }
@@ -70,50 +70,51 @@ pub fn is_buried(
 }
 
 /// Exposed fraction of every node of `tree`, the element tree of `surface`,
-/// as the kernel quadrature `quadrature` sees it: the weight of the node's
+/// as the kernel quadrature of `ctx` sees it: the weight of the node's
 /// own Gauss points (those a link's throughput T samples the element at,
-/// [`crate::kernel::throughput_samples`]) that are not [`is_buried`]. A link
+/// [`KernelContext::throughput_samples`]) that are not [`is_buried`]. A link
 /// at the node divides T by exactly the part of the element its quadrature
 /// found exposed. `previous`, an earlier tree of the same surface with its
 /// fractions, lends the values of the nodes the two share.
 pub fn exposed_fractions(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    (surface, tree): (u32, &ElementTree),
-    quadrature: Quadrature,
+    ctx: &KernelContext,
+    surface: u32,
+    tree: &ElementTree,
     previous: Option<(&ElementTree, &[f64])>,
 ) -> Vec<f64> {
     tree.nodes
         .iter()
         .map(|node| {
             let lent = previous.and_then(|(t, v)| Some(v[t.index_of(node.id)? as usize]));
-            lent.unwrap_or_else(|| fraction(scene, tracer, (surface, &node.patch), quadrature))
+            lent.unwrap_or_else(|| {
+                let element = KernelElement {
+                    patch: &node.patch,
+                    surface,
+                };
+                fraction(ctx, element)
+            })
         })
         .collect()
 }
 
-/// Exposed fraction of `element` (a part of `surface`) at the Gauss points
-/// of `quadrature`.
-fn fraction(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    (surface, element): (u32, &Patch),
-    quadrature: Quadrature,
-) -> f64 {
-    let root = &scene.surfaces[surface as usize].patch;
+/// Exposed fraction of `element` at the Gauss points of the quadrature of
+/// `ctx`.
+fn fraction(ctx: &KernelContext, element: KernelElement) -> f64 {
+    let surface = element.surface;
+    let root = &ctx.scene.surfaces[surface as usize].patch;
     let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
-    let points = element.gauss_points(quadrature.points);
+    let points = element.patch.gauss_points(ctx.quadrature.points);
     let total: f64 = points.iter().map(|p| p.weight).sum();
     let exposed: f64 = points
         .iter()
-        .filter(|p| !is_buried(scene, tracer, surface, p.position, normal, coincident))
+        .filter(|p| !is_buried(ctx, surface, p.position, normal, coincident))
         .map(|p| p.weight)
         .sum();
     exposed / total
 }
 
-/// True when `element` (a part of `surface`) straddles the boundary of the
-/// exposed part and some of its Gauss points (of `quadrature`) are buried:
+/// True when `element` straddles the boundary of the exposed part and some
+/// of its Gauss points (of the quadrature of `ctx`) are buried:
 /// points of a 4×4 grid over it, reaching to 1 % of its edges, are buried
 /// and exposed, and not all the Gauss points are exposed. Such an element
 /// straddles the base of a box: when its exposed part is a strip narrower
@@ -124,19 +125,15 @@ fn fraction(
 /// whose Gauss points are all exposed, the buried part a strip along its
 /// edge (a box's side reaching through the floor), is not refined for it:
 /// its form factors are right for its exposed part.
-pub fn straddles(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    (surface, element): (u32, &Patch),
-    quadrature: Quadrature,
-) -> bool {
+pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
     const AT: [f64; 4] = [0.01, 1.0 / 3.0, 2.0 / 3.0, 0.99];
-    let root = &scene.surfaces[surface as usize].patch;
+    let (surface, element) = (element.surface, element.patch);
+    let root = &ctx.scene.surfaces[surface as usize].patch;
     let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
-    let buried = |x: DVec3| is_buried(scene, tracer, surface, x, normal, coincident);
+    let buried = |x: DVec3| is_buried(ctx, surface, x, normal, coincident);
     // The Gauss points first: most elements have none buried.
     if !element
-        .gauss_points(quadrature.points)
+        .gauss_points(ctx.quadrature.points)
         .iter()
         .any(|p| buried(p.position))
     {
@@ -165,20 +162,22 @@ impl PairExposure {
     /// The exposed fraction of every element of `pairs`, each pair a
     /// (surface, element) couple on the sending and receiving sides.
     pub fn new(
-        scene: &Scene,
-        tracer: &SceneTracer,
+        ctx: &KernelContext,
         pairs: impl Iterator<Item = [(u32, ElementId); 2]>,
-        quadrature: Quadrature,
     ) -> PairExposure {
         let wanted: BTreeSet<(u32, ElementId)> = pairs
             .flatten()
-            .filter(|&(s, _)| (s as usize) < scene.surfaces.len())
+            .filter(|&(s, _)| (s as usize) < ctx.scene.surfaces.len())
             .collect();
         let of = wanted
             .into_par_iter()
             .map(|(s, id)| {
-                let patch = id.patch(&scene.surfaces[s as usize].patch);
-                ((s, id), fraction(scene, tracer, (s, &patch), quadrature))
+                let patch = id.patch(&ctx.scene.surfaces[s as usize].patch);
+                let element = KernelElement {
+                    patch: &patch,
+                    surface: s,
+                };
+                ((s, id), fraction(ctx, element))
             })
             .collect();
         PairExposure { of }
@@ -201,6 +200,9 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context as context;
+    use crate::scene::{Patch, Scene};
     use crate::testing::{grey, inward_box};
     use std::collections::BTreeSet;
 
@@ -222,6 +224,7 @@ mod tests {
     fn an_element_with_a_thin_exposed_strip_straddles_the_box() {
         let scene = floor_with_a_box();
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let square = |x0: f64, y0: f64, side: f64| Patch::Parallelogram {
             origin: DVec3::new(x0, y0, 0.0),
             edge_s: DVec3::X * side,
@@ -234,24 +237,31 @@ mod tests {
         let gauss_buried = thin
             .gauss_points(2)
             .iter()
-            .all(|p| is_buried(&scene, &tracer, 0, p.position, DVec3::Z, 1e-7));
+            .all(|p| is_buried(&ctx, 0, p.position, DVec3::Z, 1e-7));
         assert!(gauss_buried);
-        let q = Quadrature::default();
-        assert!(straddles(&scene, &tracer, (0, &thin), q));
+        let floor_straddles = |patch: Patch| {
+            let element = KernelElement {
+                patch: &patch,
+                surface: 0,
+            };
+            straddles(&ctx, element)
+        };
+        assert!(floor_straddles(thin));
         // Half under it, with Gauss points on both sides, too.
-        assert!(straddles(&scene, &tracer, (0, &square(0.25, 0.25, 0.5)), q));
+        assert!(floor_straddles(square(0.25, 0.25, 0.5)));
         // Wholly under the box, wholly beside it: neither. Under it along
         // one edge only, its Gauss points all beside it: its exposed points
         // stand for it.
-        assert!(!straddles(&scene, &tracer, (0, &square(0.7, 0.7, 0.5)), q));
-        assert!(!straddles(&scene, &tracer, (0, &square(1.55, 0.0, 0.4)), q));
-        assert!(!straddles(&scene, &tracer, (0, &square(0.0, 0.0, 0.51)), q));
+        assert!(!floor_straddles(square(0.7, 0.7, 0.5)));
+        assert!(!floor_straddles(square(1.55, 0.0, 0.4)));
+        assert!(!floor_straddles(square(0.0, 0.0, 0.51)));
     }
 
     #[test]
     fn the_floor_under_a_box_is_buried_and_the_rest_exposed() {
         let scene = floor_with_a_box();
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let up = DVec3::Z;
         for (x, buried) in [
             (DVec3::new(1.0, 1.0, 0.0), true),
@@ -259,18 +269,11 @@ mod tests {
             (DVec3::new(0.45, 1.0, 0.0), false),
             (DVec3::new(1.9, 0.1, 0.0), false),
         ] {
-            assert_eq!(is_buried(&scene, &tracer, 0, x, up, 1e-7), buried, "{x}");
+            assert_eq!(is_buried(&ctx, 0, x, up, 1e-7), buried, "{x}");
         }
         // The cube's top is exposed; its bottom lies on the floor.
         let top = scene.surfaces[2].patch;
-        assert!(!is_buried(
-            &scene,
-            &tracer,
-            2,
-            top.centroid(),
-            top.normal(),
-            1e-7
-        ));
+        assert!(!is_buried(&ctx, 2, top.centroid(), top.normal(), 1e-7));
     }
 
     #[test]
@@ -287,41 +290,32 @@ mod tests {
         surfaces.extend(cube.iter().map(|f| grey(f.flipped())));
         let scene = Scene::from_surfaces(surfaces);
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let side = 3; // y = 0.5, facing −y
         let normal = scene.surfaces[side].patch.normal();
         assert!(normal.dot(-DVec3::Y) > 0.99);
         for (z, buried) in [(-0.05, true), (0.05, false), (0.5, false)] {
             let x = DVec3::new(1.0, 0.5, z);
-            assert_eq!(
-                is_buried(&scene, &tracer, side as u32, x, normal, 1e-7),
-                buried,
-                "{z}"
-            );
+            assert_eq!(is_buried(&ctx, side as u32, x, normal, 1e-7), buried, "{z}");
         }
         // A floor with nothing on it, in the open: exposed.
         let alone = Scene::from_surfaces(vec![grey(floor)]);
         let tracer = SceneTracer::new(&alone);
-        assert!(!is_buried(
-            &alone,
-            &tracer,
-            0,
-            DVec3::ONE.with_z(0.0),
-            DVec3::Z,
-            1e-7
-        ));
+        let ctx = context(&alone, &tracer);
+        assert!(!is_buried(&ctx, 0, DVec3::ONE.with_z(0.0), DVec3::Z, 1e-7));
     }
 
     #[test]
     fn exposed_fractions_count_the_quadrature_points_outside_the_footprint() {
         let scene = floor_with_a_box();
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let root = scene.surfaces[0].patch;
         let ids: BTreeSet<_> = (0..4)
             .flat_map(|k| (0..4).map(move |j| ElementId::ROOT.child(k).child(j)))
             .collect();
         let tree = ElementTree::build(&root, &ids);
-        let q = Quadrature::default();
-        let e = exposed_fractions(&scene, &tracer, (0, &tree), q, None);
+        let e = exposed_fractions(&ctx, 0, &tree, None);
         // The root's 2×2 Gauss points (at 0.42 and 1.58) all miss the
         // cube; one of each level-1 quadrant's (at 0.21 and 0.79 in it) is
         // under it.
@@ -337,7 +331,7 @@ mod tests {
         assert_eq!(level2.iter().filter(|&&x| x == 1.0).count(), 12);
         // An earlier tree lends the values of the nodes it shares.
         let coarse = ElementTree::build(&root, &BTreeSet::new());
-        let lent = exposed_fractions(&scene, &tracer, (0, &tree), q, Some((&coarse, &[0.5])));
+        let lent = exposed_fractions(&ctx, 0, &tree, Some((&coarse, &[0.5])));
         assert_eq!(lent[0], 0.5);
         assert_eq!(&lent[1..], &e[1..]);
     }

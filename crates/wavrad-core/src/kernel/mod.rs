@@ -12,7 +12,7 @@ pub mod three_point_quadrature;
 
 use crate::geometry::element::AreaSample;
 use crate::geometry::tracing::SceneTracer;
-use crate::scene::Patch;
+use crate::scene::{Patch, Scene};
 use glam::{DVec2, DVec3};
 
 /// Quadrature settings for kernel coefficients.
@@ -29,6 +29,20 @@ impl Default for Quadrature {
     fn default() -> Self {
         Quadrature { points: 2, rays: 2 }
     }
+}
+
+/// What every kernel evaluation reads besides its elements: the scene, ray
+/// queries over it and the quadrature rule. A solve makes one (as pbrt's
+/// integrator owns its aggregate and Mitsuba's scene its ray queries) and
+/// every projection, exposure test and coefficient takes it.
+#[derive(Debug, Clone, Copy)]
+pub struct KernelContext<'a> {
+    /// The scene whose kernels are evaluated.
+    pub scene: &'a Scene,
+    /// Ray queries over its surfaces.
+    pub tracer: &'a SceneTracer,
+    /// Quadrature of every kernel coefficient.
+    pub quadrature: Quadrature,
 }
 
 /// An element taking part in a kernel evaluation: its geometry and the
@@ -97,107 +111,118 @@ impl OuterSamples {
     }
 }
 
-/// Geometric throughput T(a,c) with visibility, point by point.
-///
-/// The outer integral runs over one element (the smaller, unless only it
-/// straddles the other's plane: `outer_is_a`) with Gauss–Legendre points;
-/// the inner one is Lambert's closed form over the other element
-/// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
-/// from the point to a grid of points on it, where the shaft between the
-/// elements is not `known_clear` (a part of a clear one) or found clear.
-pub fn throughput_samples(
-    tracer: &SceneTracer,
-    q: Quadrature,
-    (a, c): (KernelElement, KernelElement),
-    known_clear: bool,
-) -> OuterSamples {
-    let outer_is_a = outer_is_a(a.patch, c.patch);
-    let (outer, inner) = if outer_is_a { (a, c) } else { (c, a) };
-    let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
-    let polygon = inner.patch.vertices();
-    let skip = |prim: u32| {
-        let s = tracer.surface_of(prim);
-        s == a.surface || s == c.surface
-    };
-    let clear = known_clear
-        || tracer
-            .occluder
-            .clear_between(&outer.patch.vertices(), &polygon, skip);
-    let contributions = outer
-        .patch
-        .gauss_points(q.points)
-        .into_iter()
-        .enumerate()
-        .map(|(i, x)| {
-            let unoccluded_ff =
-                form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
-            if unoccluded_ff <= 0.0 {
-                return 0.0;
-            }
-            let targets = interleaved_targets(inner.patch, q.rays, q.points, i);
-            x.weight
-                * unoccluded_ff
-                * visible_fraction(
-                    tracer,
-                    (x.position, n_outer),
-                    (&polygon, &targets),
-                    skip,
-                    clear,
-                )
-        })
-        .collect();
-    OuterSamples {
-        outer_is_a,
-        contributions,
-        clear,
+impl KernelContext<'_> {
+    /// Geometric throughput T(a,c) with visibility, point by point.
+    ///
+    /// The outer integral runs over one element (the smaller, unless only it
+    /// straddles the other's plane: `outer_is_a`) with Gauss–Legendre points;
+    /// the inner one is Lambert's closed form over the other element
+    /// ([`form_factor::point_to_polygon`]) times the fraction of unoccluded rays
+    /// from the point to a grid of points on it, where the shaft between the
+    /// elements is not `known_clear` (a part of a clear one) or found clear.
+    pub fn throughput_samples(
+        &self,
+        a: KernelElement,
+        c: KernelElement,
+        known_clear: bool,
+    ) -> OuterSamples {
+        let q = self.quadrature;
+        let outer_is_a = outer_is_a(a.patch, c.patch);
+        let (outer, inner) = if outer_is_a { (a, c) } else { (c, a) };
+        let (n_outer, n_inner) = (outer.patch.normal(), inner.patch.normal());
+        let polygon = inner.patch.vertices();
+        let skip = self.skipping(a.surface, c.surface);
+        let clear = known_clear
+            || self
+                .tracer
+                .occluder
+                .clear_between(&outer.patch.vertices(), &polygon, skip);
+        let contributions = outer
+            .patch
+            .gauss_points(q.points)
+            .into_iter()
+            .enumerate()
+            .map(|(i, x)| {
+                let unoccluded_ff =
+                    form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
+                if unoccluded_ff <= 0.0 {
+                    return 0.0;
+                }
+                let targets = interleaved_targets(inner.patch, q.rays, q.points, i);
+                x.weight
+                    * unoccluded_ff
+                    * self.visible_fraction(x.position, n_outer, &polygon, &targets, skip, clear)
+            })
+            .collect();
+        OuterSamples {
+            outer_is_a,
+            contributions,
+            clear,
+        }
     }
-}
 
-/// Fraction of the `targets` in front of (`x`, `n_x`) that `x` sees, each
-/// weighted by the kernel cosθ_x cosθ_y / r² towards it (as Lambert's
-/// formula weighs the polygon's points, so that an occluder hiding the
-/// polygon's near part hides more than its share of the targets), the
-/// primitives `skip` accepts never occluding. The targets lie on the
-/// `polygon` they sample; when none of them is in front of `x` but part of
-/// the polygon is (a large element straddling `x`'s plane, whose front part
-/// Lambert's formula still counts), the centroid of that part stands in for
-/// them. 0 when nothing is in front. With `clear`, the caller knows that
-/// nothing blocks the shaft between `x`'s element and the polygon
-/// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)):
-/// no ray is traced, and the result is the same.
-pub fn visible_fraction(
-    tracer: &SceneTracer,
-    (x, n_x): (DVec3, DVec3),
-    (polygon, targets): (&[DVec3], &[AreaSample]),
-    skip: impl Fn(u32) -> bool + Copy,
-    clear: bool,
-) -> f64 {
-    let sees = |y: DVec3| clear || !tracer.occluder.occluded_except(x, y, skip);
-    let n_y = (polygon[1] - polygon[0])
-        .cross(polygon[2] - polygon[0])
-        .normalize_or_zero();
-    let (mut seen, mut total) = (0.0, 0.0);
-    for y in targets {
-        let d = y.position - x;
-        let r2 = d.length_squared();
-        if n_x.dot(d) <= 0.0 || r2 <= 0.0 {
-            continue;
-        }
-        let w = n_x.dot(d) * n_y.dot(d).abs() / (r2 * r2);
-        total += w;
-        if sees(y.position) {
-            seen += w;
+    /// Geometric throughput T(a,c) with visibility ([`Self::throughput_samples`] summed).
+    pub fn throughput(&self, a: KernelElement, c: KernelElement) -> f64 {
+        self.throughput_samples(a, c, false).total()
+    }
+
+    /// The occlusion test of an interaction between surfaces `a` and `c`:
+    /// true for the primitives of either, which never occlude it.
+    pub fn skipping(&self, a: u32, c: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+        move |prim: u32| {
+            let s = self.tracer.surface_of(prim);
+            s == a || s == c
         }
     }
-    if total > 0.0 {
-        return seen / total;
+
+    /// Fraction of the `targets` in front of (`x`, `n_x`) that `x` sees, each
+    /// weighted by the kernel cosθ_x cosθ_y / r² towards it (as Lambert's
+    /// formula weighs the polygon's points, so that an occluder hiding the
+    /// polygon's near part hides more than its share of the targets), the
+    /// primitives `skip` accepts never occluding. The targets lie on the
+    /// `polygon` they sample; when none of them is in front of `x` but part of
+    /// the polygon is (a large element straddling `x`'s plane, whose front part
+    /// Lambert's formula still counts), the centroid of that part stands in for
+    /// them. 0 when nothing is in front. With `clear`, the caller knows that
+    /// nothing blocks the shaft between `x`'s element and the polygon
+    /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)):
+    /// no ray is traced, and the result is the same.
+    pub fn visible_fraction(
+        &self,
+        x: DVec3,
+        n_x: DVec3,
+        polygon: &[DVec3],
+        targets: &[AreaSample],
+        skip: impl Fn(u32) -> bool + Copy,
+        clear: bool,
+    ) -> f64 {
+        let sees = |y: DVec3| clear || !self.tracer.occluder.occluded_except(x, y, skip);
+        let n_y = (polygon[1] - polygon[0])
+            .cross(polygon[2] - polygon[0])
+            .normalize_or_zero();
+        let (mut seen, mut total) = (0.0, 0.0);
+        for y in targets {
+            let d = y.position - x;
+            let r2 = d.length_squared();
+            if n_x.dot(d) <= 0.0 || r2 <= 0.0 {
+                continue;
+            }
+            let w = n_x.dot(d) * n_y.dot(d).abs() / (r2 * r2);
+            total += w;
+            if sees(y.position) {
+                seen += w;
+            }
+        }
+        if total > 0.0 {
+            return seen / total;
+        }
+        let front = form_factor::front_part(polygon, x, n_x);
+        if front.len() < 3 {
+            return 0.0;
+        }
+        let centroid = front.iter().sum::<DVec3>() / front.len() as f64;
+        f64::from(u8::from(sees(centroid)))
     }
-    let front = form_factor::front_part(polygon, x, n_x);
-    if front.len() < 3 {
-        return 0.0;
-    }
-    let centroid = front.iter().sum::<DVec3>() / front.len() as f64;
-    f64::from(u8::from(sees(centroid)))
 }
 
 /// The visibility targets of outer point `i` of an `m` × `m` rule: the
@@ -220,9 +245,14 @@ pub(crate) fn interleaved_targets(patch: &Patch, n: usize, m: usize, i: usize) -
         .collect()
 }
 
-/// Geometric throughput T(a,c) with visibility ([`throughput_samples`] summed).
-pub fn throughput(tracer: &SceneTracer, q: Quadrature, a: KernelElement, c: KernelElement) -> f64 {
-    throughput_samples(tracer, q, (a, c), false).total()
+/// The kernel context of `scene` with the default quadrature, for tests.
+#[cfg(test)]
+pub(crate) fn default_context<'a>(scene: &'a Scene, tracer: &'a SceneTracer) -> KernelContext<'a> {
+    KernelContext {
+        scene,
+        tracer,
+        quadrature: Quadrature::default(),
+    }
 }
 
 #[cfg(test)]
@@ -279,7 +309,13 @@ mod tests {
             edge_t: DVec3::Z * 0.5,
         };
         assert!(wall.area() < top.area() && !outer_is_a(&wall, &top));
-        let tracer = SceneTracer::new(&Scene::from_surfaces(vec![grey(top), grey(wall)]));
+        let scene = Scene::from_surfaces(vec![grey(top), grey(wall)]);
+        let tracer = SceneTracer::new(&scene);
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: Quadrature::default(),
+        };
         let (t, w) = (
             KernelElement {
                 patch: &top,
@@ -303,7 +339,7 @@ mod tests {
         // To the 2×2 rule's accuracy (refinement goes finer); from the
         // wall's points it was zero.
         for (a, c) in [(t, w), (w, t)] {
-            let got = throughput(&tracer, Quadrature::default(), a, c);
+            let got = ctx.throughput(a, c);
             assert!((got / reference - 1.0).abs() < 0.15, "{got} vs {reference}");
         }
     }
@@ -325,13 +361,17 @@ mod tests {
             edge_s: DVec3::X * 3.0,
             edge_t: DVec3::Y * 3.0,
         };
-        let open = SceneTracer::new(&Scene::from_surfaces(vec![grey(bottom), grey(top)]));
-        let closed = SceneTracer::new(&Scene::from_surfaces(vec![
-            grey(bottom),
-            grey(top),
-            grey(blocker),
-        ]));
-        let q = Quadrature::default();
+        let throughput = |scene: &Scene, a, c| {
+            let tracer = SceneTracer::new(scene);
+            KernelContext {
+                scene,
+                tracer: &tracer,
+                quadrature: Quadrature::default(),
+            }
+            .throughput(a, c)
+        };
+        let open = Scene::from_surfaces(vec![grey(bottom), grey(top)]);
+        let closed = Scene::from_surfaces(vec![grey(bottom), grey(top), grey(blocker)]);
         let b = KernelElement {
             patch: &bottom,
             surface: 0,
@@ -340,7 +380,7 @@ mod tests {
             patch: &top,
             surface: 1,
         };
-        assert!(throughput(&open, q, b, t) > 0.1);
-        assert_eq!(throughput(&closed, q, b, t), 0.0);
+        assert!(throughput(&open, b, t) > 0.1);
+        assert_eq!(throughput(&closed, b, t), 0.0);
     }
 }

@@ -15,8 +15,7 @@
 //! x_i on c: `∫_c f G V dA ≈ π F V̄ · Σ_i w_i G_i f_i / Σ_i w_i G_i`, exact
 //! for a BRDF constant over c.
 
-use super::{form_factor, interleaved_targets, visible_fraction, KernelElement, Quadrature};
-use crate::geometry::tracing::SceneTracer;
+use super::{form_factor, interleaved_targets, KernelContext, KernelElement, Quadrature};
 use crate::scene::brdf::{Brdf, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb};
 use glam::DVec3;
@@ -37,16 +36,10 @@ pub struct GlossyElement<'a> {
 /// element `a` towards receiver element `b` (which may be a hypothetical
 /// receiver outside the scene: it is never traced against).
 ///
-/// The same as `IncidentLight::new(tracer, q, c, a).towards(b)`; refinement
+/// The same as `IncidentLight::new(ctx, c, a).towards(b)`; refinement
 /// that splits only the receiver can build the [`IncidentLight`] once.
-pub fn coefficient(
-    tracer: &SceneTracer,
-    q: Quadrature,
-    c: KernelElement,
-    a: GlossyElement,
-    b: &Patch,
-) -> Rgb {
-    IncidentLight::new(tracer, q, c, a).towards(b)
+pub fn coefficient(ctx: &KernelContext, c: KernelElement, a: GlossyElement, b: &Patch) -> Rgb {
+    IncidentLight::new(ctx, c, a).towards(b)
 }
 
 /// What R(c, a, ·) needs of the source element `c`, whatever the receiver:
@@ -71,20 +64,14 @@ struct IncidentPoint {
 
 impl<'a> IncidentLight<'a> {
     /// Light from `c` arriving at the Gauss points of glossy element `a`.
-    pub fn new(
-        tracer: &SceneTracer,
-        q: Quadrature,
-        c: KernelElement,
-        a: GlossyElement<'a>,
-    ) -> IncidentLight<'a> {
+    pub fn new(ctx: &KernelContext, c: KernelElement, a: GlossyElement<'a>) -> IncidentLight<'a> {
+        let q = ctx.quadrature;
         let (n_a, n_c) = (a.element.patch.normal(), c.patch.normal());
         let polygon = c.patch.vertices();
         let sources = c.patch.gauss_points(q.points);
-        let skip = |prim: u32| {
-            let s = tracer.surface_of(prim);
-            s == a.element.surface || s == c.surface
-        };
-        let clear = tracer
+        let skip = ctx.skipping(a.element.surface, c.surface);
+        let clear = ctx
+            .tracer
             .occluder
             .clear_between(&a.element.patch.vertices(), &polygon, skip);
         let mut points = Vec::new();
@@ -100,13 +87,7 @@ impl<'a> IncidentLight<'a> {
                 continue;
             }
             let targets = interleaved_targets(c.patch, q.rays, q.points, i);
-            let v = visible_fraction(
-                tracer,
-                (xp.position, n_a),
-                (&polygon, &targets),
-                skip,
-                clear,
-            );
+            let v = ctx.visible_fraction(xp.position, n_a, &polygon, &targets, skip, clear);
             if v == 0.0 {
                 continue;
             }
@@ -160,14 +141,14 @@ impl<'a> IncidentLight<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernel::throughput;
+    use crate::geometry::tracing::SceneTracer;
     use crate::scene::Scene;
     use crate::testing::grey;
     use glam::DVec3;
 
     /// A unit floor, a light above it facing down and a wall at its edge,
-    /// with their tracer.
-    fn floor_light_wall() -> ([Patch; 3], SceneTracer) {
+    /// with their scene.
+    fn floor_light_wall() -> ([Patch; 3], Scene) {
         let floor = Patch::Parallelogram {
             origin: DVec3::ZERO,
             edge_s: DVec3::X,
@@ -184,7 +165,7 @@ mod tests {
             edge_t: DVec3::Z,
         };
         let scene = Scene::from_surfaces(vec![grey(floor), grey(light), grey(wall)]);
-        ([floor, light, wall], SceneTracer::new(&scene))
+        ([floor, light, wall], scene)
     }
 
     /// Through a Lambertian p, R(c,a,b) for a receiver b in front of a is
@@ -192,8 +173,13 @@ mod tests {
     /// reflected radiance.
     #[test]
     fn lambertian_three_point_kernel_is_rho_times_the_form_factor() {
-        let ([floor, light, wall], tracer) = floor_light_wall();
-        let q = Quadrature::default();
+        let ([floor, light, wall], scene) = floor_light_wall();
+        let tracer = SceneTracer::new(&scene);
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: Quadrature::default(),
+        };
         let brdf = Brdf::diffuse([0.5, 0.25, 0.125]);
         let a = GlossyElement {
             element: KernelElement {
@@ -207,8 +193,8 @@ mod tests {
             patch: &light,
             surface: 1,
         };
-        let r = coefficient(&tracer, q, c, a, &wall.flipped());
-        let f = throughput(&tracer, q, a.element, c) / floor.area();
+        let r = coefficient(&ctx, c, a, &wall.flipped());
+        let f = ctx.throughput(a.element, c) / floor.area();
         for (ch, rho) in [0.5, 0.25, 0.125].into_iter().enumerate() {
             assert!(
                 (r[ch] - rho * f).abs() < 1e-12 * f,
@@ -223,8 +209,13 @@ mod tests {
     /// it must give exactly the coefficients of separate evaluations.
     #[test]
     fn incident_light_reused_over_receivers_is_bit_identical() {
-        let ([floor, light, wall], tracer) = floor_light_wall();
-        let q = Quadrature::default();
+        let ([floor, light, wall], scene) = floor_light_wall();
+        let tracer = SceneTracer::new(&scene);
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: Quadrature::default(),
+        };
         let brdf = Brdf::Ward(crate::scene::brdf::Ward {
             variant: crate::scene::brdf::WardVariant::Balanced,
             alpha_u: 0.1,
@@ -244,9 +235,9 @@ mod tests {
             patch: &light,
             surface: 1,
         };
-        let incident = IncidentLight::new(&tracer, q, c, a);
+        let incident = IncidentLight::new(&ctx, c, a);
         for b in wall.flipped().subdivide() {
-            let r = coefficient(&tracer, q, c, a, &b);
+            let r = coefficient(&ctx, c, a, &b);
             assert!(r[0] > 0.0);
             assert_eq!(incident.towards(&b), r);
         }

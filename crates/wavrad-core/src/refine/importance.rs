@@ -16,11 +16,11 @@
 //! sweeps over the links.
 
 use crate::geometry::hierarchy::ElementId;
-use crate::geometry::tracing::SceneTracer;
+use crate::kernel::KernelContext;
 use crate::refine::two_point_projection::Link;
 use crate::sampling::hash2;
 use crate::scene::brdf::BrdfModel;
-use crate::scene::{Camera, Film, Scene, Surface};
+use crate::scene::{Camera, Film, Surface};
 use glam::{DVec2, DVec3};
 
 /// Importance density per element of a fixed grid on every surface,
@@ -41,13 +41,8 @@ impl Importance {
 
     /// The importance of `scene` for `camera` on `film`: direct importance
     /// spread through `links` (empty before any link exists).
-    pub fn new(
-        scene: &Scene,
-        tracer: &SceneTracer,
-        camera: &Camera,
-        film: &Film,
-        links: &[Link],
-    ) -> Importance {
+    pub fn new(ctx: &KernelContext, camera: &Camera, film: &Film, links: &[Link]) -> Importance {
+        let scene = ctx.scene;
         let cells_per_surface = 4usize.pow(Self::LEVEL);
         let cell_area = |s: usize| scene.surfaces[s].patch.area() / cells_per_surface as f64;
         let mut direct = vec![vec![0.0; cells_per_surface]; scene.surfaces.len()];
@@ -57,7 +52,10 @@ impl Importance {
             for i in 0..n {
                 let uv = DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
                 let ray = camera.ray(uv, aspect);
-                if let Some(hit) = tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max) {
+                if let Some(hit) = ctx
+                    .tracer
+                    .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
+                {
                     let s = hit.surface as usize;
                     let patch = &scene.surfaces[s].patch;
                     let cell = ElementId::path_to(patch, patch.param_of(hit.position), Self::LEVEL)
@@ -156,10 +154,12 @@ fn spread(cells: &mut [f64], id: ElementId, value: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context;
     use crate::progress::Silent;
     use crate::refine::oracle::KernelSmoothness;
     use crate::refine::two_point_projection::{refine_links, RefineSettings};
-    use crate::scene::{FovAxis, Projection};
+    use crate::scene::{FovAxis, Projection, Scene};
     use crate::testing::{grey, inward_box};
 
     /// A unit box seen from just under its ceiling, looking straight down
@@ -193,9 +193,10 @@ mod tests {
     fn importance_starts_where_the_sensor_looks_and_spreads_through_links() {
         let scene = box_seen_from_above();
         let tracer = SceneTracer::new(&scene);
+        let ctx = default_context(&scene, &tracer);
         let camera = scene.camera.as_ref().expect("set above");
         let whole = |imp: &Importance, s: u32| imp.at(s, ElementId::ROOT);
-        let direct = Importance::new(&scene, &tracer, camera, &scene.film, &[]);
+        let direct = Importance::new(&ctx, camera, &scene.film, &[]);
         // Only the floor (surface 0) is seen: 6× the mean over six equal faces.
         assert!(
             (whole(&direct, 0) - 6.0).abs() < 1e-9,
@@ -213,10 +214,9 @@ mod tests {
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 1e-2 },
             max_level: 3,
-            quadrature: crate::kernel::Quadrature::default(),
         };
-        let links = refine_links(&scene, &tracer, settings, None, &Silent);
-        let spread = Importance::new(&scene, &tracer, camera, &scene.film, &links);
+        let links = refine_links(&ctx, settings, None, &Silent);
+        let spread = Importance::new(&ctx, camera, &scene.film, &links);
         let ceiling = whole(&spread, 1);
         assert!(
             ceiling > 0.0 && (2..6).all(|s| whole(&spread, s) > 0.0 && whole(&spread, s) < ceiling)

@@ -11,13 +11,13 @@
 //! the receiving element may go further ([`ThreePointSettings`]).
 
 use crate::geometry::hierarchy::ElementId;
-use crate::geometry::tracing::SceneTracer;
 use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
-use crate::kernel::{faces_away, KernelElement};
+use crate::kernel::{faces_away, KernelContext, KernelElement};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::average_detail;
-use crate::refine::two_point_projection::{refine_each, RefineSettings};
+use crate::refine::refine_each;
+use crate::refine::two_point_projection::RefineSettings;
 use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 use rayon::prelude::*;
@@ -77,8 +77,7 @@ impl Part {
 
 /// The surfaces of one triple and what the kernel needs of them.
 struct TripleRefiner<'a> {
-    tracer: &'a SceneTracer,
-    scene: &'a Scene,
+    ctx: KernelContext<'a>,
     settings: ThreePointSettings,
     /// Light carried, for the weighted oracles; `None`: the paper's oracle.
     estimate: Option<&'a LightEstimate>,
@@ -93,15 +92,14 @@ struct TripleRefiner<'a> {
 
 impl<'a> TripleRefiner<'a> {
     fn new(
-        scene: &'a Scene,
-        tracer: &'a SceneTracer,
+        ctx: &KernelContext<'a>,
         settings: ThreePointSettings,
         estimate: Option<&'a LightEstimate>,
         (r, p, q): (u32, u32, u32),
     ) -> Self {
+        let scene = ctx.scene;
         TripleRefiner {
-            tracer,
-            scene,
+            ctx: *ctx,
             settings,
             estimate,
             r,
@@ -117,8 +115,7 @@ impl<'a> TripleRefiner<'a> {
     /// which every receiver of the pair shares.
     fn incident<'s>(&'s self, c: &'s Part, a: &'s Part) -> IncidentLight<'s> {
         IncidentLight::new(
-            self.tracer,
-            self.settings.refine.quadrature,
+            &self.ctx,
             KernelElement {
                 patch: &c.patch,
                 surface: self.r,
@@ -164,7 +161,7 @@ impl<'a> TripleRefiner<'a> {
     /// link is kept only when every refinable element passes.
     fn refine(&mut self, c: Part, a: Part, b: Part, known: Rgb) {
         // A hypothetical receiver (the eye) is a point: never split.
-        let point_receiver = self.q as usize >= self.scene.surfaces.len();
+        let point_receiver = self.q as usize >= self.ctx.scene.surfaces.len();
         let max = [
             self.settings.refine.max_level,
             self.settings.refine.max_level,
@@ -254,7 +251,7 @@ impl<'a> TripleRefiner<'a> {
             .filter(|&i| i != split)
             .map(|i| parts[i].id.level)
             .sum();
-        let r_area = self.scene.surfaces[self.r as usize].patch.area();
+        let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
         self.settings
             .refine
             .oracle
@@ -289,8 +286,7 @@ pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
 /// receiver `q`, which may be a hypothetical surface outside the scene. With
 /// an `estimate` the weighted oracles decide, else the paper's.
 pub fn refine_three_point_links(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: ThreePointSettings,
     estimate: Option<&LightEstimate>,
     triples: &[(u32, u32, u32)],
@@ -305,10 +301,10 @@ pub fn refine_three_point_links(
                 id: ElementId::ROOT,
                 patch,
             };
-            let mut refiner = TripleRefiner::new(scene, tracer, settings, estimate, (r, p, q));
+            let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
             let (c, a, b) = (
-                root(scene.surfaces[r as usize].patch),
-                root(scene.surfaces[p as usize].patch),
+                root(ctx.scene.surfaces[r as usize].patch),
+                root(ctx.scene.surfaces[p as usize].patch),
                 root(receiver(q)),
             );
             let k = refiner.coefficient(&c, &a, &b);
@@ -325,8 +321,7 @@ pub fn refine_three_point_links(
 /// [`crate::refine::two_point_projection::refine_links_further`]); the receivers are the scene's
 /// surfaces. Returns the links and how many were refined.
 pub fn refine_three_point_links_further(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: ThreePointSettings,
     estimate: &LightEstimate,
     links: Vec<ThreePointLink>,
@@ -334,11 +329,10 @@ pub fn refine_three_point_links_further(
 ) -> (Vec<ThreePointLink>, usize) {
     progress.start("3-point kernels", links.len() as u64);
     let out = refine_each(&links, progress, |l| {
-        let mut refiner =
-            TripleRefiner::new(scene, tracer, settings, Some(estimate), (l.r, l.p, l.q));
+        let mut refiner = TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q));
         let part = |s: u32, id: ElementId| Part {
             id,
-            patch: id.patch(&scene.surfaces[s as usize].patch),
+            patch: id.patch(&ctx.scene.surfaces[s as usize].patch),
         };
         let [c, a, b] = [part(l.r, l.c), part(l.p, l.a), part(l.q, l.b)];
         let weight = refiner.weight(estimate, &[c, a, b]);

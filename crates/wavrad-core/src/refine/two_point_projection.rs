@@ -3,17 +3,17 @@
 //!
 //! Starting from every pair of surfaces that can exchange light, the four
 //! children of the *larger* element of the pair are computed by quadrature
-//! ([`crate::kernel::throughput`]); if the kernel's Haar details over them
+//! ([`crate::kernel::KernelContext::throughput`]); if the kernel's Haar details over them
 //! pass the [`crate::refine::oracle`], one link is kept at this level with the
 //! coefficient assembled from the children (hierarchical decomposition), else
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
 use crate::geometry::hierarchy::ElementId;
-use crate::geometry::tracing::SceneTracer;
-use crate::kernel::{self, KernelElement, OuterSamples, Quadrature};
+use crate::kernel::{self, KernelContext, KernelElement, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
+use crate::refine::refine_each;
 use crate::scene::{Patch, Scene, Surface};
 use rayon::prelude::*;
 
@@ -73,8 +73,6 @@ pub struct RefineSettings {
     pub oracle: KernelSmoothness,
     /// Deepest element level (paper: 8).
     pub max_level: u32,
-    /// Quadrature of each kernel coefficient.
-    pub quadrature: Quadrature,
 }
 
 #[derive(Clone, Copy)]
@@ -84,9 +82,17 @@ struct Side {
     patch: Patch,
 }
 
+impl Side {
+    fn kernel(&self) -> KernelElement<'_> {
+        KernelElement {
+            patch: &self.patch,
+            surface: self.surface,
+        }
+    }
+}
+
 struct PairRefiner<'a> {
-    scene: &'a Scene,
-    tracer: &'a SceneTracer,
+    ctx: KernelContext<'a>,
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<(u32, ElementId), bool>,
     settings: RefineSettings,
@@ -110,12 +116,12 @@ struct Verdict {
 
 impl<'a> PairRefiner<'a> {
     fn new(
-        scene: &'a Scene,
-        tracer: &'a SceneTracer,
+        ctx: &KernelContext<'a>,
         settings: RefineSettings,
         estimate: Option<&'a LightEstimate>,
         (p, r): (u32, u32),
     ) -> Self {
+        let scene = ctx.scene;
         let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
         let rho = |s: &Surface| {
             s.brdf
@@ -123,8 +129,7 @@ impl<'a> PairRefiner<'a> {
                 .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
         };
         PairRefiner {
-            scene,
-            tracer,
+            ctx: *ctx,
             straddling: Default::default(),
             settings,
             estimate,
@@ -141,18 +146,11 @@ impl<'a> PairRefiner<'a> {
         if side.id.level >= self.settings.max_level {
             return false;
         }
-        let (scene, tracer, quadrature) = (self.scene, self.tracer, self.settings.quadrature);
+        let ctx = self.ctx;
         *self
             .straddling
             .entry((side.surface, side.id))
-            .or_insert_with(|| {
-                crate::kernel::exposure::straddles(
-                    scene,
-                    tracer,
-                    (side.surface, &side.patch),
-                    quadrature,
-                )
-            })
+            .or_insert_with(|| crate::kernel::exposure::straddles(&ctx, side.kernel()))
     }
 
     fn surface(&self, s: u32) -> (f64, f64) {
@@ -196,7 +194,7 @@ impl<'a> PairRefiner<'a> {
     ) -> f64 {
         let one_way = |receiver: &Side, source: &Side, split_receiver: bool| {
             let (rho, _) = self.surface(receiver.surface);
-            if rho == 0.0 || self.scene.surfaces[source.surface as usize].is_diffuse() {
+            if rho == 0.0 || self.ctx.scene.surfaces[source.surface as usize].is_diffuse() {
                 return 0.0;
             }
             let (_, area) = self.surface(source.surface);
@@ -248,7 +246,7 @@ impl<'a> PairRefiner<'a> {
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
         let threshold = self.settings.oracle.threshold;
-        let glossy = |s: u32| !self.scene.surfaces[s as usize].is_diffuse();
+        let glossy = |s: u32| !self.ctx.scene.surfaces[s as usize].is_diffuse();
         self.estimate.is_none_or(|e| {
             !glossy(l.p)
                 && !glossy(l.r)
@@ -259,18 +257,7 @@ impl<'a> PairRefiner<'a> {
     /// Quadrature of the pair; `clear` when it is part of a pair whose
     /// shaft nothing blocks.
     fn samples(&self, a: &Side, c: &Side, clear: bool) -> OuterSamples {
-        fn element(s: &Side) -> KernelElement<'_> {
-            KernelElement {
-                patch: &s.patch,
-                surface: s.surface,
-            }
-        }
-        kernel::throughput_samples(
-            self.tracer,
-            self.settings.quadrature,
-            (element(a), element(c)),
-            clear,
-        )
+        self.ctx.throughput_samples(a.kernel(), c.kernel(), clear)
     }
 
     /// Mean kernel over each quadrant of `outer` times the whole `inner`
@@ -284,7 +271,7 @@ impl<'a> PairRefiner<'a> {
         outer: &Side,
         inner: &Side,
     ) -> Option<[f64; 4]> {
-        let two_by_two = self.settings.quadrature.points == 2;
+        let two_by_two = self.ctx.quadrature.points == 2;
         if !two_by_two || !matches!(outer.patch, Patch::Parallelogram { .. }) {
             return None;
         }
@@ -456,18 +443,17 @@ impl<'a> PairRefiner<'a> {
 /// depend on the number of threads. With an `estimate` the weighted oracles
 /// decide (see [`crate::refine::oracle::Oracle`]), else the paper's.
 pub fn refine_links(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    let pairs = linked_pairs(scene);
+    let pairs = linked_pairs(ctx.scene);
     progress.start("kernels", pairs.len() as u64);
     let per_pair: Vec<Vec<Link>> = pairs
         .par_iter()
         .map(|&pair| {
-            let links = refine_pair(scene, tracer, settings, estimate, pair);
+            let links = refine_pair(ctx, settings, estimate, pair);
             progress.advance(1);
             links
         })
@@ -495,17 +481,16 @@ pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
 /// The two-point links of one surface pair (p, r), projected from the whole
 /// surfaces down (as [`refine_links`] does for every pair).
 pub fn refine_pair(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
     (p, r): (u32, u32),
 ) -> Vec<Link> {
-    let mut refiner = PairRefiner::new(scene, tracer, settings, estimate, (p, r));
+    let mut refiner = PairRefiner::new(ctx, settings, estimate, (p, r));
     let side = |s: u32| Side {
         surface: s,
         id: ElementId::ROOT,
-        patch: scene.surfaces[s as usize].patch,
+        patch: ctx.scene.surfaces[s as usize].patch,
     };
     let (a, c) = (side(p), side(r));
     let s = refiner.samples(&a, &c, false);
@@ -518,8 +503,7 @@ pub fn refine_pair(
 /// coarsened); the others are kept as they are. Returns the links, in a
 /// deterministic order, and how many were refined.
 pub fn refine_links_further(
-    scene: &Scene,
-    tracer: &SceneTracer,
+    ctx: &KernelContext,
     settings: RefineSettings,
     estimate: &LightEstimate,
     links: Vec<Link>,
@@ -527,14 +511,14 @@ pub fn refine_links_further(
 ) -> (Vec<Link>, usize) {
     progress.start("kernels", links.len() as u64);
     let out = refine_each(&links, progress, |l| {
-        let mut refiner = PairRefiner::new(scene, tracer, settings, Some(estimate), (l.p, l.r));
+        let mut refiner = PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r));
         if refiner.still_smooth(l) {
             return vec![*l];
         }
         let side = |surface: u32, id: ElementId| Side {
             surface,
             id,
-            patch: id.patch(&scene.surfaces[surface as usize].patch),
+            patch: id.patch(&ctx.scene.surfaces[surface as usize].patch),
         };
         refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput, false);
         match refiner.links[..] {
@@ -547,133 +531,11 @@ pub fn refine_links_further(
     out
 }
 
-/// Relative variation of an emitter link's kernel over its receiver's
-/// children (largest Haar detail of their mean kernel over the mean) above
-/// which [`resolve_emitter_links`] carries the link down to them.
-pub const EMITTER_LINK_VARIATION: f64 = 0.02;
-
-/// Links from an emitter carried down their diffuse receiver's element
-/// tree, as far as `max_level`, wherever the kernel varies over the
-/// receiver's children by more than [`EMITTER_LINK_VARIATION`] of its mean.
-///
-/// The oracles test a kernel's details against a threshold in absolute
-/// units, so a small emitter's links stop coarse where its light changes
-/// fast: on the Cornell box, the light's link to the top of the back wall
-/// covered the two rows of elements below the ceiling, across which the
-/// grazing direct light falls by a factor of four, and gave both their
-/// average (the top row 2.4× too bright; the ceiling beside it, lit by that
-/// row, too bright in turn), and the paper's settings left Figure 3's
-/// directly lit reflector a few elements. Push–pull spreads a link's light
-/// evenly over the receiver's children; this measures it per child
-/// instead, at one quadrature per child tested. The elements it reaches
-/// may be finer than any other link's: build the element trees from the
-/// links it returns.
-pub fn resolve_emitter_links(
-    scene: &Scene,
-    tracer: &SceneTracer,
-    (quadrature, max_level): (Quadrature, u32),
-    links: &[Link],
-    progress: &dyn Progress,
-) -> (Vec<Link>, usize) {
-    let emits = |s: u32| scene.surfaces[s as usize].is_emitter();
-    let receives = |s: u32| {
-        let surface = &scene.surfaces[s as usize];
-        surface.brdf.lambertian().is_some() && !surface.is_emitter()
-    };
-    progress.start("emitter links", links.len() as u64);
-    let out = refine_each(links, progress, |l| {
-        // (receiver, element, emitter, element), and the link's orientation.
-        let (receiver, a, emitter, c, flipped) = match (emits(l.p), emits(l.r)) {
-            (false, true) if receives(l.p) => (l.p, l.a, l.r, l.c, false),
-            (true, false) if receives(l.r) => (l.r, l.c, l.p, l.a, true),
-            _ => return vec![*l],
-        };
-        let source = c.patch(&scene.surfaces[emitter as usize].patch);
-        // A link kept at its own receiver stays as it was.
-        let link = |element: ElementId, throughput: f64, t: Option<&[f64]>| {
-            if element == a {
-                return *l;
-            }
-            let (a, c) = if flipped { (c, element) } else { (element, c) };
-            Link {
-                a,
-                c,
-                throughput,
-                children: t.and_then(|t| ChildShares::new(!flipped, t)),
-                ..*l
-            }
-        };
-        let mut out = Vec::new();
-        let patch = a.patch(&scene.surfaces[receiver as usize].patch);
-        let mut stack = vec![(a, patch, l.throughput)];
-        while let Some((id, patch, throughput)) = stack.pop() {
-            if id.level >= max_level {
-                out.push(link(id, throughput, None));
-                continue;
-            }
-            let children = patch.subdivide();
-            let t: Vec<f64> = children
-                .iter()
-                .map(|child| {
-                    kernel::throughput(
-                        tracer,
-                        quadrature,
-                        KernelElement {
-                            patch: child,
-                            surface: receiver,
-                        },
-                        KernelElement {
-                            patch: &source,
-                            surface: emitter,
-                        },
-                    )
-                })
-                .collect();
-            let means = [0, 1, 2, 3].map(|k| t[k] / children[k].area());
-            let mean = means.iter().sum::<f64>() / 4.0;
-            if mean <= 0.0 || average_detail(means) <= EMITTER_LINK_VARIATION * mean {
-                out.push(link(id, throughput, Some(&t)));
-                continue;
-            }
-            // Children in reverse so the links come out in tree order.
-            for (k, tk) in (0..4).zip(t).rev() {
-                if tk > 0.0 {
-                    stack.push((id.child(k), children[k], tk));
-                }
-            }
-        }
-        out
-    });
-    progress.finish();
-    out
-}
-
-/// Replace every link by what `refine` makes of it, in parallel and in
-/// order; also count the links that changed.
-pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
-    links: &[L],
-    progress: &dyn Progress,
-    refine: impl Fn(&L) -> Vec<L> + Sync,
-) -> (Vec<L>, usize) {
-    let per_link: Vec<Vec<L>> = links
-        .par_iter()
-        .map(|l| {
-            let out = refine(l);
-            progress.advance(1);
-            out
-        })
-        .collect();
-    let changed = per_link
-        .iter()
-        .zip(links)
-        .filter(|(new, old)| new.as_slice() != [**old])
-        .count();
-    (per_link.into_iter().flatten().collect(), changed)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context as context;
     use crate::progress::Silent;
     use crate::refine::oracle::KernelSmoothness;
     use crate::scene::Surface;
@@ -697,12 +559,12 @@ mod tests {
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 1e-3 },
             max_level: 4,
-            quadrature: Quadrature::default(),
         };
-        let links = refine_links(&scene, &tracer, settings, None, &Silent);
+        let links = refine_links(&ctx, settings, None, &Silent);
         assert!(links.len() > 16, "{} links", links.len());
         assert!(links.iter().all(|l| l.a.level + l.c.level >= 2));
         // The links partition the pair: they add up to Howell's closed form
@@ -725,9 +587,7 @@ mod tests {
             let other = f.patch(&root(o));
             for (k, share) in shares.shares.into_iter().enumerate() {
                 let child = e.child(k).patch(&root(s));
-                let t = kernel::throughput(
-                    &tracer,
-                    settings.quadrature,
+                let t = ctx.throughput(
                     KernelElement {
                         patch: &child,
                         surface: s,
@@ -762,10 +622,10 @@ mod tests {
     fn power_oracle_refines_where_light_flows_and_the_loop_refines_further() {
         let scene = lit_floor();
         let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 1e-3 },
             max_level: 4,
-            quadrature: Quadrature::default(),
         };
         let dark = Scene::from_surfaces(
             scene
@@ -779,7 +639,7 @@ mod tests {
         );
         // No light anywhere: nothing to refine.
         let none = LightEstimate::emission(&dark, None);
-        let coarse = refine_links(&dark, &tracer, settings, Some(&none), &Silent);
+        let coarse = refine_links(&context(&dark, &tracer), settings, Some(&none), &Silent);
         assert_eq!(coarse.len(), 1);
         assert_eq!(
             (coarse[0].a, coarse[0].c),
@@ -787,111 +647,24 @@ mod tests {
         );
         // The emitter's light is refined over the floor.
         let lit = LightEstimate::emission(&scene, None);
-        let links = refine_links(&scene, &tracer, settings, Some(&lit), &Silent);
+        let links = refine_links(&ctx, settings, Some(&lit), &Silent);
         assert!(links.len() > 4, "{} links", links.len());
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
         // partition (Howell's parallel unit squares at distance 0.5).
-        let (same, changed) =
-            refine_links_further(&scene, &tracer, settings, &lit, links.clone(), &Silent);
+        let (same, changed) = refine_links_further(&ctx, settings, &lit, links.clone(), &Silent);
         assert_eq!((same.len(), changed), (links.len(), 0));
         let stricter = RefineSettings {
             oracle: KernelSmoothness { threshold: 3e-4 },
             ..settings
         };
-        let (finer, changed) =
-            refine_links_further(&scene, &tracer, stricter, &lit, links.clone(), &Silent);
+        let (finer, changed) = refine_links_further(&ctx, stricter, &lit, links.clone(), &Silent);
         assert!(changed > 0 && finer.len() > links.len());
         assert!(finer.iter().any(|l| l.a.level + l.c.level > 6));
         for set in [&links, &finer] {
             let t: f64 = set.iter().map(|l| l.throughput).sum();
             assert!((t - 0.415_253_7).abs() < 2e-4, "{t}");
         }
-    }
-
-    /// A light close over a corner of the floor lights it unevenly: its
-    /// link to the whole floor is carried down to level-2 elements where
-    /// the light changes, and they share its throughput as the light sends
-    /// it. Seen from far, the light is even: the link stays whole. Links
-    /// between surfaces that do not emit are never touched.
-    #[test]
-    fn emitter_links_are_resolved_down_to_the_receivers_elements() {
-        let q = Quadrature::default();
-        let link = |scene: &Scene, tracer: &SceneTracer| {
-            let patch = |s: usize| scene.surfaces[s].patch;
-            let t = kernel::throughput(
-                tracer,
-                q,
-                KernelElement {
-                    patch: &patch(0),
-                    surface: 0,
-                },
-                KernelElement {
-                    patch: &patch(1),
-                    surface: 1,
-                },
-            );
-            Link {
-                p: 0,
-                a: ElementId::ROOT,
-                r: 1,
-                c: ElementId::ROOT,
-                throughput: t,
-                detail: 0.0,
-                children: None,
-            }
-        };
-        let resolve = |scene: &Scene, tracer: &SceneTracer, link: Link| {
-            resolve_emitter_links(scene, tracer, (q, 2), &[link], &Silent)
-        };
-        let scene = crate::testing::light_over_a_corner(0.3);
-        let tracer = SceneTracer::new(&scene);
-        let root = link(&scene, &tracer);
-        let (resolved, changed) = resolve(&scene, &tracer, root);
-        assert_eq!(changed, 1);
-        assert!(resolved.iter().any(|l| l.a.level == 2), "{resolved:?}");
-        assert!(resolved.iter().all(|l| l.a.level <= 2), "{resolved:?}");
-        assert!(resolved.iter().all(|l| (l.r, l.c) == (1, ElementId::ROOT)));
-        // The links partition the floor: unoccluded, quadrature over the
-        // light against the closed form is exact for any floor element.
-        let total: f64 = resolved.iter().map(|l| l.throughput).sum();
-        assert!(
-            (total - root.throughput).abs() < 1e-9 * total,
-            "{total} vs {root:?}"
-        );
-        // The element under the light gets its share, not the average.
-        let corner = ElementId::ROOT.child(0).child(0);
-        let under = resolved
-            .iter()
-            .find(|l| l.a == corner)
-            .expect("corner link");
-        let per_area = under.throughput / (1.0 / 16.0);
-        assert!(
-            per_area > 4.0 * root.throughput,
-            "{per_area} vs {}",
-            root.throughput
-        );
-        // From far above, the light is even over the floor.
-        let far = crate::testing::light_over_a_corner(50.0);
-        let tracer = SceneTracer::new(&far);
-        let root = link(&far, &tracer);
-        let (same, changed) = resolve(&far, &tracer, root);
-        assert_eq!((same, changed), (vec![root], 0));
-        // No emitter: untouched.
-        let dark = crate::testing::light_over_a_corner(0.3);
-        let dark = Scene::from_surfaces(
-            dark.surfaces
-                .into_iter()
-                .map(|s| Surface {
-                    emission: [0.0; 3],
-                    ..s
-                })
-                .collect(),
-        );
-        let tracer = SceneTracer::new(&dark);
-        let root = link(&dark, &tracer);
-        let (same, changed) = resolve(&dark, &tracer, root);
-        assert_eq!((same, changed), (vec![root], 0));
     }
 
     /// A glossy floor (surface 0) and a diffuse square facing it from 2
@@ -946,14 +719,14 @@ mod tests {
         let settings = RefineSettings {
             oracle: KernelSmoothness { threshold: 2e-3 },
             max_level: 3,
-            quadrature: Quadrature::default(),
         };
         let receiver_levels = |quadrants| {
             let (scene, estimate) = glossy_floor_lighting(quadrants);
             let tracer = SceneTracer::new(&scene);
-            let links = refine_links(&scene, &tracer, settings, Some(&estimate), &Silent);
+            let ctx = context(&scene, &tracer);
+            let links = refine_links(&ctx, settings, Some(&estimate), &Silent);
             let (again, changed) =
-                refine_links_further(&scene, &tracer, settings, &estimate, links.clone(), &Silent);
+                refine_links_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));
             let t: f64 = links.iter().map(|l| l.throughput).sum();
             // Howell's parallel unit squares at distance 2.

@@ -114,8 +114,8 @@ impl GatherCache {
                 );
                 let (position, normal) = (surface.patch.point_at(uv), surface.patch.normal());
                 let coincident = 1e-7 * surface.patch.area().sqrt();
-                let tracer = &solution.tracer;
-                if is_buried(scene, tracer, s as u32, position, normal, coincident) {
+                let ctx = solution.kernel_context();
+                if is_buried(&ctx, s as u32, position, normal, coincident) {
                     return None;
                 }
                 let gathers = settings

@@ -114,14 +114,12 @@ impl Solution {
         }
         // Radiance is averaged over the exposed part of each element pair.
         let exposure = PairExposure::new(
-            scene,
-            &self.tracer,
+            &self.kernel_context(),
             trees.iter().flat_map(|(&(p, k), tree)| {
                 tree.nodes
                     .iter()
                     .map(move |node| [(p, node.a), (n + k, node.b)])
             }),
-            self.settings.refine.quadrature,
         );
         let mut gathered: BTreeMap<(u32, u32), Vec<Rgb>> = trees
             .iter()

@@ -95,15 +95,13 @@ impl Solution {
         }
         // Radiance is averaged over the exposed part of each element.
         let exposure = PairExposure::new(
-            scene,
-            &self.tracer,
+            &self.kernel_context(),
             surfaces.iter().enumerate().flat_map(|(p, entry)| {
                 let nodes = entry.as_ref().map_or(&[][..], |(tree, _)| &tree.nodes[..]);
                 nodes
                     .iter()
                     .map(move |n| [(p as u32, n.id), (eye_index, ElementId::ROOT)])
             }),
-            self.settings.refine.quadrature,
         );
         let exposed = |p: u32, a: ElementId| exposure.of((p, a), (eye_index, ElementId::ROOT));
         for l in &links {
@@ -147,8 +145,7 @@ impl Solution {
             )
         });
         refine_three_point_links(
-            &self.scene,
-            &self.tracer,
+            &self.kernel_context(),
             self.settings.receiver_refine(),
             estimate.as_ref(),
             triples,

@@ -14,8 +14,9 @@ use crate::geometry::hierarchy::{ElementId, ElementTree};
 use crate::geometry::pair_tree::PairTree;
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
-use crate::kernel::Quadrature;
+use crate::kernel::{KernelContext, Quadrature};
 use crate::progress::Progress;
+use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
 use crate::refine::oracle::Oracle;
@@ -24,7 +25,7 @@ use crate::refine::three_point_projection::{
     ThreePointSettings,
 };
 use crate::refine::two_point_projection::{
-    refine_links, refine_links_further, resolve_emitter_links, Link, RefineSettings,
+    refine_links, refine_links_further, Link, RefineSettings,
 };
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats};
@@ -41,8 +42,10 @@ pub const MAX_SURFACES: usize = 4096;
 /// Settings of a solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SolveSettings {
-    /// Kernel projection (oracle threshold, maximum level, quadrature).
+    /// Kernel projection (oracle threshold, maximum level).
     pub refine: RefineSettings,
+    /// Quadrature of every kernel coefficient.
+    pub quadrature: Quadrature,
     /// Deepest element level of three-point links (each of the three
     /// elements). Their count grows with the cube of the elements per
     /// surface, so they stop coarser than two-point links by default (2:
@@ -155,8 +158,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     let clock = Instant::now();
     let tracer = SceneTracer::new(scene);
     times.visibility_build_s = clock.elapsed().as_secs_f64();
-    let importance =
-        |links: &[Link]| camera.map(|c| Importance::new(scene, &tracer, c, &scene.film, links));
+    let ctx = KernelContext {
+        scene,
+        tracer: &tracer,
+        quadrature: settings.quadrature,
+    };
+    let importance = |links: &[Link]| camera.map(|c| Importance::new(&ctx, c, &scene.film, links));
 
     // compute_kernel(): adaptive two-point and three-point links.
     let clock = Instant::now();
@@ -164,11 +171,10 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .oracle
         .is_weighted()
         .then(|| LightEstimate::emission(scene, importance(&[])));
-    let mut links = refine_links(scene, &tracer, settings.refine, estimate.as_ref(), progress);
+    let mut links = refine_links(&ctx, settings.refine, estimate.as_ref(), progress);
     let triples = surface_triples(scene);
     let mut three_point = refine_three_point_links(
-        scene,
-        &tracer,
+        &ctx,
         settings.three_point_refine(),
         estimate.as_ref(),
         &triples,
@@ -184,24 +190,16 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     // returned always has it.
     let assemble_and_solve =
         |links: &[Link], three_point: &[ThreePointLink], resolve: bool, times: &mut PhaseTimes| {
-            let quadrature = settings.refine.quadrature;
             let clock = Instant::now();
-            let max_level = settings.refine.max_level;
             let resolved = if resolve {
-                resolve_emitter_links(scene, &tracer, (quadrature, max_level), links, progress).0
+                resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0
             } else {
                 links.to_vec()
             };
             let trees = element_trees(scene, &resolved, three_point);
             times.kernels_s += clock.elapsed().as_secs_f64();
-            let mut system = System::assemble(
-                scene,
-                (&tracer, quadrature),
-                &triples,
-                (trees, &resolved),
-                three_point,
-                times,
-            );
+            let mut system =
+                System::assemble(&ctx, &triples, (trees, &resolved), three_point, times);
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
@@ -222,11 +220,10 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             importance(&links),
         );
         let (more, refined) =
-            refine_links_further(scene, &tracer, settings.refine, &estimate, links, progress);
+            refine_links_further(&ctx, settings.refine, &estimate, links, progress);
         links = more;
         let (more, refined_three_point) = refine_three_point_links_further(
-            scene,
-            &tracer,
+            &ctx,
             settings.three_point_refine(),
             &estimate,
             three_point,
@@ -272,6 +269,17 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 }
 
 impl Solution {
+    /// The kernel context of the solve: its scene, ray queries and
+    /// quadrature (rendering evaluates kernels into hypothetical receivers
+    /// with it).
+    pub fn kernel_context(&self) -> KernelContext<'_> {
+        KernelContext {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            quadrature: self.settings.quadrature,
+        }
+    }
+
     /// The part of every diffuse element's radiance reflected straight from
     /// the emitters (eq. 12 with the emission as the only source, no
     /// emission of its own): the first bounce, which a final gather
@@ -365,8 +373,7 @@ impl System {
     /// linked element, [`element_trees`]) and the directional structures
     /// holding every linked element pair; radiance starts at the emission.
     fn assemble(
-        scene: &Scene,
-        (tracer, quadrature): (&SceneTracer, Quadrature),
+        ctx: &KernelContext,
         triples: &[(u32, u32, u32)],
         (trees, links): (Vec<ElementTree>, &[Link]),
         three_point: &[ThreePointLink],
@@ -395,25 +402,24 @@ impl System {
         let exposure = trees
             .par_iter()
             .enumerate()
-            .map(|(s, t)| exposed_fractions(scene, tracer, (s as u32, t), quadrature, None))
+            .map(|(s, t)| exposed_fractions(ctx, s as u32, t, None))
             .collect();
         let pairs = PairExposure::new(
-            scene,
-            tracer,
+            ctx,
             directional
                 .iter()
                 .flat_map(|d| d.tree.nodes.iter().map(move |n| [(d.p, n.a), (d.q, n.b)]))
                 .chain(three_point.iter().map(|l| [(l.p, l.a), (l.q, l.b)])),
-            quadrature,
         );
         let interactions = Interactions::new(
-            scene,
+            ctx.scene,
             (&trees, exposure),
             links,
             (three_point, &pairs),
             directional,
         );
-        let radiance = scene
+        let radiance = ctx
+            .scene
             .surfaces
             .iter()
             .zip(&trees)
@@ -521,7 +527,6 @@ impl SolveSettings {
                 oracle: crate::refine::oracle::KernelSmoothness {
                     threshold: self.three_point_threshold,
                 },
-                ..self.refine
             },
             receiver_max_level: self
                 .three_point_max_level
@@ -576,7 +581,7 @@ impl SolveSettings {
                 )));
             }
         }
-        if r.quadrature.points == 0 || r.quadrature.rays == 0 {
+        if self.quadrature.points == 0 || self.quadrature.rays == 0 {
             return Err(Error::InvalidSetting(
                 "quadrature orders must be at least 1".into(),
             ));
@@ -604,8 +609,8 @@ impl Default for SolveSettings {
             refine: RefineSettings {
                 oracle: crate::refine::oracle::KernelSmoothness { threshold: 1e-3 },
                 max_level: 5,
-                quadrature: crate::kernel::Quadrature::default(),
             },
+            quadrature: Quadrature::default(),
             three_point_max_level: 2,
             three_point_receiver_levels: 0,
             three_point_threshold: 1e-5,

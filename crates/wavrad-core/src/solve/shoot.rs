@@ -60,13 +60,12 @@ use super::{push_pull, Solution, SolveSettings, System};
 use crate::geometry::hierarchy::{ElementId, ElementTree};
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::exposed_fractions;
-use crate::kernel::Quadrature;
+use crate::kernel::KernelContext;
 use crate::progress::{Progress, Silent};
+use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
-use crate::refine::two_point_projection::{
-    linked_pairs, refine_links_further, refine_pair, resolve_emitter_links, Link,
-};
+use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats};
 use crate::{Error, Result};
@@ -138,7 +137,7 @@ pub fn solve_shooting(
     let clock = Instant::now();
     let tracer = SceneTracer::new(scene);
     times.visibility_build_s = clock.elapsed().as_secs_f64();
-    let mut shooting = Shooting::new(scene, &tracer, settings, times);
+    // The statistics are filled in after every step.
     let mut solution = Solution {
         scene: scene.clone(),
         tracer,
@@ -147,10 +146,16 @@ pub fn solve_shooting(
         interactions: Interactions::default(),
         directional: Vec::new(),
         settings: *settings,
-        stats: shooting.stats(&[], (0, f64::INFINITY)),
+        stats: Stats::default(),
         enclosure: Default::default(),
         gather_cache: Default::default(),
     };
+    let ctx = KernelContext {
+        scene,
+        tracer: &solution.tracer,
+        quadrature: settings.quadrature,
+    };
+    let mut shooting = Shooting::new(ctx, settings, times);
 
     // Shoot the surface with the most unshot power until little is left.
     progress.start("shooting", u64::from(settings.max_iterations));
@@ -159,7 +164,7 @@ pub fn solve_shooting(
         if remaining <= settings.tolerance {
             break;
         }
-        shooting.shoot(shooter, &solution.tracer);
+        shooting.shoot(shooter);
         progress.advance(1);
         let Some(on_step) = on_step.as_deref_mut() else {
             continue;
@@ -186,18 +191,11 @@ pub fn solve_shooting(
     // sweeps start from the emission).
     let clock = Instant::now();
     let links: Vec<Link> = shooting.links().copied().collect();
-    let levels = (settings.refine.quadrature, settings.refine.max_level);
-    let (links, _) = resolve_emitter_links(scene, &solution.tracer, levels, &links, progress);
+    let max_level = settings.refine.max_level;
+    let (links, _) = resolve_emitter_links(&ctx, max_level, &links, progress);
     let trees = super::element_trees(scene, &links, &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
-    let mut system = System::assemble(
-        scene,
-        (&solution.tracer, settings.refine.quadrature),
-        &[],
-        (trees, &links),
-        &[],
-        &mut shooting.times,
-    );
+    let mut system = System::assemble(&ctx, &[], (trees, &links), &[], &mut shooting.times);
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
     solution.stats = shooting.stats(&system.trees, sweeps);
     solution.trees = system.trees;
@@ -212,21 +210,19 @@ struct SurfaceState {
     ids: BTreeSet<ElementId>,
     tree: ElementTree,
     /// Exposed fraction of each node ([`crate::kernel::exposure`]) under
-    /// `quadrature`, the kernels' quadrature.
+    /// the kernels' quadrature.
     exposure: Vec<f64>,
-    quadrature: Quadrature,
     radiance: Vec<Rgb>,
     unshot: Vec<Rgb>,
 }
 
 impl SurfaceState {
-    fn new(scene: &Scene, tracer: &SceneTracer, s: u32, quadrature: Quadrature) -> SurfaceState {
-        let surface = &scene.surfaces[s as usize];
+    fn new(ctx: &KernelContext, s: u32) -> SurfaceState {
+        let surface = &ctx.scene.surfaces[s as usize];
         let tree = ElementTree::build(&surface.patch, &BTreeSet::new());
         SurfaceState {
             ids: BTreeSet::new(),
-            exposure: exposed_fractions(scene, tracer, (s, &tree), quadrature, None),
-            quadrature,
+            exposure: exposed_fractions(ctx, s, &tree, None),
             tree,
             radiance: vec![surface.emission],
             unshot: vec![surface.emission],
@@ -236,11 +232,7 @@ impl SurfaceState {
     /// Make the tree hold `ids`. New elements inherit the radiance of the
     /// leaf they lie in (radiance is constant over a leaf), so the radiance
     /// represented does not change.
-    fn grow(
-        &mut self,
-        (scene, tracer, s): (&Scene, &SceneTracer, u32),
-        ids: impl IntoIterator<Item = ElementId>,
-    ) {
+    fn grow(&mut self, ctx: &KernelContext, s: u32, ids: impl IntoIterator<Item = ElementId>) {
         let before = self.ids.len();
         self.ids.extend(
             ids.into_iter()
@@ -249,7 +241,7 @@ impl SurfaceState {
         if self.ids.len() == before {
             return;
         }
-        let tree = ElementTree::build(&scene.surfaces[s as usize].patch, &self.ids);
+        let tree = ElementTree::build(&ctx.scene.surfaces[s as usize].patch, &self.ids);
         let carry = |values: &[Rgb]| {
             tree.nodes
                 .iter()
@@ -259,7 +251,7 @@ impl SurfaceState {
         self.radiance = carry(&self.radiance);
         self.unshot = carry(&self.unshot);
         let previous = Some((&self.tree, &self.exposure[..]));
-        self.exposure = exposed_fractions(scene, tracer, (s, &tree), self.quadrature, previous);
+        self.exposure = exposed_fractions(ctx, s, &tree, previous);
         self.tree = tree;
     }
 
@@ -268,16 +260,17 @@ impl SurfaceState {
     /// ρ·F·ΔL at each receiving element, then push–pull.
     fn receive(
         &mut self,
-        (scene, tracer, r): (&Scene, &SceneTracer, u32),
+        ctx: &KernelContext,
+        r: u32,
         links: &[Link],
         (tree, unshot): (&ElementTree, &[Rgb]),
     ) {
-        let rho = scene.surfaces[r as usize]
+        let rho = ctx.scene.surfaces[r as usize]
             .brdf
             .diffuse_reflectance()
             .unwrap_or([0.0; 3]);
         let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
-        self.grow((scene, tracer, r), links.iter().map(|l| ends(l).0));
+        self.grow(ctx, r, links.iter().map(|l| ends(l).0));
         let mut gathered = Gathered::new(self.tree.nodes.len());
         for l in links {
             let (a, c) = ends(l);
@@ -308,7 +301,7 @@ impl SurfaceState {
 
 /// The state of a shooting solve.
 struct Shooting<'a> {
-    scene: &'a Scene,
+    ctx: KernelContext<'a>,
     settings: &'a SolveSettings,
     /// Surface pairs that can exchange light, in order.
     pairs: Vec<(u32, u32)>,
@@ -329,12 +322,8 @@ fn largest(rgb: &Rgb) -> f64 {
 }
 
 impl<'a> Shooting<'a> {
-    fn new(
-        scene: &'a Scene,
-        tracer: &SceneTracer,
-        settings: &'a SolveSettings,
-        times: PhaseTimes,
-    ) -> Self {
+    fn new(ctx: KernelContext<'a>, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
+        let scene = ctx.scene;
         let pairs = linked_pairs(scene);
         let reflects = |s: u32| {
             let surface = &scene.surfaces[s as usize];
@@ -353,13 +342,13 @@ impl<'a> Shooting<'a> {
             }
         }
         Shooting {
-            scene,
+            ctx,
             settings,
             links: vec![None; pairs.len()],
             pairs,
             targets,
             states: (0..scene.surfaces.len() as u32)
-                .map(|s| SurfaceState::new(scene, tracer, s, settings.refine.quadrature))
+                .map(|s| SurfaceState::new(&ctx, s))
                 .collect(),
             emitted: scene
                 .surfaces
@@ -376,7 +365,7 @@ impl<'a> Shooting<'a> {
     fn largest_unshot(&self) -> (usize, f64) {
         let mut best = (0, 0.0);
         let mut total = 0.0;
-        for (s, (state, surface)) in self.states.iter().zip(&self.scene.surfaces).enumerate() {
+        for (s, (state, surface)) in self.states.iter().zip(&self.ctx.scene.surfaces).enumerate() {
             let power = surface.patch.area() * state.exposure[0] * largest(&state.unshot[0]);
             total += power;
             if power > best.1 {
@@ -392,8 +381,9 @@ impl<'a> Shooting<'a> {
     }
 
     /// Send the unshot radiance of surface `s` to every surface it can light.
-    fn shoot(&mut self, s: usize, tracer: &SceneTracer) {
-        let (scene, settings) = (self.scene, self.settings);
+    fn shoot(&mut self, s: usize) {
+        let (ctx, settings) = (&self.ctx, self.settings);
+        let scene = ctx.scene;
         let tree = self.states[s].tree.clone();
         let unshot = std::mem::take(&mut self.states[s].unshot);
 
@@ -411,9 +401,9 @@ impl<'a> Shooting<'a> {
         work.par_iter_mut().for_each(|(i, links)| {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
-                (None, e) => refine_pair(scene, tracer, settings.refine, e.as_ref(), pair),
+                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), pair),
                 (Some(old), Some(e)) => {
-                    refine_links_further(scene, tracer, settings.refine, e, old, &Silent).0
+                    refine_links_further(ctx, settings.refine, e, old, &Silent).0
                 }
                 (Some(old), None) => old,
             });
@@ -437,7 +427,7 @@ impl<'a> Shooting<'a> {
             .for_each(|(r, (state, pair))| {
                 if let Some(i) = *pair {
                     let links = links[i].as_deref().unwrap_or_default();
-                    state.receive((scene, tracer, r as u32), links, (&tree, &unshot));
+                    state.receive(ctx, r as u32, links, (&tree, &unshot));
                 }
             });
         let own_ends = self.targets[s]
@@ -446,7 +436,7 @@ impl<'a> Shooting<'a> {
             .map(|l| if l.p as usize == s { l.a } else { l.c });
         let state = &mut self.states[s];
         state.unshot = vec![[0.0; 3]; state.tree.nodes.len()];
-        state.grow((scene, tracer, s as u32), own_ends.collect::<Vec<_>>());
+        state.grow(ctx, s as u32, own_ends.collect::<Vec<_>>());
         self.steps += 1;
         self.times.solve_s += clock.elapsed().as_secs_f64();
     }
@@ -460,7 +450,7 @@ impl<'a> Shooting<'a> {
     /// finishing Gauss–Seidel sweeps (and their last residual).
     fn stats(&self, trees: &[ElementTree], sweeps: (u32, f64)) -> Stats {
         let mut stats = Stats::new(
-            self.scene,
+            self.ctx.scene,
             self.settings,
             trees,
             self.links(),

@@ -25,7 +25,7 @@ pub struct PhaseTimes {
 }
 
 /// Statistics of one solve.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Stats {
     /// Number of surfaces (two-sided materials count twice).
     pub surfaces: usize,
