@@ -176,11 +176,12 @@ def solve(
     shooting early (the Gauss-Seidel sweeps still finish the solution); an
     exception it raises stops shooting and is raised from ``solve``.
 
-    Raises ``ValueError`` for an unknown ``oracle`` or ``solver`` or an
-    ``on_step`` without ``solver="shoot"``, and
-    ``SolveError`` for invalid settings, for the importance oracle on a
-    scene without a sensor, and for the shooting solver on a glossy scene
-    or with the importance oracle."""
+    Raises ``TypeError`` for an unknown keyword, ``ValueError`` for a value
+    of the wrong type or an ``on_step`` without ``solver="shoot"``, and
+    ``SolveError`` for a value outside its range (the message names the
+    setting and the range), an unknown ``oracle`` or ``solver``, the
+    importance oracle on a scene without a sensor, and the shooting solver
+    on a glossy scene or with the importance oracle."""
 
 def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Relative RMSE of ``a`` against the reference ``b``:
