@@ -21,7 +21,7 @@
 //! its specular lobe off, the same surface as a diffuse one) left the small
 //! box's sides next to it 11–45 % off their diffuse-floor values.
 
-use crate::geometry::hierarchy::{ElementTree, Hierarchy};
+use crate::geometry::hierarchy::{ElementRef, ElementTree, Hierarchy};
 use crate::geometry::pair_tree::PairTree;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
@@ -223,7 +223,7 @@ impl Interactions {
                 d.tree
                     .nodes
                     .iter()
-                    .map(|n| pairs.of((d.p, n.a), (d.q, n.b)))
+                    .map(|n| pairs.of(ElementRef::new(d.p, n.a), ElementRef::new(d.q, n.b)))
                     .collect()
             })
             .collect();
@@ -244,7 +244,7 @@ impl Interactions {
                 let receiver = node(p, a);
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
                 let exposed = out.exposure[p as usize][receiver as usize];
-                let source = out.source(scene, trees, r, c, p, a);
+                let source = out.source(scene, trees, ElementRef::new(r, c), ElementRef::new(p, a));
                 out.incoming[p as usize].push(Transfer {
                     receiver,
                     source,
@@ -270,10 +270,11 @@ impl Interactions {
             let s = out.structure_of[&(l.p, l.q)];
             let cover = out.directional[s as usize].tree.overlaps(l.a, l.b);
             let receivers = out.push_cover(cover);
-            let source = out.source(scene, trees, l.r, l.c, l.p, l.a);
+            let [from, to, _] = l.elements();
+            let source = out.source(scene, trees, from, to);
             // R averages over the whole pair; radiance is the average over
             // its exposed part.
-            let exposed = pairs.of((l.p, l.a), (l.q, l.b));
+            let exposed = pairs.of(ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b));
             let scale = if exposed > 0.0 { 1.0 / exposed } else { 1.0 };
             out.incoming_three_point[s as usize].push(ThreePointTransfer {
                 receivers,
@@ -298,11 +299,11 @@ impl Interactions {
         &mut self,
         scene: &Scene,
         trees: &[ElementTree],
-        r: u32,
-        c: crate::geometry::hierarchy::ElementId,
-        p: u32,
-        a: crate::geometry::hierarchy::ElementId,
+        source: ElementRef,
+        receiver: ElementRef,
     ) -> Source {
+        let (ElementRef { surface: r, id: c }, ElementRef { surface: p, id: a }) =
+            (source, receiver);
         let node = trees[r as usize]
             .index_of(c)
             .expect("source element is in its tree");

@@ -9,7 +9,7 @@ pub mod push_pull;
 pub mod shoot;
 pub mod stats;
 
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::pair_tree::PairTree;
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
@@ -434,8 +434,17 @@ impl System {
             ctx,
             directional
                 .iter()
-                .flat_map(|d| d.tree.nodes.iter().map(move |n| [(d.p, n.a), (d.q, n.b)]))
-                .chain(three_point.iter().map(|l| [(l.p, l.a), (l.q, l.b)])),
+                .flat_map(|d| {
+                    d.tree
+                        .nodes
+                        .iter()
+                        .map(move |n| [ElementRef::new(d.p, n.a), ElementRef::new(d.q, n.b)])
+                })
+                .chain(
+                    three_point
+                        .iter()
+                        .map(|l| [ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b)]),
+                ),
         );
         let interactions = Interactions::new(
             ctx.scene,
