@@ -321,7 +321,8 @@ impl<'a> PairRefiner<'a> {
 
     fn push(
         &mut self,
-        (a, c): (&Part, &Part),
+        a: &Part,
+        c: &Part,
         throughput: f64,
         detail: f64,
         children: Option<ChildShares>,
@@ -344,7 +345,7 @@ impl<'a> PairRefiner<'a> {
     fn refine(&mut self, a: Part, c: Part, throughput: f64, clear: bool) {
         let max = self.settings.max_level;
         let split_a = match (a.element.id.level < max, c.element.id.level < max) {
-            (false, false) => return self.push((&a, &c), throughput, 0.0, None),
+            (false, false) => return self.push(&a, &c, throughput, 0.0, None),
             (true, false) => true,
             (false, true) => false,
             (true, true) => a.patch.area() >= c.patch.area(),
@@ -385,7 +386,7 @@ impl<'a> PairRefiner<'a> {
                 .max(children_verdict.detail)
                 .max(other_verdict.detail);
             let children = ChildShares::new(split_a, &t);
-            return self.push((&a, &c), t.iter().sum(), detail, children);
+            return self.push(&a, &c, t.iter().sum(), detail, children);
         }
         if split_smooth {
             let (split, other) = (*other, *split);

@@ -153,7 +153,8 @@ impl Source {
 /// ancestors' average form factors to the far walls, too large there, and
 /// the leaves a few elements in too little.
 pub fn receiver_gradient(
-    (tree, exposure): (&ElementTree, &[f64]),
+    tree: &ElementTree,
+    exposure: &[f64],
     node: usize,
     source: &Patch,
     shares: Option<[f32; 4]>,
@@ -197,9 +198,11 @@ impl Interactions {
     /// `pairs` the exposed fractions of the elements of their pairs.
     pub fn new(
         scene: &Scene,
-        (trees, exposure): (&[ElementTree], Vec<Vec<f64>>),
+        trees: &[ElementTree],
+        exposure: Vec<Vec<f64>>,
         links: &[Link],
-        (three_point, pairs): (&[ThreePointLink], &PairExposure),
+        three_point: &[ThreePointLink],
+        pairs: &PairExposure,
         directional: Vec<Directional>,
     ) -> Interactions {
         let structure_of = directional
@@ -255,14 +258,14 @@ impl Interactions {
             }
         }
         for (p, shares) in shares_of.into_iter().enumerate() {
-            let receiver = (&trees[p], &out.exposure[p][..]);
+            let (tree, exposure) = (&trees[p], &out.exposure[p][..]);
             out.incoming[p]
                 .par_iter_mut()
                 .zip(shares)
                 .for_each(|(t, shares)| {
                     let (r, c) = t.source.element();
                     let source = &trees[r as usize].nodes[c as usize].patch;
-                    let g = receiver_gradient(receiver, t.receiver as usize, source, shares);
+                    let g = receiver_gradient(tree, exposure, t.receiver as usize, source, shares);
                     t.gradient = g.as_vec3();
                 });
         }
@@ -408,22 +411,22 @@ mod tests {
         // form factor rises along x, g·(x − x̄) = ±1/3 at their centroids.
         let exposed = vec![1.0; tree.nodes.len()];
         let shares = Some([1.0 / 6.0, 2.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0]);
-        let g = receiver_gradient((&tree, &exposed), 0, &source, shares);
+        let g = receiver_gradient(&tree, &exposed, 0, &source, shares);
         assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
         // Child 1 half buried: per exposed area it gets as much as 3.
         let mut half = exposed.clone();
         half[2] = 0.5; // node 2 is child 1
         let shares = Some([1.0 / 5.0, 1.0 / 5.0, 1.0 / 5.0, 2.0 / 5.0]);
-        let g = receiver_gradient((&tree, &half), 0, &source, shares);
+        let g = receiver_gradient(&tree, &half, 0, &source, shares);
         assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
         // Without shares, Lambert's formula: the square straight above is
         // symmetric about the receiver's centre.
-        let g = receiver_gradient((&tree, &exposed), 0, &source, None);
+        let g = receiver_gradient(&tree, &exposed, 0, &source, None);
         assert!(g.length() < 1e-9, "{g}");
         // A leaf has none.
         let leaf = tree.index_of(ElementId::ROOT.child(1)).unwrap() as usize;
         assert_eq!(
-            receiver_gradient((&tree, &exposed), leaf, &source, shares),
+            receiver_gradient(&tree, &exposed, leaf, &source, shares),
             DVec3::ZERO
         );
     }

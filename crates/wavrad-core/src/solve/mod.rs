@@ -27,7 +27,7 @@ use crate::refine::two_point_projection::{
     refine_links, refine_links_further, Link, RefineSettings,
 };
 use crate::scene::{Rgb, Scene};
-use crate::solve::stats::{PhaseTimes, Stats};
+use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
@@ -224,8 +224,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             };
             let trees = element_trees(scene, &resolved, three_point);
             times.kernels_s += clock.elapsed().as_secs_f64();
-            let mut system =
-                System::assemble(&ctx, &triples, (trees, &resolved), three_point, times);
+            let mut system = System::assemble(&ctx, &triples, trees, &resolved, three_point, times);
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
@@ -269,17 +268,22 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
-    let mut stats = Stats::new(
-        scene,
-        settings,
-        &system.trees,
-        &resolved,
-        (&system.interactions.directional, three_point.len()),
-        (sweeps.0, sweeps.1, passes),
+    let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
+    let stats = Stats {
+        refine_passes: passes,
+        exchanging_pairs,
+        kernel_pairs: exchanging_pairs,
         times,
-    );
-    stats.exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
-    stats.kernel_pairs = stats.exchanging_pairs;
+        ..Stats::new(
+            scene,
+            settings,
+            &system.trees,
+            &resolved,
+            &system.interactions.directional,
+            three_point.len(),
+            sweeps,
+        )
+    };
     Ok(Solution {
         scene: scene.clone(),
         tracer,
@@ -401,7 +405,8 @@ impl System {
     fn assemble(
         ctx: &KernelContext,
         triples: &[(u32, u32, u32)],
-        (trees, links): (Vec<ElementTree>, &[Link]),
+        trees: Vec<ElementTree>,
+        links: &[Link],
         three_point: &[ThreePointLink],
         times: &mut PhaseTimes,
     ) -> System {
@@ -448,9 +453,11 @@ impl System {
         );
         let interactions = Interactions::new(
             ctx.scene,
-            (&trees, exposure),
+            &trees,
+            exposure,
             links,
-            (three_point, &pairs),
+            three_point,
+            &pairs,
             directional,
         );
         let radiance = ctx
@@ -478,14 +485,13 @@ impl System {
 
     /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
     /// until no coarsest coefficient changes by more than the tolerance.
-    /// Returns the sweeps done and the last residual.
     fn solve(
         &mut self,
         scene: &Scene,
         settings: &SolveSettings,
         progress: &dyn Progress,
         times: &mut PhaseTimes,
-    ) -> (u32, f64) {
+    ) -> Sweeps {
         let clock = Instant::now();
         let System {
             trees,
@@ -535,7 +541,10 @@ impl System {
         }
         progress.finish();
         times.solve_s += clock.elapsed().as_secs_f64();
-        (iterations, residual)
+        Sweeps {
+            iterations,
+            residual,
+        }
     }
 }
 
