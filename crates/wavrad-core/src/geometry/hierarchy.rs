@@ -80,6 +80,36 @@ impl ElementId {
     }
 }
 
+/// One element of one surface: how links, exposure and light estimates
+/// name an element.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ElementRef {
+    /// Index of the surface.
+    pub surface: u32,
+    /// The element in the surface's hierarchy.
+    pub id: ElementId,
+}
+
+impl ElementRef {
+    /// Element `id` of `surface`.
+    pub fn new(surface: u32, id: ElementId) -> ElementRef {
+        ElementRef { surface, id }
+    }
+
+    /// The whole of `surface`.
+    pub fn root(surface: u32) -> ElementRef {
+        ElementRef::new(surface, ElementId::ROOT)
+    }
+
+    /// The `k`-th child.
+    pub fn child(self, k: usize) -> ElementRef {
+        ElementRef {
+            id: self.id.child(k),
+            ..self
+        }
+    }
+}
+
 /// A tree whose inner nodes have four consecutive children: element trees,
 /// and the element-pair trees of directional radiance
 /// ([`crate::geometry::pair_tree::PairTree`]); push–pull works on either.

@@ -17,7 +17,7 @@
 //! no link reaches it and nothing sees it. Directional radiance of glossy
 //! surfaces does the same over element pairs ([`PairExposure`]).
 
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::kernel::{KernelContext, KernelElement};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -155,39 +155,36 @@ pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
 /// radiance over exposed points of both a and b.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PairExposure {
-    of: BTreeMap<(u32, ElementId), f64>,
+    of: BTreeMap<ElementRef, f64>,
 }
 
 impl PairExposure {
-    /// The exposed fraction of every element of `pairs`, each pair a
-    /// (surface, element) couple on the sending and receiving sides.
-    pub fn new(
-        ctx: &KernelContext,
-        pairs: impl Iterator<Item = [(u32, ElementId); 2]>,
-    ) -> PairExposure {
-        let wanted: BTreeSet<(u32, ElementId)> = pairs
+    /// The exposed fraction of every element of `pairs`, each pair the
+    /// sending and the receiving element.
+    pub fn new(ctx: &KernelContext, pairs: impl Iterator<Item = [ElementRef; 2]>) -> PairExposure {
+        let wanted: BTreeSet<ElementRef> = pairs
             .flatten()
-            .filter(|&(s, _)| (s as usize) < ctx.scene.surfaces.len())
+            .filter(|e| (e.surface as usize) < ctx.scene.surfaces.len())
             .collect();
         let of = wanted
             .into_par_iter()
-            .map(|(s, id)| {
-                let patch = id.patch(&ctx.scene.surfaces[s as usize].patch);
+            .map(|e| {
+                let patch = e.id.patch(&ctx.scene.surfaces[e.surface as usize].patch);
                 let element = KernelElement {
                     patch: &patch,
-                    surface: s,
+                    surface: e.surface,
                 };
-                ((s, id), fraction(ctx, element))
+                (e, fraction(ctx, element))
             })
             .collect();
         PairExposure { of }
     }
 
-    /// Exposed fraction of the pair (a on p, b on q): the product of the
-    /// two (1 for an element not listed, such as a hypothetical receiver's).
-    pub fn of(&self, (p, a): (u32, ElementId), (q, b): (u32, ElementId)) -> f64 {
+    /// Exposed fraction of the pair (a, b): the product of the two (1 for
+    /// an element not listed, such as a hypothetical receiver's).
+    pub fn of(&self, a: ElementRef, b: ElementRef) -> f64 {
         let get = |key| self.of.get(&key).copied().unwrap_or(1.0);
-        get((p, a)) * get((q, b))
+        get(a) * get(b)
     }
 }
 
@@ -200,6 +197,7 @@ fn tangents(n: DVec3) -> (DVec3, DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::hierarchy::ElementId;
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::default_context as context;
     use crate::scene::{Patch, Scene};

@@ -4,7 +4,7 @@
 //! emission alone before the first), and the importance of its receiver.
 
 use super::importance::Importance;
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::geometry::pair_tree::PairTree;
 use crate::scene::{Rgb, Scene};
 use std::collections::{BTreeMap, BTreeSet};
@@ -94,7 +94,9 @@ impl LightEstimate {
     }
 
     /// L_{c→a} (c on r, a on p) relative to the brightest emission.
-    pub fn radiance(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> f64 {
+    pub fn radiance(&self, source: ElementRef, receiver: ElementRef) -> f64 {
+        let (ElementRef { surface: r, id: c }, ElementRef { surface: p, id: a }) =
+            (source, receiver);
         let own = match self.trees.get(r as usize) {
             Some(tree) => self.radiance[r as usize][tree.node_containing(c) as usize],
             None => self.emission[r as usize],
@@ -107,9 +109,10 @@ impl LightEstimate {
         (own + glossy) / self.reference
     }
 
-    /// Relative importance of element `b` of receiver `q` (1 without an
+    /// Relative importance of the `receiver` element (1 without an
     /// importance estimate).
-    pub fn importance(&self, q: u32, b: ElementId) -> f64 {
-        self.importance.as_ref().map_or(1.0, |i| i.at(q, b))
+    pub fn importance(&self, receiver: ElementRef) -> f64 {
+        let i = self.importance.as_ref();
+        i.map_or(1.0, |i| i.at(receiver.surface, receiver.id))
     }
 }

@@ -10,14 +10,14 @@
 //! refined in turn. Source and glossy elements never go below `max_level`;
 //! the receiving element may go further ([`ThreePointSettings`]).
 
-use crate::geometry::hierarchy::ElementId;
+use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
-use crate::kernel::{faces_away, KernelContext, KernelElement};
+use crate::kernel::{faces_away, KernelContext};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::average_detail;
-use crate::refine::refine_each;
 use crate::refine::two_point_projection::RefineSettings;
+use crate::refine::{refine_each, Part};
 use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 use rayon::prelude::*;
@@ -45,6 +45,15 @@ pub struct ThreePointLink {
     pub detail: f32,
 }
 
+impl ThreePointLink {
+    /// Its three elements: source `c` on `r`, glossy `a` on `p` and
+    /// receiver `b` on `q`.
+    pub fn elements(&self) -> [ElementRef; 3] {
+        let at = ElementRef::new;
+        [at(self.r, self.c), at(self.p, self.a), at(self.q, self.b)]
+    }
+}
+
 /// Settings of the three-point kernel projection.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ThreePointSettings {
@@ -56,23 +65,6 @@ pub struct ThreePointSettings {
     /// [`IncidentLight`]), so a highlight's edges on a receiver can be
     /// resolved at a fraction of the cost of a deeper `refine.max_level`.
     pub receiver_max_level: u32,
-}
-
-/// One element of a triple being refined.
-#[derive(Debug, Clone, Copy)]
-struct Part {
-    id: ElementId,
-    patch: Patch,
-}
-
-impl Part {
-    fn children(&self) -> [Part; 4] {
-        let patches = self.patch.subdivide();
-        [0, 1, 2, 3].map(|k| Part {
-            id: self.id.child(k),
-            patch: patches[k],
-        })
-    }
 }
 
 /// The surfaces of one triple and what the kernel needs of them.
@@ -116,15 +108,9 @@ impl<'a> TripleRefiner<'a> {
     fn incident<'s>(&'s self, c: &'s Part, a: &'s Part) -> IncidentLight<'s> {
         IncidentLight::new(
             &self.ctx,
-            KernelElement {
-                patch: &c.patch,
-                surface: self.r,
-            },
+            c.kernel(),
             GlossyElement {
-                element: KernelElement {
-                    patch: &a.patch,
-                    surface: self.p,
-                },
+                element: a.kernel(),
                 brdf: &self.brdf,
                 frame: self.frame,
             },
@@ -139,11 +125,11 @@ impl<'a> TripleRefiner<'a> {
         if coefficient.iter().any(|&x| x > 0.0) {
             self.links.push(ThreePointLink {
                 r: self.r,
-                c: c.id,
+                c: c.element.id,
                 p: self.p,
-                a: a.id,
+                a: a.element.id,
                 q: self.q,
-                b: b.id,
+                b: b.element.id,
                 coefficient,
                 detail: detail as f32,
             });
@@ -172,7 +158,9 @@ impl<'a> TripleRefiner<'a> {
             },
         ];
         let parts = [c, a, b];
-        let mut order: Vec<usize> = (0..3).filter(|&i| parts[i].id.level < max[i]).collect();
+        let mut order: Vec<usize> = (0..3)
+            .filter(|&i| parts[i].element.id.level < max[i])
+            .collect();
         order.sort_by(|&i, &j| parts[j].patch.area().total_cmp(&parts[i].patch.area()));
         let mut kept = None;
         let mut detail = 0.0f64;
@@ -234,7 +222,7 @@ impl<'a> TripleRefiner<'a> {
     /// The light a triple carries, for the weighted oracles: L_{c→a}
     /// relative to the brightest emission, times the importance of b.
     fn weight(&self, e: &LightEstimate, [c, a, b]: &[Part; 3]) -> f64 {
-        e.radiance(self.r, c.id, self.p, a.id) * e.importance(self.q, b.id)
+        e.radiance(c.element, a.element) * e.importance(b.element)
     }
 
     /// The paper's oracle on the children of `parts[split]`: the kernel in
@@ -249,13 +237,15 @@ impl<'a> TripleRefiner<'a> {
         let means = k.map(|k| k.iter().fold(0.0f64, |m, &x| m.max(x)) / area_c);
         let other_levels: u32 = (0..3)
             .filter(|&i| i != split)
-            .map(|i| parts[i].id.level)
+            .map(|i| parts[i].element.id.level)
             .sum();
         let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
-        self.settings
-            .refine
-            .oracle
-            .accepts(means, parts[split].id.level, other_levels, r_area)
+        self.settings.refine.oracle.accepts(
+            means,
+            parts[split].element.id.level,
+            other_levels,
+            r_area,
+        )
     }
 }
 
@@ -297,15 +287,14 @@ pub fn refine_three_point_links(
     let per_triple: Vec<Vec<ThreePointLink>> = triples
         .par_iter()
         .map(|&(r, p, q)| {
-            let root = |patch: Patch| Part {
-                id: ElementId::ROOT,
-                patch,
-            };
             let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
             let (c, a, b) = (
-                root(ctx.scene.surfaces[r as usize].patch),
-                root(ctx.scene.surfaces[p as usize].patch),
-                root(receiver(q)),
+                Part::of(ctx.scene, ElementRef::root(r)),
+                Part::of(ctx.scene, ElementRef::root(p)),
+                Part {
+                    element: ElementRef::root(q),
+                    patch: receiver(q),
+                },
             );
             let k = refiner.coefficient(&c, &a, &b);
             refiner.refine(c, a, b, k);
@@ -330,11 +319,7 @@ pub fn refine_three_point_links_further(
     progress.start("3-point kernels", links.len() as u64);
     let out = refine_each(&links, progress, |l| {
         let mut refiner = TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q));
-        let part = |s: u32, id: ElementId| Part {
-            id,
-            patch: id.patch(&ctx.scene.surfaces[s as usize].patch),
-        };
-        let [c, a, b] = [part(l.r, l.c), part(l.p, l.a), part(l.q, l.b)];
+        let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
         let weight = refiner.weight(estimate, &[c, a, b]);
         if f64::from(l.detail) * weight <= settings.refine.oracle.threshold {
             return vec![*l];

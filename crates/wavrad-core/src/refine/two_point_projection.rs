@@ -8,12 +8,12 @@
 //! coefficient assembled from the children (hierarchical decomposition), else
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
-use crate::geometry::hierarchy::ElementId;
-use crate::kernel::{self, KernelContext, KernelElement, OuterSamples};
+use crate::geometry::hierarchy::{ElementId, ElementRef};
+use crate::kernel::{self, KernelContext, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
-use crate::refine::refine_each;
+use crate::refine::{refine_each, Part};
 use crate::scene::{Patch, Scene, Surface};
 use rayon::prelude::*;
 
@@ -40,6 +40,16 @@ pub struct Link {
     /// elements, where refinement integrated them to decide to keep the
     /// link.
     pub children: Option<ChildShares>,
+}
+
+impl Link {
+    /// Its two elements: `a` on `p` and `c` on `r`.
+    pub fn elements(&self) -> [ElementRef; 2] {
+        [
+            ElementRef::new(self.p, self.a),
+            ElementRef::new(self.r, self.c),
+        ]
+    }
 }
 
 /// Each child's share of a link's throughput T(a,c), from its own
@@ -75,26 +85,10 @@ pub struct RefineSettings {
     pub max_level: u32,
 }
 
-#[derive(Clone, Copy)]
-struct Side {
-    surface: u32,
-    id: ElementId,
-    patch: Patch,
-}
-
-impl Side {
-    fn kernel(&self) -> KernelElement<'_> {
-        KernelElement {
-            patch: &self.patch,
-            surface: self.surface,
-        }
-    }
-}
-
 struct PairRefiner<'a> {
     ctx: KernelContext<'a>,
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
-    straddling: std::collections::BTreeMap<(u32, ElementId), bool>,
+    straddling: std::collections::BTreeMap<ElementRef, bool>,
     settings: RefineSettings,
     /// Light carried, for the weighted oracles; `None`: the paper's oracle.
     estimate: Option<&'a LightEstimate>,
@@ -142,14 +136,14 @@ impl<'a> PairRefiner<'a> {
     /// True for an element above the maximum level that straddles a
     /// contact line with its Gauss points all buried
     /// ([`crate::kernel::exposure::straddles`]): no link may keep it whole.
-    fn straddles(&mut self, side: &Side) -> bool {
-        if side.id.level >= self.settings.max_level {
+    fn straddles(&mut self, side: &Part) -> bool {
+        if side.element.id.level >= self.settings.max_level {
             return false;
         }
         let ctx = self.ctx;
         *self
             .straddling
-            .entry((side.surface, side.id))
+            .entry(side.element)
             .or_insert_with(|| crate::kernel::exposure::straddles(&ctx, side.kernel()))
     }
 
@@ -162,21 +156,13 @@ impl<'a> PairRefiner<'a> {
     /// larger of ρ_x·|y|·L_{y→x}·I_x and the same the other way, so that
     /// `detail × weight` estimates the error of the receiver's radiance
     /// (relative to the brightest emission, and weighted by importance).
-    fn weight(
-        &self,
-        e: &LightEstimate,
-        (xs, x): (u32, ElementId),
-        (ys, y): (u32, ElementId),
-    ) -> f64 {
-        let one_way = |(rs, r): (u32, ElementId), (ss, s): (u32, ElementId)| {
-            let (rho, _) = self.surface(rs);
-            let (_, area) = self.surface(ss);
-            rho * area
-                * 0.25f64.powi(s.level as i32)
-                * e.radiance(ss, s, rs, r)
-                * e.importance(rs, r)
+    fn weight(&self, e: &LightEstimate, x: ElementRef, y: ElementRef) -> f64 {
+        let one_way = |r: ElementRef, s: ElementRef| {
+            let (rho, _) = self.surface(r.surface);
+            let (_, area) = self.surface(s.surface);
+            rho * area * 0.25f64.powi(s.id.level as i32) * e.radiance(s, r) * e.importance(r)
         };
-        one_way((xs, x), (ys, y)).max(one_way((ys, y), (xs, x)))
+        one_way(x, y).max(one_way(y, x))
     }
 
     /// The error a link from a glossy surface makes in its diffuse
@@ -189,49 +175,49 @@ impl<'a> PairRefiner<'a> {
         &self,
         e: &LightEstimate,
         means: [f64; 4],
-        split: &Side,
-        other: &Side,
+        split: &Part,
+        other: &Part,
     ) -> f64 {
-        let one_way = |receiver: &Side, source: &Side, split_receiver: bool| {
-            let (rho, _) = self.surface(receiver.surface);
-            if rho == 0.0 || self.ctx.scene.surfaces[source.surface as usize].is_diffuse() {
+        let one_way = |receiver: &Part, source: &Part, split_receiver: bool| {
+            let (rho, _) = self.surface(receiver.element.surface);
+            if rho == 0.0 || self.ctx.scene.surfaces[source.element.surface as usize].is_diffuse() {
                 return 0.0;
             }
-            let (_, area) = self.surface(source.surface);
+            let (_, area) = self.surface(source.element.surface);
             let products: [f64; 4] = std::array::from_fn(|k| {
-                let child = split.id.child(k);
+                let child = split.element.child(k);
                 let l = if split_receiver {
-                    e.radiance(source.surface, source.id, receiver.surface, child)
+                    e.radiance(source.element, child)
                 } else {
-                    e.radiance(source.surface, child, receiver.surface, receiver.id)
+                    e.radiance(child, receiver.element)
                 };
                 means[k] * l
             });
             rho * area
-                * 0.25f64.powi(source.id.level as i32)
+                * 0.25f64.powi(source.element.id.level as i32)
                 * average_detail(products)
-                * e.importance(receiver.surface, receiver.id)
+                * e.importance(receiver.element)
         };
         one_way(split, other, true).max(one_way(other, split, false))
     }
 
     /// The oracle on the mean kernel over the four children of `split`
     /// against `other`.
-    fn test(&self, means: [f64; 4], split: &Side, other: &Side) -> Verdict {
+    fn test(&self, means: [f64; 4], split: &Part, other: &Part) -> Verdict {
         let threshold = self.settings.oracle.threshold;
         match self.estimate {
             None => Verdict {
                 smooth: self.settings.oracle.accepts(
                     means,
-                    split.id.level,
-                    other.id.level,
+                    split.element.id.level,
+                    other.element.id.level,
                     self.scale,
                 ),
                 detail: 0.0,
             },
             Some(e) => {
                 let detail = average_detail(means);
-                let w = self.weight(e, (split.surface, split.id), (other.surface, other.id));
+                let w = self.weight(e, split.element, other.element);
                 Verdict {
                     smooth: detail * w <= threshold
                         && self.directional_error(e, means, split, other) <= threshold,
@@ -250,13 +236,14 @@ impl<'a> PairRefiner<'a> {
         self.estimate.is_none_or(|e| {
             !glossy(l.p)
                 && !glossy(l.r)
-                && f64::from(l.detail) * self.weight(e, (l.p, l.a), (l.r, l.c)) <= threshold
+                && f64::from(l.detail) * self.weight(e, l.elements()[0], l.elements()[1])
+                    <= threshold
         })
     }
 
     /// Quadrature of the pair; `clear` when it is part of a pair whose
     /// shaft nothing blocks.
-    fn samples(&self, a: &Side, c: &Side, clear: bool) -> OuterSamples {
+    fn samples(&self, a: &Part, c: &Part, clear: bool) -> OuterSamples {
         self.ctx.throughput_samples(a.kernel(), c.kernel(), clear)
     }
 
@@ -268,8 +255,8 @@ impl<'a> PairRefiner<'a> {
     fn quadrant_means(
         &self,
         contributions: [f64; 4],
-        outer: &Side,
-        inner: &Side,
+        outer: &Part,
+        inner: &Part,
     ) -> Option<[f64; 4]> {
         let two_by_two = self.ctx.quadrature.points == 2;
         if !two_by_two || !matches!(outer.patch, Patch::Parallelogram { .. }) {
@@ -294,9 +281,9 @@ impl<'a> PairRefiner<'a> {
     fn look_ahead(
         &self,
         samples: &[OuterSamples],
-        children: &[Side],
-        split: &Side,
-        other: &Side,
+        children: &[Part],
+        split: &Part,
+        other: &Part,
     ) -> (Verdict, Verdict) {
         let max = self.settings.max_level;
         let pass = Verdict {
@@ -309,14 +296,14 @@ impl<'a> PairRefiner<'a> {
         };
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
-            if !s.outer_is_a || child.id.level >= max {
+            if !s.outer_is_a || child.element.id.level >= max {
                 return v;
             }
             four(s)
                 .and_then(|c| self.quadrant_means(c, child, other))
                 .map_or(v, |m| both(v, self.test(m, child, other)))
         });
-        if other.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
+        if other.element.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
             return (children_verdict, pass);
         }
         let mut sum = [0.0; 4];
@@ -334,17 +321,18 @@ impl<'a> PairRefiner<'a> {
 
     fn push(
         &mut self,
-        (a, c): (&Side, &Side),
+        a: &Part,
+        c: &Part,
         throughput: f64,
         detail: f64,
         children: Option<ChildShares>,
     ) {
         if throughput > 0.0 {
             self.links.push(Link {
-                p: a.surface,
-                a: a.id,
-                r: c.surface,
-                c: c.id,
+                p: a.element.surface,
+                a: a.element.id,
+                r: c.element.surface,
+                c: c.element.id,
                 throughput,
                 detail: detail as f32,
                 children,
@@ -354,27 +342,17 @@ impl<'a> PairRefiner<'a> {
 
     /// Compute_2point_Kernel for the pair (a, c) whose throughput is known
     /// (and whose shaft is `clear`, when known: so are its parts').
-    fn refine(&mut self, a: Side, c: Side, throughput: f64, clear: bool) {
+    fn refine(&mut self, a: Part, c: Part, throughput: f64, clear: bool) {
         let max = self.settings.max_level;
-        let split_a = match (a.id.level < max, c.id.level < max) {
-            (false, false) => return self.push((&a, &c), throughput, 0.0, None),
+        let split_a = match (a.element.id.level < max, c.element.id.level < max) {
+            (false, false) => return self.push(&a, &c, throughput, 0.0, None),
             (true, false) => true,
             (false, true) => false,
             (true, true) => a.patch.area() >= c.patch.area(),
         };
         let (split, other) = if split_a { (&a, &c) } else { (&c, &a) };
         // Children coefficients by quadrature.
-        let children: Vec<Side> = split
-            .patch
-            .subdivide()
-            .into_iter()
-            .enumerate()
-            .map(|(k, patch)| Side {
-                surface: split.surface,
-                id: split.id.child(k),
-                patch,
-            })
-            .collect();
+        let children = split.children();
         let samples: Vec<OuterSamples> = children
             .iter()
             .map(|child| self.samples(child, other, clear))
@@ -408,16 +386,11 @@ impl<'a> PairRefiner<'a> {
                 .max(children_verdict.detail)
                 .max(other_verdict.detail);
             let children = ChildShares::new(split_a, &t);
-            return self.push((&a, &c), t.iter().sum(), detail, children);
+            return self.push(&a, &c, t.iter().sum(), detail, children);
         }
         if split_smooth {
             let (split, other) = (*other, *split);
-            for (k, patch) in split.patch.subdivide().into_iter().enumerate() {
-                let child = Side {
-                    surface: split.surface,
-                    id: split.id.child(k),
-                    patch,
-                };
+            for child in split.children() {
                 let sk = self.samples(&child, &other, clear);
                 if split_a {
                     self.refine(other, child, sk.total(), sk.clear);
@@ -487,12 +460,10 @@ pub fn refine_pair(
     (p, r): (u32, u32),
 ) -> Vec<Link> {
     let mut refiner = PairRefiner::new(ctx, settings, estimate, (p, r));
-    let side = |s: u32| Side {
-        surface: s,
-        id: ElementId::ROOT,
-        patch: ctx.scene.surfaces[s as usize].patch,
-    };
-    let (a, c) = (side(p), side(r));
+    let (a, c) = (
+        Part::of(ctx.scene, ElementRef::root(p)),
+        Part::of(ctx.scene, ElementRef::root(r)),
+    );
     let s = refiner.samples(&a, &c, false);
     refiner.refine(a, c, s.total(), s.clear);
     refiner.links
@@ -515,12 +486,8 @@ pub fn refine_links_further(
         if refiner.still_smooth(l) {
             return vec![*l];
         }
-        let side = |surface: u32, id: ElementId| Side {
-            surface,
-            id,
-            patch: id.patch(&ctx.scene.surfaces[surface as usize].patch),
-        };
-        refiner.refine(side(l.p, l.a), side(l.r, l.c), l.throughput, false);
+        let [a, c] = l.elements().map(|e| Part::of(ctx.scene, e));
+        refiner.refine(a, c, l.throughput, false);
         match refiner.links[..] {
             // Tested again and kept: unchanged.
             [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],
@@ -535,7 +502,7 @@ pub fn refine_links_further(
 mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
-    use crate::kernel::default_context as context;
+    use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
     use crate::refine::oracle::KernelSmoothness;
     use crate::scene::Surface;

@@ -11,7 +11,7 @@
 //! softer: on the glossy Cornell box `direct` mode gives 6.2 % instead of
 //! the eye's 4.5 %.
 
-use crate::geometry::hierarchy::ElementId;
+use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::geometry::pair_tree::PairTree;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::faces_away;
@@ -118,7 +118,7 @@ impl Solution {
             trees.iter().flat_map(|(&(p, k), tree)| {
                 tree.nodes
                     .iter()
-                    .map(move |node| [(p, node.a), (n + k, node.b)])
+                    .map(move |node| [ElementRef::new(p, node.a), ElementRef::new(n + k, node.b)])
             }),
         );
         let mut gathered: BTreeMap<(u32, u32), Vec<Rgb>> = trees
@@ -128,7 +128,7 @@ impl Solution {
         for l in &links {
             let key = (l.p, l.q - n);
             let source = self.radiance_from(l.r, l.c, l.p, l.a);
-            let e = exposure.of((l.p, l.a), (l.q, l.b));
+            let e = exposure.of(ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b));
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
             let add = [0, 1, 2].map(|ch| scale * l.coefficient[ch] * source[ch]);
             let g = gathered.get_mut(&key).expect("a tree per linked pair");
@@ -142,7 +142,9 @@ impl Solution {
                 let weights: Vec<f64> = tree
                     .nodes
                     .iter()
-                    .map(|node| exposure.of((p, node.a), (n + k, node.b)))
+                    .map(|node| {
+                        exposure.of(ElementRef::new(p, node.a), ElementRef::new(n + k, node.b))
+                    })
                     .collect();
                 let values = push_pull(&tree, &gathered[&(p, k)], [0.0; 3], Some(&weights));
                 ((p, k), (tree, values))

@@ -8,7 +8,7 @@
 //! behind it along the view axis, so that every point sees it along the view
 //! direction) and is never subdivided.
 
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::kernel::exposure::PairExposure;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
@@ -100,10 +100,11 @@ impl Solution {
                 let nodes = entry.as_ref().map_or(&[][..], |(tree, _)| &tree.nodes[..]);
                 nodes
                     .iter()
-                    .map(move |n| [(p as u32, n.id), (eye_index, ElementId::ROOT)])
+                    .map(move |n| [ElementRef::new(p as u32, n.id), ElementRef::root(eye_index)])
             }),
         );
-        let exposed = |p: u32, a: ElementId| exposure.of((p, a), (eye_index, ElementId::ROOT));
+        let exposed =
+            |p: u32, a: ElementId| exposure.of(ElementRef::new(p, a), ElementRef::root(eye_index));
         for l in &links {
             let Some((tree, _)) = &surfaces[l.p as usize] else {
                 continue;

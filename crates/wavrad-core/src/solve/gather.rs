@@ -21,7 +21,7 @@
 //! its specular lobe off, the same surface as a diffuse one) left the small
 //! box's sides next to it 11–45 % off their diffuse-floor values.
 
-use crate::geometry::hierarchy::{ElementTree, Hierarchy};
+use crate::geometry::hierarchy::{ElementRef, ElementTree, Hierarchy};
 use crate::geometry::pair_tree::PairTree;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
@@ -153,7 +153,8 @@ impl Source {
 /// ancestors' average form factors to the far walls, too large there, and
 /// the leaves a few elements in too little.
 pub fn receiver_gradient(
-    (tree, exposure): (&ElementTree, &[f64]),
+    tree: &ElementTree,
+    exposure: &[f64],
     node: usize,
     source: &Patch,
     shares: Option<[f32; 4]>,
@@ -197,9 +198,11 @@ impl Interactions {
     /// `pairs` the exposed fractions of the elements of their pairs.
     pub fn new(
         scene: &Scene,
-        (trees, exposure): (&[ElementTree], Vec<Vec<f64>>),
+        trees: &[ElementTree],
+        exposure: Vec<Vec<f64>>,
         links: &[Link],
-        (three_point, pairs): (&[ThreePointLink], &PairExposure),
+        three_point: &[ThreePointLink],
+        pairs: &PairExposure,
         directional: Vec<Directional>,
     ) -> Interactions {
         let structure_of = directional
@@ -223,7 +226,7 @@ impl Interactions {
                 d.tree
                     .nodes
                     .iter()
-                    .map(|n| pairs.of((d.p, n.a), (d.q, n.b)))
+                    .map(|n| pairs.of(ElementRef::new(d.p, n.a), ElementRef::new(d.q, n.b)))
                     .collect()
             })
             .collect();
@@ -244,7 +247,7 @@ impl Interactions {
                 let receiver = node(p, a);
                 let area = trees[p as usize].nodes[receiver as usize].patch.area();
                 let exposed = out.exposure[p as usize][receiver as usize];
-                let source = out.source(scene, trees, r, c, p, a);
+                let source = out.source(scene, trees, ElementRef::new(r, c), ElementRef::new(p, a));
                 out.incoming[p as usize].push(Transfer {
                     receiver,
                     source,
@@ -255,14 +258,14 @@ impl Interactions {
             }
         }
         for (p, shares) in shares_of.into_iter().enumerate() {
-            let receiver = (&trees[p], &out.exposure[p][..]);
+            let (tree, exposure) = (&trees[p], &out.exposure[p][..]);
             out.incoming[p]
                 .par_iter_mut()
                 .zip(shares)
                 .for_each(|(t, shares)| {
                     let (r, c) = t.source.element();
                     let source = &trees[r as usize].nodes[c as usize].patch;
-                    let g = receiver_gradient(receiver, t.receiver as usize, source, shares);
+                    let g = receiver_gradient(tree, exposure, t.receiver as usize, source, shares);
                     t.gradient = g.as_vec3();
                 });
         }
@@ -270,10 +273,11 @@ impl Interactions {
             let s = out.structure_of[&(l.p, l.q)];
             let cover = out.directional[s as usize].tree.overlaps(l.a, l.b);
             let receivers = out.push_cover(cover);
-            let source = out.source(scene, trees, l.r, l.c, l.p, l.a);
+            let [from, to, _] = l.elements();
+            let source = out.source(scene, trees, from, to);
             // R averages over the whole pair; radiance is the average over
             // its exposed part.
-            let exposed = pairs.of((l.p, l.a), (l.q, l.b));
+            let exposed = pairs.of(ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b));
             let scale = if exposed > 0.0 { 1.0 / exposed } else { 1.0 };
             out.incoming_three_point[s as usize].push(ThreePointTransfer {
                 receivers,
@@ -298,11 +302,11 @@ impl Interactions {
         &mut self,
         scene: &Scene,
         trees: &[ElementTree],
-        r: u32,
-        c: crate::geometry::hierarchy::ElementId,
-        p: u32,
-        a: crate::geometry::hierarchy::ElementId,
+        source: ElementRef,
+        receiver: ElementRef,
     ) -> Source {
+        let (ElementRef { surface: r, id: c }, ElementRef { surface: p, id: a }) =
+            (source, receiver);
         let node = trees[r as usize]
             .index_of(c)
             .expect("source element is in its tree");
@@ -407,22 +411,22 @@ mod tests {
         // form factor rises along x, g·(x − x̄) = ±1/3 at their centroids.
         let exposed = vec![1.0; tree.nodes.len()];
         let shares = Some([1.0 / 6.0, 2.0 / 6.0, 1.0 / 6.0, 2.0 / 6.0]);
-        let g = receiver_gradient((&tree, &exposed), 0, &source, shares);
+        let g = receiver_gradient(&tree, &exposed, 0, &source, shares);
         assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
         // Child 1 half buried: per exposed area it gets as much as 3.
         let mut half = exposed.clone();
         half[2] = 0.5; // node 2 is child 1
         let shares = Some([1.0 / 5.0, 1.0 / 5.0, 1.0 / 5.0, 2.0 / 5.0]);
-        let g = receiver_gradient((&tree, &half), 0, &source, shares);
+        let g = receiver_gradient(&tree, &half, 0, &source, shares);
         assert!((g - DVec3::new(4.0 / 3.0, 0.0, 0.0)).length() < 1e-6, "{g}");
         // Without shares, Lambert's formula: the square straight above is
         // symmetric about the receiver's centre.
-        let g = receiver_gradient((&tree, &exposed), 0, &source, None);
+        let g = receiver_gradient(&tree, &exposed, 0, &source, None);
         assert!(g.length() < 1e-9, "{g}");
         // A leaf has none.
         let leaf = tree.index_of(ElementId::ROOT.child(1)).unwrap() as usize;
         assert_eq!(
-            receiver_gradient((&tree, &exposed), leaf, &source, shares),
+            receiver_gradient(&tree, &exposed, leaf, &source, shares),
             DVec3::ZERO
         );
     }

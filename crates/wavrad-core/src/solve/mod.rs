@@ -10,7 +10,7 @@ pub mod settings;
 pub mod shoot;
 pub mod stats;
 
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::pair_tree::PairTree;
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
@@ -28,7 +28,7 @@ use crate::refine::two_point_projection::{
     refine_links, refine_links_further, Link, RefineSettings,
 };
 use crate::scene::{Rgb, Scene};
-use crate::solve::stats::{PhaseTimes, Stats};
+use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
@@ -198,8 +198,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             };
             let trees = element_trees(scene, &resolved, three_point);
             times.kernels_s += clock.elapsed().as_secs_f64();
-            let mut system =
-                System::assemble(&ctx, &triples, (trees, &resolved), three_point, times);
+            let mut system = System::assemble(&ctx, &triples, trees, &resolved, three_point, times);
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
@@ -243,17 +242,22 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
-    let mut stats = Stats::new(
-        scene,
-        settings,
-        &system.trees,
-        &resolved,
-        (&system.interactions.directional, three_point.len()),
-        (sweeps.0, sweeps.1, passes),
+    let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
+    let stats = Stats {
+        refine_passes: passes,
+        exchanging_pairs,
+        kernel_pairs: exchanging_pairs,
         times,
-    );
-    stats.exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
-    stats.kernel_pairs = stats.exchanging_pairs;
+        ..Stats::new(
+            scene,
+            settings,
+            &system.trees,
+            &resolved,
+            &system.interactions.directional,
+            three_point.len(),
+            sweeps,
+        )
+    };
     Ok(Solution {
         scene: scene.clone(),
         tracer,
@@ -375,7 +379,8 @@ impl System {
     fn assemble(
         ctx: &KernelContext,
         triples: &[(u32, u32, u32)],
-        (trees, links): (Vec<ElementTree>, &[Link]),
+        trees: Vec<ElementTree>,
+        links: &[Link],
         three_point: &[ThreePointLink],
         times: &mut PhaseTimes,
     ) -> System {
@@ -408,14 +413,25 @@ impl System {
             ctx,
             directional
                 .iter()
-                .flat_map(|d| d.tree.nodes.iter().map(move |n| [(d.p, n.a), (d.q, n.b)]))
-                .chain(three_point.iter().map(|l| [(l.p, l.a), (l.q, l.b)])),
+                .flat_map(|d| {
+                    d.tree
+                        .nodes
+                        .iter()
+                        .map(move |n| [ElementRef::new(d.p, n.a), ElementRef::new(d.q, n.b)])
+                })
+                .chain(
+                    three_point
+                        .iter()
+                        .map(|l| [ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b)]),
+                ),
         );
         let interactions = Interactions::new(
             ctx.scene,
-            (&trees, exposure),
+            &trees,
+            exposure,
             links,
-            (three_point, &pairs),
+            three_point,
+            &pairs,
             directional,
         );
         let radiance = ctx
@@ -443,14 +459,13 @@ impl System {
 
     /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
     /// until no coarsest coefficient changes by more than the tolerance.
-    /// Returns the sweeps done and the last residual.
     fn solve(
         &mut self,
         scene: &Scene,
         settings: &SolveSettings,
         progress: &dyn Progress,
         times: &mut PhaseTimes,
-    ) -> (u32, f64) {
+    ) -> Sweeps {
         let clock = Instant::now();
         let System {
             trees,
@@ -500,7 +515,10 @@ impl System {
         }
         progress.finish();
         times.solve_s += clock.elapsed().as_secs_f64();
-        (iterations, residual)
+        Sweeps {
+            iterations,
+            residual,
+        }
     }
 }
 

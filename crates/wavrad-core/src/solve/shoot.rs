@@ -67,7 +67,7 @@ use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
 use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
 use crate::scene::{Rgb, Scene};
-use crate::solve::stats::{PhaseTimes, Stats};
+use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
@@ -171,7 +171,7 @@ pub fn solve_shooting(
         };
         solution.trees = shooting.states.iter().map(|s| s.tree.clone()).collect();
         solution.radiance = shooting.states.iter().map(|s| s.radiance.clone()).collect();
-        solution.stats = shooting.stats(&solution.trees, (0, f64::INFINITY));
+        solution.stats = shooting.stats(&solution.trees, Sweeps::NONE);
         let step = Step {
             index: shooting.steps,
             shooter: shooter as u32,
@@ -195,7 +195,7 @@ pub fn solve_shooting(
     let (links, _) = resolve_emitter_links(&ctx, max_level, &links, progress);
     let trees = super::element_trees(scene, &links, &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
-    let mut system = System::assemble(&ctx, &[], (trees, &links), &[], &mut shooting.times);
+    let mut system = System::assemble(&ctx, &[], trees, &links, &[], &mut shooting.times);
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
     solution.stats = shooting.stats(&system.trees, sweeps);
     solution.trees = system.trees;
@@ -263,7 +263,8 @@ impl SurfaceState {
         ctx: &KernelContext,
         r: u32,
         links: &[Link],
-        (tree, unshot): (&ElementTree, &[Rgb]),
+        tree: &ElementTree,
+        unshot: &[Rgb],
     ) {
         let rho = ctx.scene.surfaces[r as usize]
             .brdf
@@ -284,8 +285,7 @@ impl SurfaceState {
                 .filter(|s| s.of_a == (l.p == r))
                 .map(|s| s.shares);
             let source = c.patch(&tree.nodes[0].patch);
-            let receiver = (&self.tree, &self.exposure[..]);
-            let gradient = receiver_gradient(receiver, node, &source, shares);
+            let gradient = receiver_gradient(&self.tree, &self.exposure, node, &source, shares);
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
@@ -427,7 +427,7 @@ impl<'a> Shooting<'a> {
             .for_each(|(r, (state, pair))| {
                 if let Some(i) = *pair {
                     let links = links[i].as_deref().unwrap_or_default();
-                    state.receive(ctx, r as u32, links, (&tree, &unshot));
+                    state.receive(ctx, r as u32, links, &tree, &unshot);
                 }
             });
         let own_ends = self.targets[s]
@@ -446,24 +446,19 @@ impl<'a> Shooting<'a> {
         self.links.iter().flatten().flatten()
     }
 
-    /// Statistics over `trees` and the links so far, after `sweeps`
-    /// finishing Gauss–Seidel sweeps (and their last residual).
-    fn stats(&self, trees: &[ElementTree], sweeps: (u32, f64)) -> Stats {
-        let mut stats = Stats::new(
-            self.ctx.scene,
-            self.settings,
-            trees,
-            self.links(),
-            (&[], 0),
-            (sweeps.0, sweeps.1, 1),
-            self.times,
-        );
-        stats.solver = super::Solver::Shoot.to_string();
-        stats.shooting_steps = self.steps;
-        stats.unshot_fraction = self.largest_unshot().1;
-        stats.exchanging_pairs = self.pairs.len();
-        stats.kernel_pairs = self.links.iter().filter(|l| l.is_some()).count();
-        stats
+    /// Statistics over `trees` and the links so far, after the finishing
+    /// Gauss–Seidel `sweeps`.
+    fn stats(&self, trees: &[ElementTree], sweeps: Sweeps) -> Stats {
+        let scene = self.ctx.scene;
+        Stats {
+            solver: super::Solver::Shoot.to_string(),
+            shooting_steps: self.steps,
+            unshot_fraction: self.largest_unshot().1,
+            exchanging_pairs: self.pairs.len(),
+            kernel_pairs: self.links.iter().filter(|l| l.is_some()).count(),
+            times: self.times,
+            ..Stats::new(scene, self.settings, trees, self.links(), &[], 0, sweeps)
+        }
     }
 }
 

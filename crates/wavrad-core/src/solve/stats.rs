@@ -24,6 +24,24 @@ pub struct PhaseTimes {
     pub render_s: f64,
 }
 
+/// How the Gauss–Seidel sweeps of a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sweeps {
+    /// Sweeps done.
+    pub iterations: u32,
+    /// Largest change of a coarsest coefficient in the last sweep, relative
+    /// to the brightest emitted radiance (infinite before any sweep).
+    pub residual: f64,
+}
+
+impl Sweeps {
+    /// No sweep done yet.
+    pub const NONE: Sweeps = Sweeps {
+        iterations: 0,
+        residual: f64::INFINITY,
+    };
+}
+
 /// Statistics of one solve.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Stats {
@@ -91,16 +109,18 @@ pub struct Stats {
 }
 
 impl Stats {
-    /// The counts of a gathering solve (the shooting solver fills in its
-    /// own fields afterwards).
+    /// The counts of a gathering solve over `trees` and the two-point
+    /// `links`, `three_point_interactions` three-point links into the
+    /// `directional` structures, after `sweeps`; one refine pass, no times
+    /// (the solvers fill in those and their own fields).
     pub(crate) fn new<'l>(
         scene: &Scene,
         settings: &SolveSettings,
         trees: &[ElementTree],
         links: impl IntoIterator<Item = &'l Link>,
-        (directional, three_point_interactions): (&[Directional], usize),
-        (iterations, residual, refine_passes): (u32, f64, u32),
-        times: PhaseTimes,
+        directional: &[Directional],
+        three_point_interactions: usize,
+        sweeps: Sweeps,
     ) -> Stats {
         let nodes_per_level = add_counts(trees.iter().map(ElementTree::count_per_level));
         let mut interactions_per_level = vec![0; nodes_per_level.len().max(1)];
@@ -125,7 +145,7 @@ impl Stats {
             nodes_per_level,
             interactions_per_level,
             oracle: settings.oracle.to_string(),
-            refine_passes,
+            refine_passes: 1,
             threshold: settings.refine.oracle.threshold,
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,
@@ -136,10 +156,10 @@ impl Stats {
             unshot_fraction: 0.0,
             exchanging_pairs: 0,
             kernel_pairs: 0,
-            iterations,
-            residual,
-            converged: residual <= settings.tolerance,
-            times,
+            iterations: sweeps.iterations,
+            residual: sweeps.residual,
+            converged: sweeps.residual <= settings.tolerance,
+            times: PhaseTimes::default(),
             peak_memory_bytes: peak_memory_bytes(),
         }
     }
