@@ -62,7 +62,7 @@ def main() -> None:
             "kernels_s": times["kernels_s"],
             "solve_s": sum(times.values()),
             "memory_mb": s["peak_memory_bytes"] / 1e6,
-            "passes": s["refine_passes"],
+            "passes": s["projections"],
         })
         print(rows[-1], flush=True)
     elements = [r["elements"] for r in rows]

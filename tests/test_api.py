@@ -102,7 +102,7 @@ def test_stats_report_the_solve(solution: wavrad.Solution) -> None:
     assert stats["iterations"] > 0
     assert sum(stats["nodes_per_level"]) == stats["two_point_nodes"]
     assert len(stats["nodes_per_level"]) <= MAX_LEVEL + 1
-    assert stats["threshold"] == THRESHOLD
+    assert stats["settings"]["threshold"] == THRESHOLD
     assert stats["times"]["kernels_s"] >= 0.0
 
 

@@ -33,8 +33,8 @@ def test_glossy_stats_count_three_point_nodes_and_interactions(glossy: wavrad.So
     assert sum(stats["three_point_nodes_per_level"]) == stats["three_point_nodes"]
     # A pair's two levels are each at most the three-point maximum level.
     assert len(stats["three_point_nodes_per_level"]) <= 2 * 2 + 1
-    assert stats["three_point_max_level"] == 2
-    assert stats["three_point_threshold"] == 1e-3
+    assert stats["settings"]["three_point_max_level"] == 2
+    assert stats["settings"]["three_point_threshold"] == 1e-3
     assert stats["converged"]
 
 
@@ -48,7 +48,7 @@ def test_three_point_receivers_refine_below_the_three_point_level(glossy: wavrad
         three_point_max_level=2,
         three_point_receiver_levels=2,
     ).stats
-    assert deeper["three_point_receiver_levels"] == 2
+    assert deeper["settings"]["three_point_receiver_levels"] == 2
     # Pairs whose receiver lies below level 2, and none below level 4.
     per_level = deeper["three_point_nodes_per_level"]
     assert len(per_level) > len(glossy.stats["three_point_nodes_per_level"])

@@ -40,8 +40,8 @@ def power(scene: wavrad.Scene) -> wavrad.Solution:
 def test_power_oracle_converges_with_fewer_links_than_the_kernel_oracle(
     kernel: wavrad.Solution, power: wavrad.Solution
 ) -> None:
-    assert kernel.stats["oracle"] == "kernel"
-    assert power.stats["oracle"] == "power"
+    assert kernel.stats["settings"]["oracle"] == "kernel"
+    assert power.stats["settings"]["oracle"] == "power"
     assert power.stats["converged"]
     assert 0 < power.stats["two_point_interactions"] < kernel.stats["two_point_interactions"]
 
@@ -56,9 +56,9 @@ def test_power_oracle_gives_the_kernel_oracles_image(
 def test_weighted_oracles_have_their_own_default_threshold(
     kernel: wavrad.Solution, power: wavrad.Solution
 ) -> None:
-    assert kernel.stats["threshold"] == 1e-3
-    assert power.stats["threshold"] == WEIGHTED_THRESHOLD
-    assert power.stats["three_point_threshold"] == WEIGHTED_THRESHOLD
+    assert kernel.stats["settings"]["threshold"] == 1e-3
+    assert power.stats["settings"]["threshold"] == WEIGHTED_THRESHOLD
+    assert power.stats["settings"]["three_point_threshold"] == WEIGHTED_THRESHOLD
 
 
 def test_threshold_and_refine_passes_override_the_oracles_defaults(
@@ -67,8 +67,8 @@ def test_threshold_and_refine_passes_override_the_oracles_defaults(
     solution = wavrad.solve(
         scene, max_level=MAX_LEVEL, oracle="power", threshold=1e-3, refine_passes=1
     )
-    assert solution.stats["threshold"] == 1e-3
-    assert solution.stats["refine_passes"] == 1
+    assert solution.stats["settings"]["threshold"] == 1e-3
+    assert solution.stats["projections"] == 1
 
 
 def test_zero_refine_passes_is_a_solve_error(scene: wavrad.Scene) -> None:
@@ -108,7 +108,7 @@ def test_shooting_matches_gathering_on_a_diffuse_scene(
 
 def test_shooting_with_the_power_oracle(scene: wavrad.Scene, power: wavrad.Solution) -> None:
     shot = wavrad.solve(scene, max_level=MAX_LEVEL, oracle="power", solver="shoot")
-    assert (shot.stats["solver"], shot.stats["oracle"]) == ("shoot", "power")
+    assert (shot.stats["solver"], shot.stats["settings"]["oracle"]) == ("shoot", "power")
     assert shot.stats["kernel_pairs"] <= shot.stats["exchanging_pairs"]
     a, b = power.render("gather", spp=4), shot.render("gather", spp=4)
     assert abs(b.mean() / a.mean() - 1.0) < 0.02

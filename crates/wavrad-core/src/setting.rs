@@ -58,8 +58,9 @@ pub enum Domain {
     Choice(&'static [&'static str]),
 }
 
-/// A setting's value.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// A setting's value (in JSON: a number, a boolean or a name).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(untagged)]
 pub enum Value {
     /// Of a [`Domain::Real`] setting.
     Real(f64),

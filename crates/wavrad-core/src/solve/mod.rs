@@ -244,7 +244,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 
     let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
     let stats = Stats {
-        refine_passes: passes,
+        projections: passes,
         exchanging_pairs,
         kernel_pairs: exchanging_pairs,
         times,

@@ -5,9 +5,11 @@
 use crate::geometry::hierarchy::ElementTree;
 use crate::refine::two_point_projection::Link;
 use crate::scene::Scene;
+use crate::setting::{Described, Value};
 use crate::solve::gather::Directional;
 use crate::solve::SolveSettings;
 use serde::Serialize;
+use std::collections::BTreeMap;
 
 /// Wall-clock seconds spent in each phase.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -63,21 +65,12 @@ pub struct Stats {
     pub nodes_per_level: Vec<usize>,
     /// Links per level of their finer element (index = level).
     pub interactions_per_level: Vec<usize>,
-    /// The refinement oracle (`kernel`, `power` or `importance`).
-    pub oracle: String,
-    /// Projections done by the refine–solve loop (1 for the kernel oracle).
-    pub refine_passes: u32,
-    /// Oracle threshold (the paper's orthonormal normalisation for the
-    /// kernel oracle; relative radiance error for the weighted ones).
-    pub threshold: f64,
-    /// Maximum element level.
-    pub max_level: u32,
-    /// Maximum element level of three-point links.
-    pub three_point_max_level: u32,
-    /// Levels the receiving element of a three-point link may go further.
-    pub three_point_receiver_levels: u32,
-    /// Oracle threshold of three-point links.
-    pub three_point_threshold: f64,
+    /// Every setting of the solve by its described name
+    /// ([`SolveSettings::SETTINGS`](crate::setting::Described::SETTINGS)).
+    pub settings: BTreeMap<&'static str, Value>,
+    /// Projections the refine–solve loop made (1 for the kernel oracle; at
+    /// most the `refine_passes` setting).
+    pub projections: u32,
     /// How the system was solved: `gather` (Gauss–Seidel, every kernel
     /// projected up front) or `shoot` (progressive shooting, kernels
     /// projected lazily where light flows).
@@ -144,13 +137,8 @@ impl Stats {
             three_point_interactions,
             nodes_per_level,
             interactions_per_level,
-            oracle: settings.oracle.to_string(),
-            refine_passes: 1,
-            threshold: settings.refine.oracle.threshold,
-            max_level: settings.refine.max_level,
-            three_point_max_level: settings.three_point_max_level,
-            three_point_receiver_levels: settings.three_point_receiver_levels,
-            three_point_threshold: settings.three_point_threshold,
+            settings: settings.values().into_iter().collect(),
+            projections: 1,
             solver: "gather".into(),
             shooting_steps: 0,
             unshot_fraction: 0.0,
