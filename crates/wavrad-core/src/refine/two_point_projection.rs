@@ -14,6 +14,7 @@ use crate::kernel::{self, KernelElement, OuterSamples, Quadrature};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
 use rayon::prelude::*;
 
@@ -196,7 +197,12 @@ impl<'a> PairRefiner<'a> {
     ) -> f64 {
         let one_way = |receiver: &Side, source: &Side, split_receiver: bool| {
             let (rho, _) = self.surface(receiver.surface);
-            if rho == 0.0 || self.scene.surfaces[source.surface as usize].is_diffuse() {
+            if rho == 0.0
+                || !self.scene.surfaces[source.surface as usize]
+                    .brdf
+                    .flags()
+                    .contains(BrdfFlags::GLOSSY_REFLECTION)
+            {
                 return 0.0;
             }
             let (_, area) = self.surface(source.surface);
@@ -248,7 +254,12 @@ impl<'a> PairRefiner<'a> {
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
         let threshold = self.settings.oracle.threshold;
-        let glossy = |s: u32| !self.scene.surfaces[s as usize].is_diffuse();
+        let glossy = |s: u32| {
+            self.scene.surfaces[s as usize]
+                .brdf
+                .flags()
+                .contains(BrdfFlags::GLOSSY_REFLECTION)
+        };
         self.estimate.is_none_or(|e| {
             !glossy(l.p)
                 && !glossy(l.r)
