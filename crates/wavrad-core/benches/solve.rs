@@ -14,7 +14,7 @@ use wavrad_core::solve::{push_pull::push_pull, solve, Solution, SolveSettings};
 /// no glossy one), updating `radiance` in place.
 fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
     for (p, surface) in s.scene.surfaces.iter().enumerate() {
-        let rho = surface.brdf.diffuse_reflectance().expect("diffuse scene");
+        let rho = surface.brdf.lambertian().expect("diffuse scene");
         let gathered = s
             .interactions
             .gather(p, rho, &s.trees[p], radiance, &s.directional);
@@ -45,10 +45,7 @@ fn gauss_seidel(c: &mut Criterion) {
         let mut radiance = s.radiance.clone();
         b.iter(|| sweep(&s, black_box(&mut radiance)))
     });
-    let rho = scene.surfaces[busiest]
-        .brdf
-        .diffuse_reflectance()
-        .expect("diffuse");
+    let rho = scene.surfaces[busiest].brdf.lambertian().expect("diffuse");
     let tree = &s.trees[busiest];
     group.throughput(Throughput::Elements(
         s.interactions.incoming[busiest].len() as u64

@@ -214,7 +214,7 @@ fn brdf_sample_weight_is_f_cos_over_pdf() {
                 "{name}: {} vs {pdf}",
                 s.pdf
             );
-            let f = model.eval(s.direction, wo);
+            let f = model.eval(wo, s.direction);
             for (w, f) in s.weight.iter().zip(f) {
                 let expect = f * s.direction.z / s.pdf;
                 assert!(

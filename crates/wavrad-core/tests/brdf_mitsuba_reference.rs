@@ -128,7 +128,7 @@ fn brdf_eval_matches_mitsuba() {
         let mut worst = 0.0f64;
         for r in &rows {
             let (wi, wo) = (DVec3::new(r[0], r[1], r[2]), DVec3::new(r[3], r[4], r[5]));
-            let ours = model.eval(wi, wo);
+            let ours = model.eval(wo, wi);
             for c in 0..3 {
                 let (a, b) = (ours[c], r[6 + c]);
                 let diff = (a - b).abs();

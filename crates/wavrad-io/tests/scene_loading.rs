@@ -43,7 +43,7 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
     assert!(lights[0].patch.normal().y < -0.999, "light faces down");
     let floor = s.surfaces.iter().find(|x| x.name == "floor").unwrap();
     assert!(floor.patch.normal().y > 0.999);
-    assert!((floor.brdf.diffuse_reflectance().unwrap()[0] - 0.885809).abs() < 1e-12);
+    assert!((floor.brdf.lambertian().unwrap()[0] - 0.885809).abs() < 1e-12);
     let green = s.surfaces.iter().find(|x| x.name == "green-wall").unwrap();
     assert!(
         green.patch.normal().x < -0.999,
@@ -111,7 +111,7 @@ fn rectangle_area_normal_and_parametrisation() {
     assert!(close(origin, DVec3::new(-2.0, -1.0, 3.0)));
     assert!(close(edge_s, DVec3::new(4.0, 0.0, 0.0)));
     assert_eq!(
-        s.surfaces[0].brdf.diffuse_reflectance(),
+        s.surfaces[0].brdf.lambertian(),
         Some([0.5; 3]),
         "Mitsuba's default BSDF"
     );
@@ -164,8 +164,8 @@ fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
     let (front, back) = (&s.surfaces[0], &s.surfaces[1]);
     assert!(close(front.patch.normal(), DVec3::Z));
     assert!(close(back.patch.normal(), -DVec3::Z));
-    assert_eq!(front.brdf.diffuse_reflectance(), Some([0.2, 0.4, 0.6]));
-    assert_eq!(back.brdf.diffuse_reflectance(), Some([0.2, 0.4, 0.6]));
+    assert_eq!(front.brdf.lambertian(), Some([0.2, 0.4, 0.6]));
+    assert_eq!(back.brdf.lambertian(), Some([0.2, 0.4, 0.6]));
     assert_eq!(front.emission, [5.0; 3]);
     assert_eq!(back.emission, [0.0; 3]);
     assert_eq!(front.name, "lamp");
@@ -177,8 +177,8 @@ fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
             <bsdf type="diffuse"><rgb name="reflectance" value="0.9"/></bsdf>
         </bsdf></shape>"#,
     );
-    assert_eq!(s.surfaces[0].brdf.diffuse_reflectance(), Some([0.1; 3]));
-    assert_eq!(s.surfaces[1].brdf.diffuse_reflectance(), Some([0.9; 3]));
+    assert_eq!(s.surfaces[0].brdf.lambertian(), Some([0.1; 3]));
+    assert_eq!(s.surfaces[1].brdf.lambertian(), Some([0.9; 3]));
 }
 
 #[test]
@@ -208,10 +208,10 @@ fn references_and_substitution() {
     assert!(s
         .surfaces
         .iter()
-        .all(|x| x.brdf.diffuse_reflectance() == Some([0.25; 3])));
+        .all(|x| x.brdf.lambertian() == Some([0.25; 3])));
     let o = vec![("refl".to_string(), "0.75".to_string())];
     let s = load_scene_str(xml, Path::new("."), "t.xml", &o).unwrap();
-    assert_eq!(s.surfaces[0].brdf.diffuse_reflectance(), Some([0.75; 3]));
+    assert_eq!(s.surfaces[0].brdf.lambertian(), Some([0.75; 3]));
 }
 
 #[test]
@@ -240,10 +240,7 @@ fn includes_resolve_beside_the_including_file() {
     .unwrap();
     let s = load_scene(&dir.path().join("main.xml")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.surfaces.len(), 7);
-    assert_eq!(
-        s.surfaces[6].brdf.diffuse_reflectance(),
-        Some([0.5, 0.0, 0.0])
-    );
+    assert_eq!(s.surfaces[6].brdf.lambertian(), Some([0.5, 0.0, 0.0]));
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) {
@@ -386,8 +383,8 @@ fn bsdf_of(bsdf: &str) -> wavrad_core::scene::brdf::Brdf {
 fn glossy_bsdfs_and_their_defaults() {
     use wavrad_core::scene::brdf::fresnel::conductor_ior;
     use wavrad_core::scene::brdf::{
-        Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
-        WardVariant,
+        Brdf, BrdfFlags, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic,
+        RoughPlasticParams, Ward, WardVariant,
     };
     // Mitsuba's defaults.
     assert_eq!(
@@ -404,8 +401,8 @@ fn glossy_bsdfs_and_their_defaults() {
     assert_eq!(*p.params(), RoughPlasticParams::default());
     // Glossy models are not diffuse.
     assert!(bsdf_of("<bsdf type=\"ward\"/>")
-        .diffuse_reflectance()
-        .is_none());
+        .flags()
+        .contains(BrdfFlags::GLOSSY_REFLECTION));
 
     // Ward with Mitsuba 0.6 camelCase names.
     let w = bsdf_of(

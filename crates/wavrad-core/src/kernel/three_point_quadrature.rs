@@ -127,7 +127,7 @@ impl<'a> IncidentLight<'a> {
                 }
                 let mut f = [0.0; 3];
                 for (wi, g) in &xp.incident {
-                    let fi = a.brdf.eval(*wi, wo);
+                    let fi = a.brdf.eval(wo, *wi);
                     (0..3).for_each(|ch| f[ch] += g * fi[ch]);
                 }
                 (0..3).for_each(|ch| sum[ch] += xp.scale * xpp.weight * f[ch]);

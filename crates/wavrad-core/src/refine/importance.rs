@@ -19,7 +19,7 @@ use crate::geometry::hierarchy::ElementId;
 use crate::kernel::KernelContext;
 use crate::refine::two_point_projection::Link;
 use crate::sampling::hash2;
-use crate::scene::brdf::BrdfModel;
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Film, Surface};
 use glam::{DVec2, DVec3};
 
@@ -102,7 +102,8 @@ impl Importance {
 /// Normal-incidence albedo (largest channel) of a surface's BRDF, by
 /// stratified importance sampling.
 fn albedo(surface: &Surface) -> f64 {
-    if let Some(rho) = surface.brdf.diffuse_reflectance() {
+    let glossy = surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION);
+    if let Some(rho) = surface.brdf.lambertian().filter(|_| !glossy) {
         return rho.iter().fold(0.0f64, |m, &x| m.max(x));
     }
     let n = 32u32;

@@ -18,7 +18,7 @@ use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::average_detail;
 use crate::refine::two_point_projection::RefineSettings;
 use crate::refine::{refine_each, Part};
-use crate::scene::brdf::{Brdf, Frame};
+use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 use rayon::prelude::*;
 
@@ -261,7 +261,12 @@ pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
             )
     };
     (0..n)
-        .filter(|&p| !scene.surfaces[p as usize].is_diffuse())
+        .filter(|&p| {
+            scene.surfaces[p as usize]
+                .brdf
+                .flags()
+                .contains(BrdfFlags::GLOSSY_REFLECTION)
+        })
         .flat_map(|p| {
             (0..n)
                 .filter(move |&r| sees(r, p))

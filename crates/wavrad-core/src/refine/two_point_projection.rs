@@ -14,6 +14,7 @@ use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
 use crate::refine::{refine_each, Part};
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
 use rayon::prelude::*;
 
@@ -180,7 +181,12 @@ impl<'a> PairRefiner<'a> {
     ) -> f64 {
         let one_way = |receiver: &Part, source: &Part, split_receiver: bool| {
             let (rho, _) = self.surface(receiver.element.surface);
-            if rho == 0.0 || self.ctx.scene.surfaces[source.element.surface as usize].is_diffuse() {
+            if rho == 0.0
+                || !self.ctx.scene.surfaces[source.element.surface as usize]
+                    .brdf
+                    .flags()
+                    .contains(BrdfFlags::GLOSSY_REFLECTION)
+            {
                 return 0.0;
             }
             let (_, area) = self.surface(source.element.surface);
@@ -232,7 +238,12 @@ impl<'a> PairRefiner<'a> {
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
         let threshold = self.settings.oracle.threshold;
-        let glossy = |s: u32| !self.ctx.scene.surfaces[s as usize].is_diffuse();
+        let glossy = |s: u32| {
+            self.ctx.scene.surfaces[s as usize]
+                .brdf
+                .flags()
+                .contains(BrdfFlags::GLOSSY_REFLECTION)
+        };
         self.estimate.is_none_or(|e| {
             !glossy(l.p)
                 && !glossy(l.r)

@@ -13,6 +13,7 @@ use crate::kernel::exposure::PairExposure;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::three_point_projection::{refine_three_point_links, ThreePointLink};
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
 use crate::solve::{push_pull::push_pull, Solution};
 use glam::DVec3;
@@ -161,7 +162,11 @@ impl Solution {
     pub fn radiance_from(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> Rgb {
         let (r, p) = (r as usize, p as usize);
         let mut l = self.radiance[r][self.trees[r].node_containing(c) as usize];
-        if self.scene.surfaces[r].is_diffuse() {
+        if !self.scene.surfaces[r]
+            .brdf
+            .flags()
+            .contains(BrdfFlags::GLOSSY_REFLECTION)
+        {
             return l;
         }
         let Some(&s) = self.interactions.structure_of.get(&(r as u32, p as u32)) else {

@@ -296,7 +296,7 @@ pub fn glossy_radiance(
         let light = &scene.surfaces[e as usize];
         for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, 0x2545_f491) {
             let wi_local = frame.to_local(wi);
-            let f = brdf.eval(wi_local, wo_local);
+            let f = brdf.eval(wo_local, wi_local);
             let p_brdf = brdf.pdf(wo_local, wi_local);
             let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
             (0..3).for_each(|ch| out[ch] += w * f[ch] * light.emission[ch]);
@@ -500,7 +500,7 @@ mod tests {
         let floor = &scene.surfaces[0];
         let wo = DVec3::new(0.5, 0.2, 0.8).normalize();
         let x = DVec3::new(0.1, -0.2, 0.0);
-        // ∫ f(wi, wo) cos θ dω over the directions reaching the ceiling
+        // ∫ f(wo, wi) cos θ dω over the directions reaching the ceiling
         // (z = 2, |x|, |y| ≤ 1), by the midpoint rule in (θ, φ).
         let frame = floor.frame();
         let wo_local = frame.to_local(wo);
@@ -521,7 +521,7 @@ mod tests {
                 if at.x.abs() > 1.0 || at.y.abs() > 1.0 {
                     continue;
                 }
-                let f = floor.brdf.eval(wi, wo_local)[0];
+                let f = floor.brdf.eval(wo_local, wi)[0];
                 reflected += f * theta.cos() * theta.sin() * dt * dp;
             }
         }

@@ -15,7 +15,7 @@
 //! patches.
 
 use crate::kernel::faces_away;
-use crate::scene::brdf::BrdfModel;
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
 use glam::{DMat3, DMat4, DVec2, DVec3};
 
@@ -66,7 +66,7 @@ impl MirrorImage {
         let plane = &scene.surfaces[self.surface as usize].patch;
         s != self.surface
             && s != self.emitter
-            && receiver.is_diffuse()
+            && !receiver.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
             && !faces_away(&receiver.patch, plane)
     }
 

@@ -13,7 +13,7 @@ pub mod reconstruct;
 
 use crate::geometry::hierarchy::ElementId;
 use crate::sampling::Samples;
-use crate::scene::brdf::Brdf;
+use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Film, Rgb, Scene};
 use crate::solve::Solution;
 use crate::{Error, Result};
@@ -353,7 +353,11 @@ impl Solution {
         let reader = self.reader();
         // Glossy surfaces outside the gather mode show their radiance towards
         // this view, gathered once into the eye.
-        let any_glossy = self.scene.surfaces.iter().any(|s| !s.is_diffuse());
+        let any_glossy = self
+            .scene
+            .surfaces
+            .iter()
+            .any(|s| s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION));
         let eye = (settings.eye && any_glossy && settings.mode != Reconstruction::Gather)
             .then(|| self.eye_radiance(camera, &crate::progress::Silent));
         let cache = (settings.mode == Reconstruction::Gather && settings.gather_cache)
@@ -403,7 +407,8 @@ impl Solution {
             let seen = |q: u32, z: DVec3| {
                 let source = &self.scene.surfaces[q as usize];
                 let at = || source.patch.clamp_param(source.patch.param_of(z));
-                let cached = cache.filter(|_| source.is_diffuse());
+                let cached =
+                    cache.filter(|_| !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION));
                 if let Some(l) = cached.and_then(|c| c.radiance(q, at())) {
                     return l;
                 }
@@ -447,7 +452,7 @@ impl Solution {
                 let weight = gathering.weight();
                 [0, 1, 2].map(|ch| reconstructed[ch] + weight * (gathered[ch] - reconstructed[ch]))
             };
-            if !surface.is_diffuse() {
+            if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
                 if !settings.eye && settings.mode != Reconstruction::Gather {
                     return self.glossy_radiance_towards(hit.surface, hit.position, -ray.direction);
                 }
@@ -498,7 +503,12 @@ impl Solution {
             .filter(|&s| surfaces[s as usize].is_emitter())
             .collect();
         let glossy: Vec<u32> = (0..surfaces.len() as u32)
-            .filter(|&s| !surfaces[s as usize].is_diffuse())
+            .filter(|&s| {
+                surfaces[s as usize]
+                    .brdf
+                    .flags()
+                    .contains(BrdfFlags::GLOSSY_REFLECTION)
+            })
             .collect();
         let bright = self.secondary_sources(&glossy);
         let mirrors = MirrorImage::of_scene(&self.scene, &glossy, &emitters);
@@ -521,9 +531,14 @@ impl Solution {
         }
         let non_lambertian = surfaces
             .iter()
-            .map(|s| match (s.is_diffuse(), s.brdf.lambertian()) {
-                (false, Some(_)) => Some(s.brdf.without_lambertian()),
-                _ => None,
+            .map(|s| {
+                match (
+                    s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION),
+                    s.brdf.lambertian(),
+                ) {
+                    (true, Some(_)) => Some(s.brdf.without_lambertian()),
+                    _ => None,
+                }
             })
             .collect();
         SolutionReader {
@@ -614,7 +629,9 @@ impl Solution {
     fn probe(&self, camera: &Camera, film: &Film, bright: &[u32]) -> Vec<PixelProbe> {
         let glaring: Vec<bool> = (self.scene.surfaces.iter().enumerate())
             .map(|(s, surface)| {
-                surface.is_emitter() || (surface.is_diffuse() && bright.contains(&(s as u32)))
+                surface.is_emitter()
+                    || (!surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+                        && bright.contains(&(s as u32)))
             })
             .collect();
         let (w, h) = (film.width as usize, film.height as usize);
@@ -649,12 +666,14 @@ impl Solution {
     fn reflected_power(&self) -> Vec<f64> {
         let lum = |l: Rgb| (l[0] + l[1] + l[2]) / 3.0;
         (self.scene.surfaces.iter().enumerate())
-            .map(
-                |(s, surface)| match surface.is_diffuse() && !surface.is_emitter() {
+            .map(|(s, surface)| {
+                match !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+                    && !surface.is_emitter()
+                {
                     true => lum(self.radiance[s][0]) * surface.patch.area(),
                     false => 0.0,
-                },
-            )
+                }
+            })
             .collect()
     }
 
@@ -668,7 +687,7 @@ impl Solution {
         let power = self.reflected_power();
         let lit = |s: usize| {
             let surface = &self.scene.surfaces[s];
-            surface.is_diffuse() && !surface.is_emitter()
+            !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) && !surface.is_emitter()
         };
         let area = |s: usize| self.scene.surfaces[s].patch.area();
         let n = self.scene.surfaces.len();
@@ -701,7 +720,7 @@ impl Solution {
         // Decorrelated per point y: every ray of one gather has its own.
         let bits = y.x.to_bits() ^ y.y.to_bits().rotate_left(21) ^ y.z.to_bits().rotate_left(42);
         let seed = seed.rotate_left(17) ^ u64::from(q) ^ bits;
-        if source.is_diffuse() {
+        if !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             return self.outgoing_radiance(reader, (q, y, seed), s, x);
         }
         let at = GatherPoint {
@@ -738,7 +757,7 @@ impl Solution {
         let i = q as usize;
         let element =
             |radiance: &[Rgb]| radiance_at(&self.trees[i], radiance, uv_y, Reconstruction::Haar);
-        if !surface.is_diffuse() {
+        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&self.radiance[i]);
             let glossy = self.directional_radiance(q, y, s, x);
             return [0, 1, 2].map(|ch| own[ch] + glossy[ch]);

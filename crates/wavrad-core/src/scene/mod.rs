@@ -301,11 +301,6 @@ impl Surface {
         self.emission.iter().any(|&e| e > 0.0)
     }
 
-    /// True when the surface reflects the same radiance in every direction.
-    pub fn is_diffuse(&self) -> bool {
-        self.brdf.diffuse_reflectance().is_some()
-    }
-
     /// The shading frame of the BRDF: the front normal and, as tangent, the
     /// first parameter direction (Mitsuba's dp/du).
     pub fn frame(&self) -> Frame {

@@ -27,6 +27,7 @@ use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::push_pull::Gathered;
 use glam::{DVec3, Vec3};
@@ -312,7 +313,12 @@ impl Interactions {
             .expect("source element is in its tree");
         let structure = self.structure_of.get(&(r, p)).copied();
         match structure {
-            Some(structure) if !scene.surfaces[r as usize].is_diffuse() => {
+            Some(structure)
+                if scene.surfaces[r as usize]
+                    .brdf
+                    .flags()
+                    .contains(BrdfFlags::GLOSSY_REFLECTION) =>
+            {
                 let cover = self.directional[structure as usize].tree.overlaps(c, a);
                 Source::Glossy {
                     surface: r,

@@ -66,6 +66,7 @@ use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
 use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
@@ -121,7 +122,11 @@ pub fn solve_shooting(
 ) -> Result<Solution> {
     settings.validate()?;
     super::check_size(scene)?;
-    if let Some(s) = scene.surfaces.iter().find(|s| !s.is_diffuse()) {
+    if let Some(s) = scene
+        .surfaces
+        .iter()
+        .find(|s| s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION))
+    {
         return Err(Error::InvalidSetting(format!(
             "the shooting solver supports diffuse scenes for now, but surface '{}' is glossy \
              (use the gather solver)",
@@ -268,7 +273,7 @@ impl SurfaceState {
     ) {
         let rho = ctx.scene.surfaces[r as usize]
             .brdf
-            .diffuse_reflectance()
+            .lambertian()
             .unwrap_or([0.0; 3]);
         let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
         self.grow(ctx, r, links.iter().map(|l| ends(l).0));
@@ -329,7 +334,7 @@ impl<'a> Shooting<'a> {
             let surface = &scene.surfaces[s as usize];
             surface
                 .brdf
-                .diffuse_reflectance()
+                .lambertian()
                 .is_some_and(|rho| largest(&rho) > 0.0)
         };
         let mut targets = vec![Vec::new(); scene.surfaces.len()];

@@ -10,7 +10,7 @@
 //! | `eta`, `k`             | complex index η + ik per channel (instead of `material`)   | 0, 1       |
 //! | `specular_reflectance` | factor on the reflection (physically 1)                    | 1          |
 //!
-//! f(wi, wo) = ρ_s F(wi·h) D(h) G(wi, wo, h) / (4 cos θ_i cos θ_o) with h the
+//! f(wo, wi) = ρ_s F(wo·h) D(h) G(wo, wi, h) / (4 cos θ_o cos θ_i) with h the
 //! normalised half vector (Torrance & Sparrow 1967; Walter et al. 2007,
 //! eq. 20), F the conductor Fresnel term ([`super::fresnel::fresnel_conductor`]).
 //! It is reciprocal: wi·h = wo·h and G is symmetric. The default `none`
@@ -21,7 +21,7 @@
 
 use super::fresnel::fresnel_conductor_rgb;
 use super::microfacet::{reflect, Microfacet};
-use super::{BrdfModel, BrdfSample};
+use super::{BrdfFlags, BrdfModel, BrdfSample};
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 
@@ -58,7 +58,7 @@ impl RoughConductor {
 }
 
 impl BrdfModel for RoughConductor {
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return [0.0; 3];
         }
@@ -100,6 +100,18 @@ impl BrdfModel for RoughConductor {
             weight: self.fresnel(wo.dot(m)).map(|f| f * g1),
         })
     }
+
+    /// Anisotropic when α_u ≠ α_v (Mitsuba 3 compares the two textures, so
+    /// it also calls equal `alpha_u` and `alpha_v` given apart anisotropic).
+    fn flags(&self) -> BrdfFlags {
+        let d = &self.distribution;
+        let anisotropic = if d.alpha_u == d.alpha_v {
+            BrdfFlags::empty()
+        } else {
+            BrdfFlags::ANISOTROPIC
+        };
+        BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::FRONT_SIDE | anisotropic
+    }
 }
 
 #[cfg(test)]
@@ -117,8 +129,8 @@ mod tests {
         );
         let h = (wi + wo).normalize();
         let d = &c.distribution;
-        let expect = d.eval(h) * d.g(wi, wo, h) / (4.0 * wi.z * wo.z);
-        let f = c.eval(wi, wo);
+        let expect = d.eval(h) * d.g(wo, wi, h) / (4.0 * wi.z * wo.z);
+        let f = c.eval(wo, wi);
         assert!(f.iter().all(|v| (v - expect).abs() < 1e-12 * expect));
     }
 
@@ -132,7 +144,7 @@ mod tests {
         };
         let wo = DVec3::new(0.5, 0.2, 0.7).normalize();
         let s = c.sample(wo, DVec2::new(0.3, 0.8), 0.0).unwrap();
-        let f = c.eval(s.direction, wo);
+        let f = c.eval(wo, s.direction);
         assert!((s.pdf - c.pdf(wo, s.direction)).abs() < 1e-12 * s.pdf);
         for (w, f) in s.weight.iter().zip(f) {
             let expect = f * s.direction.z / s.pdf;

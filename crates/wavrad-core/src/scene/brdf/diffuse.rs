@@ -4,7 +4,7 @@
 //! |---------------|-------------------------------|---------|
 //! | `reflectance` | albedo ρ per channel, in \[0,1\] | 0.5     |
 
-use super::{cosine_hemisphere, BrdfModel, BrdfSample};
+use super::{cosine_hemisphere, BrdfFlags, BrdfModel, BrdfSample};
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
@@ -17,7 +17,7 @@ pub struct Diffuse {
 }
 
 impl BrdfModel for Diffuse {
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return [0.0; 3];
         }
@@ -41,5 +41,9 @@ impl BrdfModel for Diffuse {
             pdf: wi.z * FRAC_1_PI,
             weight: self.reflectance,
         })
+    }
+
+    fn flags(&self) -> BrdfFlags {
+        BrdfFlags::DIFFUSE_REFLECTION | BrdfFlags::FRONT_SIDE
     }
 }

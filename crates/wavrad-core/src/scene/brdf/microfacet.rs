@@ -129,9 +129,9 @@ impl Microfacet {
         }
     }
 
-    /// Separable shadowing–masking G(wi, wo, m) = G1(wi, m) G1(wo, m).
-    pub fn g(&self, wi: DVec3, wo: DVec3, m: DVec3) -> f64 {
-        self.smith_g1(wi, m) * self.smith_g1(wo, m)
+    /// Separable shadowing–masking G(wo, wi, m) = G1(wo, m) G1(wi, m).
+    pub fn g(&self, wo: DVec3, wi: DVec3, m: DVec3) -> f64 {
+        self.smith_g1(wo, m) * self.smith_g1(wi, m)
     }
 
     /// Density per unit solid angle of m with which [`Microfacet::sample`]

@@ -4,15 +4,20 @@
 //! z is the surface normal, x the tangent along the surface's first parameter
 //! direction, Mitsuba's dp/du). Directions point *away* from the surface and
 //! are unit vectors; every model is one-sided: zero when either direction is
-//! below the surface. [`Brdf`] is the closed set of models wavrad knows, with
+//! below the surface. Every method takes the direction towards the viewer,
+//! `wo`, first and the direction towards the light, `wi`, second, as pbrt-v4's
+//! `BxDF::f(wo, wi)` and Mitsuba 3's `BSDF::eval(si.wi, wo)` (whose `si.wi`
+//! is wavrad's `wo`): the order in which [`BrdfModel::sample`] conditions on
+//! `wo` and draws `wi`. [`BrdfModel::flags`] says which lobes a model has
+//! ([`BrdfFlags`]). [`Brdf`] is the closed set of models wavrad knows, with
 //! the dispatch written once.
 //!
-//! | model (file)       | Mitsuba plugin                  | lobes                          |
-//! |--------------------|---------------------------------|--------------------------------|
-//! | [`Diffuse`]        | `diffuse`                       | Lambertian                     |
-//! | [`Ward`]           | `ward` (Mitsuba 0.6)            | anisotropic Ward + Lambertian  |
-//! | [`RoughConductor`] | `roughconductor` (Mitsuba 3)    | microfacet, conductor Fresnel  |
-//! | [`RoughPlastic`]   | `roughplastic` (Mitsuba 3)      | rough dielectric coating over Lambertian |
+//! | model (file)       | Mitsuba plugin               | lobes ([`BrdfModel::flags`])                            |
+//! |--------------------|------------------------------|---------------------------------------------------------|
+//! | [`Diffuse`]        | `diffuse`                    | diffuse: Lambertian                                     |
+//! | [`Ward`]           | `ward` (Mitsuba 0.6)         | glossy: anisotropic Ward; diffuse: Lambertian           |
+//! | [`RoughConductor`] | `roughconductor` (Mitsuba 3) | glossy: microfacet, conductor Fresnel                   |
+//! | [`RoughPlastic`]   | `roughplastic` (Mitsuba 3)   | glossy: rough dielectric coating; diffuse: base below it |
 //!
 //! [`microfacet`] holds the Beckmann/GGX distributions and [`fresnel`] the
 //! Fresnel terms and named indices of refraction they share.
@@ -32,6 +37,25 @@ pub use ward::{Ward, WardVariant};
 
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
+
+bitflags::bitflags! {
+    /// The lobes of a BRDF and their attributes: the subset of Mitsuba 3's
+    /// `BSDFFlags` (`include/mitsuba/render/bsdf.h`, same bit values) that
+    /// one-sided reflection models report. Callers ask what they need, e.g.
+    /// `flags().contains(BrdfFlags::GLOSSY_REFLECTION)`: whether the
+    /// reflected radiance depends on the direction.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+    pub struct BrdfFlags: u32 {
+        /// A diffuse lobe: light reflected into the whole hemisphere, smoothly.
+        const DIFFUSE_REFLECTION = 0x0_0002;
+        /// A glossy lobe: reflection concentrated about some directions.
+        const GLOSSY_REFLECTION = 0x0_0008;
+        /// A lobe that changes when the surface turns about its normal.
+        const ANISOTROPIC = 0x0_1000;
+        /// Reflects on the front side (the side the normal points to).
+        const FRONT_SIDE = 0x0_8000;
+    }
+}
 
 /// An orthonormal shading frame: tangent `s`, bitangent `t`, normal `n`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,7 +121,7 @@ impl BrdfSample {
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let f = model.eval(wi, wo);
+        let f = model.eval(wo, wi);
         Some(BrdfSample {
             direction: wi,
             pdf,
@@ -106,17 +130,20 @@ impl BrdfSample {
     }
 }
 
-/// What every reflection model provides (directions in the local frame).
+/// What every reflection model provides (directions in the local frame,
+/// `wo` towards the viewer first, `wi` towards the light second).
 pub trait BrdfModel {
-    /// f(wi → wo) per unit solid angle, without the cosine: light arriving
-    /// from `wi` and leaving towards `wo`.
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb;
+    /// f(wo, wi) per unit solid angle, without the cosine: light arriving
+    /// from `wi` and leaving towards `wo` (the f_p of the paper's eq. 1).
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb;
     /// Density per unit solid angle with which [`BrdfModel::sample`] given
     /// `wo` draws `wi`.
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64;
     /// Draw a direction `wi` given `wo` from two uniform numbers `u` and a
     /// third, `lobe`, that picks among lobes; `None` when none is drawn.
     fn sample(&self, wo: DVec3, u: DVec2, lobe: f64) -> Option<BrdfSample>;
+    /// The model's lobes, as the Mitsuba plugin it follows reports them.
+    fn flags(&self) -> BrdfFlags;
 }
 
 /// Every reflection model wavrad supports.
@@ -136,15 +163,6 @@ impl Brdf {
     /// A Lambertian BRDF of reflectance ρ.
     pub fn diffuse(reflectance: Rgb) -> Brdf {
         Brdf::Diffuse(Diffuse { reflectance })
-    }
-
-    /// The reflectance ρ of a Lambertian BRDF; `None` for any other (a
-    /// surface is diffuse exactly when its BRDF is).
-    pub fn diffuse_reflectance(&self) -> Option<Rgb> {
-        match self {
-            Brdf::Diffuse(d) => Some(d.reflectance),
-            _ => None,
-        }
     }
 
     /// The albedo of the BRDF's Lambertian lobe: ρ of a diffuse BRDF, ρ_d
@@ -186,14 +204,17 @@ impl Brdf {
 }
 
 impl BrdfModel for Brdf {
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
-        self.model().eval(wi, wo)
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
+        self.model().eval(wo, wi)
     }
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
         self.model().pdf(wo, wi)
     }
     fn sample(&self, wo: DVec3, u: DVec2, lobe: f64) -> Option<BrdfSample> {
         self.model().sample(wo, u, lobe)
+    }
+    fn flags(&self) -> BrdfFlags {
+        self.model().flags()
     }
 }
 
@@ -202,4 +223,60 @@ impl BrdfModel for Brdf {
 pub fn cosine_hemisphere(u: DVec2) -> DVec3 {
     let (r, phi) = (u.x.sqrt(), 2.0 * std::f64::consts::PI * u.y);
     DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_are_what_mitsuba_reports() {
+        // `bsdf.flags()` of the Mitsuba 3 plugin in its bits (DiffuseReflection
+        // 0x2, GlossyReflection 0x8, Anisotropic 0x1000, FrontSide 0x8000);
+        // for `ward` the components Mitsuba 0.6's `Ward::configure` lists,
+        // which keeps the diffuse lobe even when it is black.
+        let anisotropic = Microfacet::new(MicrofacetType::Ggx, 0.1, 0.3);
+        let cases = [
+            ("diffuse", Brdf::diffuse([0.5; 3]), 0x8002),
+            ("ward", Brdf::Ward(Ward::default()), 0x800a),
+            (
+                "ward, black diffuse lobe",
+                Brdf::Ward(Ward {
+                    diffuse_reflectance: [0.0; 3],
+                    ..Ward::default()
+                }),
+                0x800a,
+            ),
+            (
+                "ward, alpha_u != alpha_v",
+                Brdf::Ward(Ward {
+                    alpha_v: 0.3,
+                    ..Ward::default()
+                }),
+                0x900a,
+            ),
+            (
+                "roughconductor",
+                Brdf::RoughConductor(RoughConductor::default()),
+                0x8008,
+            ),
+            (
+                "roughconductor, alpha_u != alpha_v",
+                Brdf::RoughConductor(RoughConductor {
+                    distribution: anisotropic,
+                    ..RoughConductor::default()
+                }),
+                0x9008,
+            ),
+            (
+                "roughplastic",
+                Brdf::RoughPlastic(RoughPlastic::default()),
+                0x800a,
+            ),
+        ];
+        for (name, brdf, mitsuba) in cases {
+            let flags = brdf.flags();
+            assert_eq!(flags.bits(), mitsuba, "{name}: {flags:?}");
+        }
+    }
 }

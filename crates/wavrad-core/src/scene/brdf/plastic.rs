@@ -14,7 +14,7 @@
 //!
 //! With η = int_ior / ext_ior,
 //!
-//! f = ρ_s F(wi·h, η) D(h) G(wi, wo, h) / (4 cos θ_i cos θ_o)
+//! f = ρ_s F(wo·h, η) D(h) G(wo, wi, h) / (4 cos θ_o cos θ_i)
 //!   + ρ_d / (1 − F_dr) · T(cos θ_i) T(cos θ_o) / (π η²),
 //!
 //! where T(μ) is the rough coating's directional transmittance and F_dr its
@@ -35,7 +35,7 @@ use super::microfacet::{
     cosine_hemisphere_pdf, eval_reflectance, eval_transmittance, reflect, Microfacet,
     MicrofacetType,
 };
-use super::{cosine_hemisphere, BrdfModel, BrdfSample};
+use super::{cosine_hemisphere, BrdfFlags, BrdfModel, BrdfSample};
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -180,7 +180,7 @@ impl RoughPlastic {
 }
 
 impl BrdfModel for RoughPlastic {
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return [0.0; 3];
         }
@@ -225,6 +225,12 @@ impl BrdfModel for RoughPlastic {
             cosine_hemisphere(u)
         };
         BrdfSample::drawn(self, wo, wi)
+    }
+
+    /// The coating and the base, isotropic (as Mitsuba 3, which rejects
+    /// anisotropic roughness here).
+    fn flags(&self) -> BrdfFlags {
+        BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION | BrdfFlags::FRONT_SIDE
     }
 }
 

@@ -29,7 +29,7 @@
 //! wavrad's scene reader rejects such parameters instead.
 
 use super::microfacet::{cosine_hemisphere_pdf, reflect};
-use super::{cosine_hemisphere, BrdfModel, BrdfSample};
+use super::{cosine_hemisphere, BrdfFlags, BrdfModel, BrdfSample};
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 use std::f64::consts::{FRAC_1_PI, PI};
@@ -115,7 +115,7 @@ impl Ward {
     }
 
     /// The glossy lobe without ρ_s (zero below Mitsuba's 10⁻¹⁰ cut-off).
-    fn glossy(&self, wi: DVec3, wo: DVec3) -> f64 {
+    fn glossy(&self, wo: DVec3, wi: DVec3) -> f64 {
         let (au, av) = (self.alpha_u, self.alpha_v);
         let h = wi + wo;
         let factor1 = match self.variant {
@@ -144,11 +144,11 @@ impl Ward {
 }
 
 impl BrdfModel for Ward {
-    fn eval(&self, wi: DVec3, wo: DVec3) -> Rgb {
+    fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return [0.0; 3];
         }
-        let spec = self.glossy(wi, wo);
+        let spec = self.glossy(wo, wi);
         std::array::from_fn(|c| {
             self.specular_reflectance[c] * spec + self.diffuse_reflectance[c] * FRAC_1_PI
         })
@@ -188,6 +188,18 @@ impl BrdfModel for Ward {
         };
         BrdfSample::drawn(self, wo, wi)
     }
+
+    /// Both lobes whatever their weights, anisotropic when α_u ≠ α_v, as
+    /// Mitsuba 0.6's `Ward::configure`.
+    fn flags(&self) -> BrdfFlags {
+        let lobes = BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION;
+        let anisotropic = if self.alpha_u == self.alpha_v {
+            BrdfFlags::empty()
+        } else {
+            BrdfFlags::ANISOTROPIC
+        };
+        lobes | BrdfFlags::FRONT_SIDE | anisotropic
+    }
 }
 
 #[cfg(test)]
@@ -215,7 +227,7 @@ mod tests {
     #[test]
     fn one_sided_and_sampling_weight() {
         let w = Ward::default();
-        assert_eq!(w.eval(DVec3::new(0.0, 0.6, -0.8), DVec3::Z), [0.0; 3]);
+        assert_eq!(w.eval(DVec3::Z, DVec3::new(0.0, 0.6, -0.8)), [0.0; 3]);
         assert_eq!(w.pdf(DVec3::Z, DVec3::new(0.0, 0.6, -0.8)), 0.0);
         assert!((w.specular_sampling_weight() - 0.2 / 0.7).abs() < 1e-12);
         assert!(w
