@@ -148,8 +148,6 @@ pub fn solve_shooting(
         directional: Vec::new(),
         settings: *settings,
         stats: shooting.stats(&[], (0, f64::INFINITY)),
-        enclosure: Default::default(),
-        gather_cache: Default::default(),
     };
 
     // Shoot the surface with the most unshot power until little is left.
