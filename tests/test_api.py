@@ -153,6 +153,22 @@ def test_unknown_mode_is_a_value_error(solution: wavrad.Solution) -> None:
         solution.render("phong")  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize(
+    ("mode", "options", "unused"),
+    [
+        ("haar", {"gather_cache": True}, "the gather cache"),
+        ("direct", {"gather_cache": True}, "the gather cache"),
+        ("gather", {"eye": False}, "without the eye"),
+        (None, {"eye": False}, "without the eye"),
+    ],
+)
+def test_an_option_the_mode_has_no_use_for_is_a_value_error(
+    solution: wavrad.Solution, mode: str | None, options: dict[str, bool], unused: str
+) -> None:
+    with pytest.raises(ValueError, match=unused):
+        solution.render(mode, 1, **options)  # type: ignore[arg-type]
+
+
 def test_render_without_sensor_is_a_solve_error(tmp_path: Path) -> None:
     xml = '<scene version="3.0.0">\n  <shape type="cube"/>\n</scene>\n'
     scene = wavrad.load_scene(write_scene(tmp_path, xml))

@@ -79,26 +79,28 @@ class Solution:
         a point that is not three finite numbers, a ``fov`` outside (0, 180)
         or a ``fov`` for an orthographic sensor.
 
-        ``mode``: ``"gather"`` (final gather, the default and most accurate),
-        ``"direct"`` (the solution looked up along view rays: glossy surfaces
-        from their directional radiance towards the eye), ``"smooth"``
-        (bilinear reconstruction of the Haar solution) or ``"haar"`` (the
-        piecewise-constant projection). ``spp``: camera rays
-        per pixel where an edge shows (default 256, or the scene sampler's
-        sample_count if larger; pixels that show one surface get a quarter,
-        and an eighth of those final-gather). ``eye``:
-        outside ``"gather"``, glossy surfaces show their radiance gathered
-        once into the eye as a hypothetical receiver
-        (``True``), or read from the view-independent solution alone
-        (``False``: the directional radiance towards what the view ray meets
-        beyond the eye, or towards an enclosure receiver around the scene; no
-        per-view work, softer highlights). ``gather_cache``: in ``"gather"``
-        mode, diffuse surfaces show a view-independent final gather, one
-        gather per texel (half an element wide), made by the first render
-        that asks for it and read by every later one, instead of gathering
-        per camera ray: for many views of one solution. Raises
-        ``ValueError`` for an unknown mode and ``SolveError`` when the scene
-        has no sensor.
+        ``mode``: what camera rays show. ``"gather"`` (the default and most
+        accurate) is a final gather at each visible point; the others read
+        the solution along view rays, reconstructed ``"smooth"`` (bilinear
+        between elements), ``"haar"`` (the piecewise-constant projection)
+        or ``"direct"`` (smooth, glossy surfaces' radiance towards the eye
+        per element). ``spp``: camera rays per pixel where an edge shows
+        (default 256, or the scene sampler's sample_count if larger; pixels
+        that show one surface get a quarter, and an eighth of those
+        final-gather). ``eye``: for the modes that read the solution, glossy
+        surfaces show their radiance gathered once into the eye as a
+        hypothetical receiver (``True``), or read from the view-independent
+        solution alone (``False``: the directional radiance towards what the
+        view ray meets beyond the eye, or towards an enclosure receiver
+        around the scene; no per-view work, softer highlights).
+        ``gather_cache``: for ``"gather"``, diffuse surfaces show a
+        view-independent final gather, one gather per texel (half an element
+        wide), made by the first render that asks for it and read by every
+        later one, instead of gathering per camera ray: for many views of
+        one solution. Raises ``ValueError`` for an unknown mode or an option
+        the mode has no use for (``eye=False`` with ``"gather"``,
+        ``gather_cache=True`` with any other mode) and ``SolveError`` when
+        the scene has no sensor.
         """
     @property
     def stats(self) -> dict[str, Any]:

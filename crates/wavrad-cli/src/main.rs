@@ -12,8 +12,7 @@ use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
 use wavrad_core::progress::Progress;
-use wavrad_core::render::reconstruct::Reconstruction;
-use wavrad_core::render::RenderSettings;
+use wavrad_core::render::{estimator, RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
@@ -36,7 +35,8 @@ enum Command {
         /// Output image; the extension (.exr or .png) chooses the format.
         #[arg(short, long)]
         output: PathBuf,
-        /// How radiance is reconstructed on surfaces (default: the most accurate).
+        /// What camera rays show: the final gather (the most accurate), or
+        /// the solution read directly and reconstructed one of three ways.
         #[arg(long, value_enum, default_value_t = Mode::Gather)]
         mode: Mode,
         /// Camera rays per pixel where an edge shows [default: 256, or the
@@ -53,17 +53,18 @@ enum Command {
         /// per gather where there are fewer camera rays than that).
         #[arg(long)]
         gather_spp: Option<u32>,
-        /// Outside gather mode, read glossy surfaces' radiance from the
-        /// view-independent solution (directional radiance towards what the
-        /// view ray meets beyond the eye, or towards an enclosure receiver
-        /// around the scene) instead of gathering once into the eye: no
-        /// per-view work, softer highlights.
+        /// With the direct, smooth or haar mode, read glossy surfaces'
+        /// radiance from the view-independent solution (directional radiance
+        /// towards what the view ray meets beyond the eye, or towards an
+        /// enclosure receiver around the scene) instead of gathering once
+        /// into the eye: no per-view work, softer highlights. An error with
+        /// the gather mode, which evaluates glossy surfaces per camera ray.
         #[arg(long)]
         no_eye: bool,
         /// In gather mode, gather once per texel of every diffuse surface
         /// (view-independent; texels half an element wide) and read the
         /// texels, instead of gathering per camera ray: for many views of
-        /// one solution.
+        /// one solution. An error with the other modes, which do not gather.
         #[arg(long)]
         gather_cache: bool,
     },
@@ -166,12 +167,24 @@ enum Mode {
     /// surfaces smoothly from their radiance towards the eye.
     Smooth,
     /// The solution looked up along view rays: smooth on diffuse surfaces,
-    /// glossy ones from their directional radiance towards the eye.
+    /// glossy ones from their directional radiance towards the eye per
+    /// element.
     Direct,
     /// Final gather per pixel over the solution (the most accurate): exact
     /// direct light plus the smooth solution on diffuse surfaces, light and
     /// BRDF sampling over the solution on glossy ones.
     Gather,
+}
+
+impl From<Mode> for estimator::Mode {
+    fn from(mode: Mode) -> Self {
+        match mode {
+            Mode::Haar => estimator::Mode::Haar,
+            Mode::Smooth => estimator::Mode::Smooth,
+            Mode::Direct => estimator::Mode::Direct,
+            Mode::Gather => estimator::Mode::Gather,
+        }
+    }
 }
 
 /// Progress bars on a terminal, nothing otherwise.
@@ -251,26 +264,24 @@ fn run(cli: Cli) -> Result<(), String> {
             gather_cache,
         } => {
             check_output_extension(&output)?;
-            let mut solution = load_and_solve(&args, &progress)?;
+            let estimator = estimator::Mode::from(mode)
+                .estimator(!no_eye, gather_cache)
+                .map_err(|e| e.to_string())?;
+            let solution = load_and_solve(&args, &progress)?;
             let mut settings = RenderSettings::for_scene(&solution.scene);
+            settings.estimator = estimator;
             if let Some(n) = spp {
                 settings = settings.with_samples_per_pixel(n);
             }
             if let Some(n) = gather_spp {
                 settings.gather_samples_per_pixel = n.max(1);
             }
-            settings.eye = !no_eye;
-            settings.gather_cache = gather_cache;
-            settings.mode = match mode {
-                Mode::Haar => Reconstruction::Haar,
-                Mode::Smooth => Reconstruction::Smooth,
-                Mode::Direct => Reconstruction::Direct,
-                Mode::Gather => Reconstruction::Gather,
-            };
+            let renderer = Renderer::new(solution);
             let clock = Instant::now();
-            let image = solution
+            let image = renderer
                 .render(&settings)
                 .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+            let mut solution = renderer.into_solution();
             solution.stats.times.render_s = clock.elapsed().as_secs_f64();
             solution.stats.peak_memory_bytes = wavrad_core::solve::stats::peak_memory_bytes();
             wavrad_io::write_image(&output, image.width, image.height, &image.rgb)
@@ -331,7 +342,9 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
 /// One progressive image: the solution after `step`, smoothly reconstructed
 /// with few camera rays.
 fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Result<(), String> {
-    let image = solution.preview().map_err(|e| e.to_string())?;
+    let image = Renderer::new(solution)
+        .preview()
+        .map_err(|e| e.to_string())?;
     let path = dir.join(format!("step-{:04}.exr", step.index));
     wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
 }

@@ -7,8 +7,8 @@
 
 use std::path::PathBuf;
 use wavrad_core::progress::Silent;
-use wavrad_core::render::reconstruct::Reconstruction;
-use wavrad_core::render::RenderSettings;
+use wavrad_core::render::estimator::{Estimator, Mode};
+use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::solve::{solve, SolveSettings};
 
 fn repo() -> PathBuf {
@@ -46,15 +46,11 @@ fn errors(image: &[f32], reference: &[f32], width: usize) -> (f64, f64) {
     (all, (sq / n as f64).sqrt() / mean)
 }
 
-/// relRMSE of `solution`'s `direct` render of `scene` against `reference`.
-fn direct_error(
-    solution: &wavrad_core::solve::Solution,
-    scene: &wavrad_core::scene::Scene,
-    reference: &[f32],
-) -> f64 {
-    let image = solution
+/// relRMSE of `renderer`'s `direct` render of `scene` against `reference`.
+fn direct_error(renderer: &Renderer, scene: &wavrad_core::scene::Scene, reference: &[f32]) -> f64 {
+    let image = renderer
         .render(&RenderSettings {
-            mode: Reconstruction::Direct,
+            estimator: Mode::Direct.estimator(true, false).unwrap(),
             ..RenderSettings::for_scene(scene)
         })
         .unwrap();
@@ -69,8 +65,9 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     assert_eq!((w, h), (scene.film.width, scene.film.height));
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
     assert!(solution.stats.converged);
+    let renderer = Renderer::new(solution);
 
-    let gather = solution.render(&RenderSettings::default()).unwrap();
+    let gather = renderer.render(&RenderSettings::default()).unwrap();
     let (all, away) = errors(&gather.rgb, &reference, w as usize);
     eprintln!("gather: relRMSE {all:.4}, away from the light {away:.4}");
     assert!(all < 0.0080, "gather relRMSE {all}");
@@ -78,9 +75,9 @@ fn cornell_box_matches_mitsuba_path_tracer() {
 
     // The view-independent gather (one gather per texel, read by camera
     // rays) gives up little of the per-ray gather's accuracy.
-    let cached = solution
+    let cached = renderer
         .render(&RenderSettings {
-            gather_cache: true,
+            estimator: Estimator::FinalGather { cached: true },
             ..RenderSettings::default()
         })
         .unwrap();
@@ -88,9 +85,9 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     eprintln!("gather cache: relRMSE {all:.4}");
     assert!(all < 0.0080, "cached gather relRMSE {all}");
 
-    let smooth = solution
+    let smooth = renderer
         .render(&RenderSettings {
-            mode: Reconstruction::Smooth,
+            estimator: Mode::Smooth.estimator(true, false).unwrap(),
             ..RenderSettings::default()
         })
         .unwrap();
@@ -123,12 +120,10 @@ fn mitsuba_written_cornell_box_renders_like_the_bundled_one() {
         gather_samples_per_pixel: 4,
         ..RenderSettings::default()
     };
-    let a = solve(&written, &settings, &Silent)
-        .unwrap()
+    let a = Renderer::new(solve(&written, &settings, &Silent).unwrap())
         .render(&render)
         .unwrap();
-    let b = solve(&bundled, &settings, &Silent)
-        .unwrap()
+    let b = Renderer::new(solve(&bundled, &settings, &Silent).unwrap())
         .render(&render)
         .unwrap();
     assert_eq!((a.width, a.height), (24, 24));
@@ -147,21 +142,20 @@ fn glossy_cornell_box_matches_mitsuba_path_tracer() {
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
     assert!(solution.stats.converged);
     assert!(solution.stats.three_point_interactions > 0);
+    let renderer = Renderer::new(solution);
     // Direct without the eye reads the view-independent solution alone
     // (the solve's receivers and the enclosure, whose elements go one level
     // deeper than the solve's). The gather cache holds the glossy
     // surfaces' Lambertian lobes too.
     for (mode, eye, gather_cache, bound) in [
-        (Reconstruction::Gather, true, false, 0.0090),
-        (Reconstruction::Gather, true, true, 0.0080),
-        (Reconstruction::Direct, true, false, 0.016),
-        (Reconstruction::Direct, false, false, 0.048),
+        (Mode::Gather, true, false, 0.0090),
+        (Mode::Gather, true, true, 0.0080),
+        (Mode::Direct, true, false, 0.016),
+        (Mode::Direct, false, false, 0.048),
     ] {
-        let image = solution
+        let image = renderer
             .render(&RenderSettings {
-                mode,
-                eye,
-                gather_cache,
+                estimator: mode.estimator(eye, gather_cache).unwrap(),
                 ..RenderSettings::for_scene(&scene)
             })
             .unwrap();
@@ -183,8 +177,8 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
         let scene = wavrad_io::load_scene(&dir.join(format!("{name}.xml"))).unwrap();
         let (_, _, reference) =
             wavrad_io::read_exr_rgb(&dir.join(format!("reference-{name}.exr"))).unwrap();
-        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-        let image = solution.render(&RenderSettings::for_scene(&scene)).unwrap();
+        let renderer = Renderer::new(solve(&scene, &SolveSettings::default(), &Silent).unwrap());
+        let image = renderer.render(&RenderSettings::for_scene(&scene)).unwrap();
         let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
         let ratio = mean(&image.rgb) / mean(&reference);
         let error = wavrad_io::relative_rmse(&image.rgb, &reference);
@@ -194,7 +188,7 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
         if name == "diffuse" {
             // The directly lit reflector's elements follow the emitter's
             // light (`link::resolve_emitter_links`): direct mode is close.
-            let error = direct_error(&solution, &scene, &reference);
+            let error = direct_error(&renderer, &scene, &reference);
             eprintln!("figure 3 diffuse, direct: relRMSE {error:.4}");
             assert!(error < 0.011, "diffuse, direct: relRMSE {error}");
         }
@@ -217,8 +211,8 @@ fn figure3_highlight_is_resolved_in_direct_mode() {
     settings.three_point_threshold = 1e-6;
     settings.three_point_max_level = 3;
     settings.three_point_receiver_levels = 1;
-    let solution = solve(&scene, &settings, &Silent).unwrap();
-    let error = direct_error(&solution, &scene, &reference);
+    let renderer = Renderer::new(solve(&scene, &settings, &Silent).unwrap());
+    let error = direct_error(&renderer, &scene, &reference);
     eprintln!("figure 3 specular, direct: relRMSE {error:.4}");
     assert!(error < 0.037, "relRMSE {error}");
 }

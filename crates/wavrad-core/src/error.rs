@@ -27,6 +27,16 @@ pub enum Error {
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,
+    /// A render option that the render mode has no use for.
+    #[error("render mode {mode} cannot use {option}: {reason}")]
+    RenderOption {
+        /// The mode's user-facing name.
+        mode: &'static str,
+        /// The option, in words.
+        option: &'static str,
+        /// Why the mode has no use for it.
+        reason: &'static str,
+    },
 }
 
 /// Result with the core [`Error`].

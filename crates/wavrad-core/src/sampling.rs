@@ -18,9 +18,43 @@ pub fn hash2(seed: u64, index: u64) -> DVec2 {
     DVec2::new(to_unit(h), to_unit(mix(h)))
 }
 
-/// Where one estimate draws its sample points, kind by kind (`kind` names
-/// what is sampled: the cosine rays of a gather, the shadow rays to one
-/// emitter, ...).
+/// The sample streams of rendering, by what they sample: each draws its
+/// points from sequences of its own, keyed by its salt and the surface,
+/// emitter or image it samples (pbrt-v4's samplers hand out their
+/// dimensions the same way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// A final gather's shadow rays to emitter `e`.
+    Shadow(u32),
+    /// A final gather's area samples of the bright surface `q`.
+    Bright(u32),
+    /// A final gather's directions through the mirror image numbered
+    /// `index`.
+    Mirror(u32),
+    /// A final gather's cosine-distributed rays.
+    Cosine,
+    /// A glossy point's light samples of emitter `e`.
+    Light(u32),
+    /// A glossy point's BRDF samples (a direction, and with
+    /// [`Samples::third`] a lobe).
+    Brdf,
+}
+
+impl Stream {
+    /// The key that picks the stream's sequences.
+    fn key(self) -> u64 {
+        match self {
+            Stream::Shadow(e) => u64::from(e) << 32,
+            Stream::Bright(q) => 0x3c6e_f372 ^ u64::from(q) << 32,
+            Stream::Mirror(index) => 0x6a09_e667 ^ u64::from(index) << 32,
+            Stream::Cosine => 0x5bd1_e995,
+            Stream::Light(e) => 0x2545_f491 ^ u64::from(e) << 32,
+            Stream::Brdf => 0x9e37_79b9,
+        }
+    }
+}
+
+/// Where one estimate draws its sample points, stream by stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Samples {
     /// Independent of every other estimate: `len` points of a kind are
@@ -28,25 +62,53 @@ pub enum Samples {
     /// stratified along the first dimension only.
     Hashed(u64),
     /// Block `block` of `len` consecutive points of the pixel's own
-    /// Owen-scrambled Sobol (0,2)-sequence of each kind (Burley 2020,
+    /// Owen-scrambled Sobol (0,2)-sequence of each stream (Burley 2020,
     /// "Practical Hash-based Owen Scrambling"). Every aligned block of 2^k
     /// points of such a sequence is stratified in both dimensions at once
     /// (an elementary (0,k,2)-net), and so is the union of a pixel's
     /// blocks: the gathers that share a pixel stratify their samples of
-    /// each kind jointly instead of each on its own, while each estimate
+    /// each stream jointly instead of each on its own, while each estimate
     /// stays unbiased by itself.
     Pixel {
-        /// Picks the pixel's scramble (one per pixel and kind).
+        /// Picks the pixel's scramble (one per pixel and stream).
         scramble: u64,
         /// Which block of the sequence this estimate takes.
         block: u32,
     },
 }
 
+/// Keys a second set of a pixel's sequences, for the final gathers its
+/// camera rays make ([`Samples::final_gather`]).
+const FINAL_GATHER: u64 = 0x243f_6a88_85a3_08d3;
+
 impl Samples {
-    /// Point `j` of the `len` points of `kind` this estimate takes, in
+    /// Block `block` of the sequences of the pixel (or texel) numbered
+    /// `pixel`.
+    pub fn pixel(pixel: u64, block: u32) -> Samples {
+        Samples::Pixel {
+            scramble: pixel.wrapping_mul(0x9e37_79b9_7f4a_7c15),
+            block,
+        }
+    }
+
+    /// The samples of final gather number `block` made by the pixel's
+    /// camera rays, whose own samples these are: a set of the pixel's
+    /// sequences apart from theirs, so that the pixel's gathers stratify
+    /// jointly among themselves.
+    pub fn final_gather(self, block: u32) -> Samples {
+        match self {
+            Samples::Hashed(seed) => Samples::Hashed(seed ^ FINAL_GATHER),
+            Samples::Pixel { scramble, .. } => Samples::Pixel {
+                scramble: scramble ^ FINAL_GATHER,
+                block,
+            },
+        }
+    }
+
+    /// Point `j` of the `len` points of `stream` this estimate takes, in
     /// [0,1)².
-    pub fn point(self, kind: u64, len: u32, j: u32) -> DVec2 {
+    pub fn point(self, stream: Stream, len: u32, j: u32) -> DVec2 {
+        let kind = stream.key();
         match self {
             Samples::Hashed(seed) => {
                 let r = hash2(seed ^ kind, u64::from(j));
@@ -66,13 +128,14 @@ impl Samples {
         }
     }
 
-    /// A third number for point `j` of `kind`, independent of the two of
+    /// A third number for point `j` of `stream`, independent of the two of
     /// [`Samples::point`] (a BRDF sample's choice of lobe): Sobol's third
     /// dimension, scrambled on its own, or an independent hash. Two points
-    /// of one index but different kinds are not independent of each other
-    /// (their strata follow the index), so one sample's numbers must come
-    /// from one kind.
-    pub fn third(self, kind: u64, len: u32, j: u32) -> f64 {
+    /// of one index but different streams are not independent of each
+    /// other (their strata follow the index), so one sample's numbers must
+    /// come from one stream.
+    pub fn third(self, stream: Stream, len: u32, j: u32) -> f64 {
+        let kind = stream.key();
         match self {
             Samples::Hashed(seed) => hash2(seed ^ kind ^ 0x3c6e_f372_fe94_f82b, u64::from(j)).x,
             Samples::Pixel { scramble, block } => {
@@ -217,7 +280,9 @@ mod tests {
                 scramble: 0x1234_5678_9abc,
                 block: b,
             };
-            (0..16).map(|j| samples.point(7, 16, j)).collect()
+            (0..16)
+                .map(|j| samples.point(Stream::Cosine, 16, j))
+                .collect()
         };
         for b in 0..8 {
             assert!(net(&block(b), 4), "block {b}");
@@ -226,23 +291,26 @@ mod tests {
         assert!(net(&pair, 5));
         let all: Vec<DVec2> = (0..8).flat_map(block).collect();
         assert!(net(&all, 7));
-        // Another kind or pixel is another scramble.
+        // Another stream or pixel is another scramble.
         let other = Samples::Pixel {
             scramble: 0x1234_5678_9abd,
             block: 0,
         };
-        assert_ne!(other.point(7, 16, 0), block(0)[0]);
+        assert_ne!(other.point(Stream::Cosine, 16, 0), block(0)[0]);
+        let first = |stream| Samples::pixel(5, 0).point(stream, 16, 0);
+        assert_ne!(first(Stream::Shadow(1)), first(Stream::Light(1)));
+        assert_ne!(first(Stream::Bright(0)), first(Stream::Mirror(0)));
     }
 
     #[test]
     fn hashed_points_are_jittered_on_a_grid_or_stratified_in_x() {
         let s = Samples::Hashed(9);
         for j in 0..16 {
-            let p = s.point(1, 16, j);
+            let p = s.point(Stream::Cosine, 16, j);
             assert_eq!(((p.x * 4.0) as u32, (p.y * 4.0) as u32), (j % 4, j / 4));
         }
         for j in 0..8 {
-            assert_eq!((s.point(1, 8, j).x * 8.0) as u32, j);
+            assert_eq!((s.point(Stream::Cosine, 8, j).x * 8.0) as u32, j);
         }
     }
 

@@ -6,6 +6,7 @@
 
 use glam::DVec3;
 use wavrad_core::progress::Silent;
+use wavrad_core::render::Renderer;
 use wavrad_core::scene::brdf::{Brdf, Ward, WardVariant};
 use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
 use wavrad_core::solve::{solve, Solution, SolveSettings};
@@ -202,12 +203,14 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
         &Silent,
     )
     .unwrap();
-    let glossy = solve(
-        &floor_light_wall(lambertian_ward(0.6)),
-        &settings(3),
-        &Silent,
-    )
-    .unwrap();
+    let glossy = Renderer::new(
+        solve(
+            &floor_light_wall(lambertian_ward(0.6)),
+            &settings(3),
+            &Silent,
+        )
+        .unwrap(),
+    );
     let expect = diffuse.radiance[0][0][0];
     let n = 24;
     for (d, what) in [
@@ -231,7 +234,7 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
     if let Brdf::Ward(w) = &mut scene.surfaces[0].brdf {
         w.specular_reflectance = [0.2; 3];
     }
-    let shiny = solve(&scene, &settings(3), &Silent).unwrap();
+    let shiny = Renderer::new(solve(&scene, &settings(3), &Silent).unwrap());
     let enclosure = shiny.enclosure();
     assert!(!enclosure.structures.is_empty());
     assert!(enclosure.structures.keys().all(|&(p, _)| p == 0));

@@ -4,8 +4,8 @@
 use glam::DVec3;
 use wavrad_core::progress::Silent;
 use wavrad_core::refine::oracle::Oracle;
-use wavrad_core::render::reconstruct::Reconstruction;
-use wavrad_core::render::RenderSettings;
+use wavrad_core::render::estimator::{Estimator, Mode};
+use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::{Camera, Film, FovAxis, Patch, PixelFilter, Projection, Scene, Surface};
 use wavrad_core::solve::{solve, SolveSettings};
 
@@ -192,16 +192,17 @@ fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
                 gather_samples_per_pixel: 4,
                 ..RenderSettings::default()
             };
-            let gather = s.render(&render).unwrap();
-            let direct = s
+            let renderer = Renderer::new(&s);
+            let gather = renderer.render(&render).unwrap();
+            let direct = renderer
                 .render(&RenderSettings {
-                    mode: Reconstruction::Direct,
+                    estimator: Mode::Direct.estimator(true, false).unwrap(),
                     ..render
                 })
                 .unwrap();
-            let cached = s
+            let cached = renderer
                 .render(&RenderSettings {
-                    gather_cache: true,
+                    estimator: Estimator::FinalGather { cached: true },
                     ..render
                 })
                 .unwrap();

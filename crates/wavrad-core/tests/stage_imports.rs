@@ -28,14 +28,6 @@ const STAGES: &[(&str, usize)] = &[
     ("render", 6),
 ];
 
-/// Imports against the flow that are known and being removed:
-/// (file under `src/`, module it imports).
-const KNOWN: &[(&str, &str)] = &[
-    // `Solution` still holds the render caches; the renderer is to own them.
-    ("solve/mod.rs", "render"),
-    ("solve/shoot.rs", "render"),
-];
-
 fn stage_of(module: &str) -> Option<usize> {
     STAGES.iter().find(|(m, _)| *m == module).map(|&(_, s)| s)
 }
@@ -131,7 +123,7 @@ fn no_module_imports_from_a_later_stage() {
             // foundations'.
             let stage = stage_of(&used).unwrap_or(0);
             let relative = file.strip_prefix(&src).unwrap().display().to_string();
-            if stage > own && !KNOWN.contains(&(relative.as_str(), used.as_str())) {
+            if stage > own {
                 violations.push(format!(
                     "src/{relative}:{line}: {module} (stage {own}) imports {used} (stage {stage})"
                 ));

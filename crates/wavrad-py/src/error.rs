@@ -7,8 +7,9 @@
 //!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line)
 //!     └── SolveError   wavrad-core: settings, empty scene, missing sensor
 //! ```
-//! Bad argument values (an unknown render mode, oracle or solver, a wrongly
-//! shaped image) raise the built-in `ValueError`.
+//! Bad argument values (an unknown render mode, oracle or solver, a render
+//! option the mode has no use for, a wrongly shaped image) raise the
+//! built-in `ValueError`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};
@@ -57,7 +58,10 @@ impl From<wavrad_io::Error> for Error {
 
 impl From<wavrad_core::Error> for Error {
     fn from(e: wavrad_core::Error) -> Self {
-        Error::Solve(e)
+        match e {
+            wavrad_core::Error::RenderOption { .. } => Error::Argument(e.to_string()),
+            e => Error::Solve(e),
+        }
     }
 }
 

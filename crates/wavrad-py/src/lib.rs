@@ -22,8 +22,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ops::ControlFlow;
 use wavrad_core::progress::Silent;
-use wavrad_core::render::reconstruct::Reconstruction;
-use wavrad_core::render::RenderSettings;
+use wavrad_core::render::estimator::Mode;
+use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{SolveSettings, Solver};
@@ -64,9 +64,9 @@ impl Scene {
     }
 }
 
-/// A view-independent radiance solution.
+/// A view-independent radiance solution, with the renderer of its views.
 #[pyclass(module = "wavrad", frozen)]
-struct Solution(wavrad_core::solve::Solution);
+struct Solution(Renderer);
 
 #[pymethods]
 impl Solution {
@@ -88,13 +88,10 @@ impl Solution {
         eye: bool,
         gather_cache: bool,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
-        let scene = &self.0.scene;
+        let scene = &self.0.solution().scene;
+        let mode = mode.map_or(Ok(Mode::default()), parse::<Mode>)?;
         let mut settings = RenderSettings::for_scene(scene);
-        settings.eye = eye;
-        settings.gather_cache = gather_cache;
-        if let Some(mode) = mode {
-            settings.mode = parse::<Reconstruction>(mode)?;
-        }
+        settings.estimator = mode.estimator(eye, gather_cache)?;
         if let Some(spp) = spp {
             settings = settings.with_samples_per_pixel(spp);
         }
@@ -130,12 +127,13 @@ impl Solution {
     /// Statistics of the solve (the paper's §5 quantities, times, memory).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> Result<Bound<'py, PyAny>> {
-        let json = serde_json::to_string(&self.0.stats).expect("Stats serialise to JSON");
+        let json =
+            serde_json::to_string(&self.0.solution().stats).expect("Stats serialise to JSON");
         Ok(py.import("json")?.call_method1("loads", (json,))?)
     }
 
     fn __repr__(&self) -> String {
-        let s = &self.0.stats;
+        let s = &self.0.solution().stats;
         format!(
             "Solution(two_point_nodes={}, two_point_interactions={}, iterations={})",
             s.two_point_nodes, s.two_point_interactions, s.iterations
@@ -228,7 +226,7 @@ fn solve(
     if let Some(e) = raised {
         return Err(Error::Python(e));
     }
-    Ok(Solution(solution))
+    Ok(Solution(Renderer::new(solution)))
 }
 
 /// Call `on_step(step, image)` after a shooting step: `step` a dict of the
@@ -247,7 +245,7 @@ fn call_on_step(
     info.set_item("unshot_fraction", step.unshot_fraction)?;
     info.set_item("kernel_pairs", step.kernel_pairs)?;
     info.set_item("links", step.links)?;
-    let image = match solution.preview() {
+    let image = match Renderer::new(solution).preview() {
         Ok(image) => pixels(py, image.width, image.height, image.rgb).into_any(),
         Err(_) => py.None().into_bound(py),
     };

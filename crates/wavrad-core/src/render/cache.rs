@@ -16,24 +16,19 @@
 //! surface, half the largest surface's finest elements (at most 128 per
 //! side), and each gathers with half the indirect rays of one interior
 //! pixel's gathers together, jointly stratified (a camera ray blends four
-//! texels; on the glossy Cornell box's walkthrough, half the rays built the
-//! cache in 3.9 s instead of 7.7 s for a view-0 error of 1.18 % instead of
-//! 1.17 %, measured while choosing).
+//! texels, so each needs fewer).
 //!
 //! A view close to a surface shows each texel over many pixels, and the
 //! noise of its gather as a blotch. The indirect part of the gathers,
 //! which varies slowly except near other geometry, is therefore averaged
 //! over each texel's 3 × 3 neighbours where they lie well within the
 //! gathers' reach ([`super::gather::Indirect::reach`]); the direct part
-//! stays sharp.
-//! Measured while choosing, against scratch references of 131 072 spp:
-//! close views inside the glossy box went from 1.18 / 1.01 / 1.09 % to
-//! 1.13 / 0.92 / 0.88 %, the Cornell box's view from 0.81 to 0.77 %; a
-//! 5 × 5 window or one ignoring the reach (which blurs the ceiling's strip
-//! beside the light, which hangs 1 cm below it) made both worse.
+//! stays sharp. A larger window, or one ignoring the reach (which blurs the
+//! ceiling's strip beside the light, which hangs 1 cm below it), does worse.
 
 use super::gather::GatherPoint;
-use super::{FinalGather, RenderSettings, SolutionReader};
+use super::reader::{FinalGather, SolutionReader};
+use super::RenderSettings;
 use crate::kernel::exposure::is_buried;
 use crate::sampling::Samples;
 use crate::scene::{Patch, Rgb};
@@ -131,12 +126,9 @@ impl GatherCache {
                     surface: s as u32,
                     position,
                     normal,
-                    samples: Samples::Pixel {
-                        scramble: ((s as u64) << 40 ^ t as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15),
-                        block: 0,
-                    },
+                    samples: Samples::pixel((s as u64) << 40 ^ t as u64, 0),
                 };
-                Some(solution.final_gather_parts(reader, &point, (rays, shadow_grid), settings))
+                Some(reader.final_gather_parts(solution, &point, (rays, shadow_grid), settings))
             })
             .collect();
         let mut values = values.into_iter();
@@ -276,7 +268,7 @@ mod tests {
             let mut scene = scene.clone();
             scene.surfaces[0].brdf = brdf;
             let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-            let reader = solution.reader();
+            let reader = SolutionReader::new(&solution);
             GatherCache::build(&solution, &reader, &RenderSettings::default())
         };
         let (floor, light) = (&scene.surfaces[0].patch, &scene.surfaces[1].patch);

@@ -4,20 +4,18 @@
 //! after the solve, gives every glossy surface p its directional radiance
 //! L_{p→E} towards the directions that leave the scene, so that with the
 //! directional structures L_{p→q} of the solve every direction leaving a
-//! glossy point has a receiver: [`Solution::glossy_radiance_towards`] looks
-//! radiance up in any direction without a per-view gather (rendering with
-//! [`crate::render::RenderSettings::eye`] off). The receivers' elements are
-//! coarser in direction than the eye's single point, so highlights come out
-//! softer: on the glossy Cornell box `direct` mode gives 6.2 % instead of
-//! the eye's 4.5 %.
+//! glossy point has a receiver: [`super::Renderer::glossy_radiance_towards`]
+//! looks radiance up in any direction without a per-view gather (rendering
+//! with [`super::estimator::GlossyView::Directional`]). The receivers'
+//! elements are coarser in direction than the eye's single point, so
+//! highlights come out softer.
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::geometry::pair_tree::PairTree;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::faces_away;
 use crate::progress::Progress;
-use crate::render::eye::glossy_sources;
-use crate::render::reconstruct::{radiance_at, Reconstruction};
+use crate::render::eye::{glossy_sources, radiance_from, receiver_links};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::{push_pull::push_pull, Solution};
 use glam::DVec3;
@@ -93,11 +91,11 @@ pub fn enclosure_faces(scene: &Scene) -> [Patch; 6] {
     Patch::inward_box(lo - pad, hi + pad)
 }
 
-impl Solution {
-    /// Gather the solution once into the enclosure (three-point links
+impl EnclosureRadiance {
+    /// Gather `solution` once into the enclosure (three-point links
     /// r → p → face for every glossy p and every face it sees).
-    pub fn enclosure_radiance(&self, progress: &dyn Progress) -> EnclosureRadiance {
-        let scene = &self.scene;
+    pub fn gather(solution: &Solution, progress: &dyn Progress) -> EnclosureRadiance {
+        let scene = &solution.scene;
         let faces = enclosure_faces(scene);
         let n = scene.surfaces.len() as u32;
         let triples: Vec<(u32, u32, u32)> = glossy_sources(scene)
@@ -107,14 +105,14 @@ impl Solution {
                 !faces_away(&scene.surfaces[p as usize].patch, &faces[(q - n) as usize])
             })
             .collect();
-        let links = self.receiver_links(&triples, |q| faces[(q - n) as usize], progress);
+        let links = receiver_links(solution, &triples, |q| faces[(q - n) as usize], progress);
         let mut trees: BTreeMap<(u32, u32), PairTree> = BTreeMap::new();
         for l in &links {
             trees.entry((l.p, l.q - n)).or_default().insert(l.a, l.b);
         }
         // Radiance is averaged over the exposed part of each element pair.
         let exposure = PairExposure::new(
-            &self.kernel_context(),
+            &solution.kernel_context(),
             trees.iter().flat_map(|(&(p, k), tree)| {
                 tree.nodes
                     .iter()
@@ -127,7 +125,7 @@ impl Solution {
             .collect();
         for l in &links {
             let key = (l.p, l.q - n);
-            let source = self.radiance_from(l.r, l.c, l.p, l.a);
+            let source = radiance_from(solution, l.r, l.c, l.p, l.a);
             let e = exposure.of(ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b));
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
             let add = [0, 1, 2].map(|ch| scale * l.coefficient[ch] * source[ch]);
@@ -153,33 +151,8 @@ impl Solution {
         EnclosureRadiance {
             faces,
             structures,
-            depth: self.settings.receiver_refine().receiver_max_level,
+            depth: solution.settings.receiver_refine().receiver_max_level,
         }
-    }
-
-    /// The enclosure's radiance, gathered on first use.
-    pub fn enclosure(&self) -> &EnclosureRadiance {
-        self.enclosure
-            .get_or_init(|| self.enclosure_radiance(&crate::progress::Silent))
-    }
-
-    /// Radiance leaving point `y` of glossy surface `p` in the unit
-    /// direction `d`, from the view-independent solution alone: its element
-    /// radiance (smooth) plus the directional radiance L_{p→q} towards the
-    /// surface q the direction meets, or the `enclosure`'s where it meets
-    /// none.
-    pub fn glossy_radiance_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
-        let glossy = match self.tracer.trace(y, d, 1e-7, f64::INFINITY) {
-            Some(hit) if hit.surface != p => {
-                self.directional_radiance(p, y, hit.surface, hit.position)
-            }
-            _ => self.enclosure().radiance(&self.scene, p, y, d),
-        };
-        let patch = &self.scene.surfaces[p as usize].patch;
-        let uv = patch.clamp_param(patch.param_of(y));
-        let (tree, radiance) = (&self.trees[p as usize], &self.radiance[p as usize]);
-        let own = radiance_at(tree, radiance, uv, Reconstruction::Smooth);
-        [0, 1, 2].map(|ch| own[ch] + glossy[ch])
     }
 }
 

@@ -2,7 +2,7 @@
 //! a surface at the sensor that receives light through three-point links but
 //! neither occludes nor reflects. Gathering into it once, after the solve,
 //! gives every glossy surface its radiance towards this view, L_{p→eye},
-//! which the `direct`, `smooth` and `haar` modes look up along view rays.
+//! which [`super::estimator::GlossyView::Eye`] looks up along view rays.
 //!
 //! The eye is a tiny square at the pinhole (for an orthographic sensor, far
 //! behind it along the view axis, so that every point sees it along the view
@@ -64,11 +64,11 @@ pub(crate) fn glossy_sources(scene: &Scene) -> BTreeSet<(u32, u32)> {
         .collect()
 }
 
-impl Solution {
-    /// Gather the solution once into the eye at `camera` (three-point links
+impl EyeRadiance {
+    /// Gather `solution` once into the eye at `camera` (three-point links
     /// r → p → eye for every glossy p that faces it).
-    pub fn eye_radiance(&self, camera: &Camera, progress: &dyn Progress) -> EyeRadiance {
-        let scene = &self.scene;
+    pub fn gather(solution: &Solution, camera: &Camera, progress: &dyn Progress) -> EyeRadiance {
+        let scene = &solution.scene;
         let eye = eye_patch(scene, camera);
         let eye_index = scene.surfaces.len() as u32;
         let at = eye.centroid();
@@ -80,7 +80,7 @@ impl Solution {
             })
             .map(|(r, p)| (r, p, eye_index))
             .collect();
-        let links = self.receiver_links(&triples, |_| eye, progress);
+        let links = receiver_links(solution, &triples, |_| eye, progress);
         let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
         for l in &links {
             ids[l.p as usize].insert(l.a);
@@ -96,7 +96,7 @@ impl Solution {
         }
         // Radiance is averaged over the exposed part of each element.
         let exposure = PairExposure::new(
-            &self.kernel_context(),
+            &solution.kernel_context(),
             surfaces.iter().enumerate().flat_map(|(p, entry)| {
                 let nodes = entry.as_ref().map_or(&[][..], |(tree, _)| &tree.nodes[..]);
                 nodes
@@ -111,7 +111,7 @@ impl Solution {
                 continue;
             };
             let node = tree.index_of(l.a).expect("linked element is in the tree");
-            let source = self.radiance_from(l.r, l.c, l.p, l.a);
+            let source = radiance_from(solution, l.r, l.c, l.p, l.a);
             let e = exposed(l.p, l.a);
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
             let g = &mut gathered[l.p as usize][node as usize];
@@ -126,59 +126,64 @@ impl Solution {
         }
         EyeRadiance { surfaces }
     }
+}
 
-    /// The three-point links r → p → q into hypothetical receivers q (the
-    /// eye, the enclosure's faces), whose geometry `receiver(q)` gives,
-    /// projected after the solve; the weighted oracles weigh them by the
-    /// solved light.
-    pub(crate) fn receiver_links(
-        &self,
-        triples: &[(u32, u32, u32)],
-        receiver: impl Fn(u32) -> Patch + Sync,
-        progress: &dyn Progress,
-    ) -> Vec<ThreePointLink> {
-        let estimate = self.settings.oracle.is_weighted().then(|| {
-            LightEstimate::from_solution(
-                &self.scene,
-                self.trees.clone(),
-                &self.radiance,
-                self.interactions.directional_radiance(&self.directional),
-                None,
-            )
-        });
-        refine_three_point_links(
-            &self.kernel_context(),
-            self.settings.receiver_refine(),
-            estimate.as_ref(),
-            triples,
-            receiver,
-            progress,
+/// The three-point links r → p → q of `solution` into hypothetical
+/// receivers q (the eye, the enclosure's faces), whose geometry
+/// `receiver(q)` gives, projected after the solve; the weighted oracles
+/// weigh them by the solved light.
+pub(crate) fn receiver_links(
+    solution: &Solution,
+    triples: &[(u32, u32, u32)],
+    receiver: impl Fn(u32) -> Patch + Sync,
+    progress: &dyn Progress,
+) -> Vec<ThreePointLink> {
+    let estimate = solution.settings.oracle.is_weighted().then(|| {
+        LightEstimate::from_solution(
+            &solution.scene,
+            solution.trees.clone(),
+            &solution.radiance,
+            (solution.interactions).directional_radiance(&solution.directional),
+            None,
         )
-    }
+    });
+    refine_three_point_links(
+        &solution.kernel_context(),
+        solution.settings.receiver_refine(),
+        estimate.as_ref(),
+        triples,
+        receiver,
+        progress,
+    )
+}
 
-    /// L_{c→a}: the average radiance leaving element `c` of surface `r`
-    /// towards element `a` of surface `p`, at any levels: the element's own
-    /// and, from a glossy `r`, its directional radiance towards `a`.
-    pub fn radiance_from(&self, r: u32, c: ElementId, p: u32, a: ElementId) -> Rgb {
-        let (r, p) = (r as usize, p as usize);
-        let mut l = self.radiance[r][self.trees[r].node_containing(c) as usize];
-        if !self.scene.surfaces[r]
-            .brdf
-            .flags()
-            .contains(BrdfFlags::GLOSSY_REFLECTION)
-        {
-            return l;
-        }
-        let Some(&s) = self.interactions.structure_of.get(&(r as u32, p as u32)) else {
-            return l;
-        };
-        let values = &self.directional[s as usize];
-        for (n, w) in self.interactions.directional[s as usize]
-            .tree
-            .overlaps(c, a)
-        {
-            (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
-        }
-        l
+/// L_{c→a}: the average radiance of `solution` leaving element `c` of
+/// surface `r` towards element `a` of surface `p`, at any levels: the
+/// element's own and, from a glossy `r`, its directional radiance towards
+/// `a`.
+pub fn radiance_from(solution: &Solution, r: u32, c: ElementId, p: u32, a: ElementId) -> Rgb {
+    let (r, p) = (r as usize, p as usize);
+    let mut l = solution.radiance[r][solution.trees[r].node_containing(c) as usize];
+    if !solution.scene.surfaces[r]
+        .brdf
+        .flags()
+        .contains(BrdfFlags::GLOSSY_REFLECTION)
+    {
+        return l;
     }
+    let Some(&s) = solution
+        .interactions
+        .structure_of
+        .get(&(r as u32, p as u32))
+    else {
+        return l;
+    };
+    let values = &solution.directional[s as usize];
+    for (n, w) in solution.interactions.directional[s as usize]
+        .tree
+        .overlaps(c, a)
+    {
+        (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
+    }
+    l
 }

@@ -16,7 +16,7 @@
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
 use crate::render::mirror::MirrorImage;
-use crate::sampling::Samples;
+use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
 use crate::scene::{Rgb, Scene};
 use glam::DVec3;
@@ -66,7 +66,7 @@ pub fn direct_radiance(
         };
         let (mut seen, mut total) = (0u32, 0u32);
         for k in 0..grid * grid {
-            let uv = samples.point(u64::from(e) << 32, grid * grid, k);
+            let uv = samples.point(Stream::Shadow(e), grid * grid, k);
             let y = light.patch.point_at(light.patch.square_to_param(uv));
             if normal.dot(y - x) <= 0.0 {
                 continue;
@@ -165,7 +165,7 @@ pub fn indirect_radiance(
         if q == surface {
             continue;
         }
-        for (wi, y, _) in area_samples(scene, tracer, point, q, grid, 0x3c6e_f372) {
+        for (wi, y, _) in area_samples(scene, tracer, point, q, grid, Stream::Bright) {
             add(q, wi, y);
         }
     }
@@ -179,7 +179,7 @@ pub fn indirect_radiance(
             h == m.surface || h == surface
         };
         for k in 0..grid * grid {
-            let u = samples.point(0x6a09_e667 ^ (index as u64) << 32, grid * grid, k);
+            let u = samples.point(Stream::Mirror(index as u32), grid * grid, k);
             let Some((wi, y, _)) = m.sample(patch, x, u) else {
                 continue;
             };
@@ -191,7 +191,7 @@ pub fn indirect_radiance(
     let mut inverse_distances = 0.0;
     for k in 0..rays {
         // Cosine-weighted (Malley).
-        let local = crate::scene::brdf::cosine_hemisphere(samples.point(0x5bd1_e995, rays, k));
+        let local = crate::scene::brdf::cosine_hemisphere(samples.point(Stream::Cosine, rays, k));
         let dir = local.x * t + local.y * b + local.z * normal;
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
@@ -222,15 +222,16 @@ fn area_pdf(patch: &crate::scene::Patch, wi: DVec3, r2: f64) -> f64 {
     r2 / (cos_y * patch.area())
 }
 
-/// `grid` × `grid` stratified points of surface `q` by area that `point`
-/// sees in front of itself: (direction to it, the point, solid-angle pdf).
+/// `grid` × `grid` stratified points of surface `q` by area, drawn from
+/// `stream(q)`, that `point` sees in front of itself: (direction to it, the
+/// point, solid-angle pdf).
 fn area_samples(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
     q: u32,
     grid: u32,
-    salt: u64,
+    stream: fn(u32) -> Stream,
 ) -> Vec<(DVec3, DVec3, f64)> {
     let patch = &scene.surfaces[q as usize].patch;
     let x = point.position;
@@ -240,9 +241,7 @@ fn area_samples(
     };
     let mut out = Vec::new();
     for k in 0..grid * grid {
-        let uv = point
-            .samples
-            .point(salt ^ u64::from(q) << 32, grid * grid, k);
+        let uv = point.samples.point(stream(q), grid * grid, k);
         let y = patch.point_at(patch.square_to_param(uv));
         let wi = (y - x).normalize();
         let p = area_pdf(patch, wi, (y - x).length_squared());
@@ -294,7 +293,7 @@ pub fn glossy_radiance(
             continue;
         }
         let light = &scene.surfaces[e as usize];
-        for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, 0x2545_f491) {
+        for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, Stream::Light) {
             let wi_local = frame.to_local(wi);
             let f = brdf.eval(wo_local, wi_local);
             let p_brdf = brdf.pdf(wo_local, wi_local);
@@ -305,8 +304,8 @@ pub fn glossy_radiance(
     // BRDF sampling: emitters (weighted against light sampling) and the rest
     // of the solution.
     for k in 0..samples {
-        let u = sample_points.point(0x9e37_79b9, samples, k);
-        let lobe = sample_points.third(0x9e37_79b9, samples, k);
+        let u = sample_points.point(Stream::Brdf, samples, k);
+        let lobe = sample_points.third(Stream::Brdf, samples, k);
         let Some(sample) = brdf.sample(wo_local, u, lobe) else {
             continue;
         };
@@ -546,9 +545,8 @@ mod tests {
         // Each pixel's 16 blocks together, as one estimate.
         let pixels = (0..256u64)
             .map(|p| {
-                let scramble = p.wrapping_mul(0x9e37_79b9_7f4a_7c15);
                 (0..16)
-                    .map(|block| estimate(Samples::Pixel { scramble, block }))
+                    .map(|block| estimate(Samples::pixel(p, block)))
                     .sum::<f64>()
                     / 16.0
             })

@@ -16,57 +16,18 @@
 //!   floor or towards a contact line, keeps its slope up to the edge instead
 //!   of flattening to the boundary element's average.
 
-use crate::geometry::hierarchy::ElementTree;
+use crate::geometry::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Patch, Rgb};
-use glam::DVec2;
+use crate::solve::Solution;
+use glam::{DVec2, DVec3};
 
-/// How radiance is reconstructed from the Haar coefficients for display.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How radiance stored per element is reconstructed between elements.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reconstruction {
     /// Piecewise-constant Haar projection.
     Haar,
     /// Bilinear interpolation of leaf averages (dual linear-spline basis).
     Smooth,
-    /// The solution looked up along the view ray with no gathering: smooth
-    /// radiance on diffuse surfaces, and on glossy ones their directional
-    /// radiance towards the eye (a hypothetical receiver, paper §6) as
-    /// stored, per element.
-    Direct,
-    /// Final gather: light reflected straight from emitters evaluated exactly
-    /// at each visible point ([`crate::render::gather`]), the rest of the
-    /// solution reconstructed smoothly. The most accurate mode.
-    #[default]
-    Gather,
-}
-
-impl Reconstruction {
-    /// Every mode by its user-facing name.
-    pub const NAMES: [(&'static str, Reconstruction); 4] = [
-        ("gather", Reconstruction::Gather),
-        ("direct", Reconstruction::Direct),
-        ("smooth", Reconstruction::Smooth),
-        ("haar", Reconstruction::Haar),
-    ];
-}
-
-impl std::str::FromStr for Reconstruction {
-    type Err = String;
-
-    /// The mode named `name` (`gather`, `direct`, `smooth`, `haar`).
-    fn from_str(name: &str) -> Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|&(_, mode)| mode)
-            .ok_or_else(|| {
-                let names: Vec<String> =
-                    Self::NAMES.iter().map(|(n, _)| format!("{n:?}")).collect();
-                format!(
-                    "unknown render mode {name:?} (expected one of {})",
-                    names.join(", ")
-                )
-            })
-    }
 }
 
 /// Radiance of `tree` at surface parameter `uv`.
@@ -74,7 +35,7 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
     let (leaf, _) = tree.locate(uv);
     match mode {
         Reconstruction::Haar => radiance[leaf as usize],
-        Reconstruction::Smooth | Reconstruction::Direct | Reconstruction::Gather => {
+        Reconstruction::Smooth => {
             let root = &tree.nodes[0].patch;
             let mut out = [0.0; 3];
             for (centre, w) in hat_stencil(uv, tree.nodes[leaf as usize].id.level) {
@@ -214,11 +175,40 @@ pub fn hat_stencil(uv: DVec2, level: u32) -> impl Iterator<Item = (DVec2, f64)> 
         .filter(|&(_, w)| w > 0.0)
 }
 
+/// The directional radiance L_{q→s} that glossy surface `q` of `solution`
+/// sends from its point `y` towards point `x` of surface `s`, on top of its
+/// element radiance (the light its non-Lambertian lobes reflect): the
+/// values of the element pairs (a ∋ y, b), smooth over the receiver's
+/// elements b around `x` (a gather integrates over y already, so only x
+/// needs the smoothing); zero where the solve made no structure (q, s).
+pub fn directional_radiance(solution: &Solution, q: u32, y: DVec3, s: u32, x: DVec3) -> Rgb {
+    let surface = &solution.scene.surfaces[q as usize];
+    let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
+    let Some(&index) = solution.interactions.structure_of.get(&(q, s)) else {
+        return [0.0; 3];
+    };
+    let receiver = &solution.scene.surfaces[s as usize].patch;
+    let uv_x = receiver.param_of(x);
+    let depth = solution.settings.three_point_refine().receiver_max_level;
+    let path_y = ElementId::path_to(&surface.patch, uv_y, depth);
+    let tree = &solution.interactions.directional[index as usize].tree;
+    let values = &solution.directional[index as usize];
+    let leaf_towards = |uv: DVec2| {
+        let path_x = ElementId::path_to(receiver, receiver.clamp_param(uv), depth);
+        tree.leaf_at(|l| path_y[l as usize], |l| path_x[l as usize]) as usize
+    };
+    let level = tree.nodes[leaf_towards(uv_x)].b.level;
+    let mut out = [0.0; 3];
+    for (centre, w) in hat_stencil(uv_x, level) {
+        let l = values[leaf_towards(centre)];
+        (0..3).for_each(|ch| out[ch] += w * l[ch]);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::hierarchy::ElementId;
-    use glam::DVec3;
     use std::collections::BTreeSet;
 
     #[test]

@@ -121,12 +121,6 @@ pub struct Solution {
     pub settings: SolveSettings,
     /// What it took (paper §5 quantities, times, memory).
     pub stats: Stats,
-    /// Glossy radiance towards the enclosure receiver, gathered the first
-    /// time a view asks for it ([`Solution::enclosure`]).
-    pub enclosure: std::sync::OnceLock<crate::render::enclosure::EnclosureRadiance>,
-    /// The view-independent final gather on diffuse surfaces, built the
-    /// first time a view asks for it ([`crate::render::RenderSettings::gather_cache`]).
-    pub gather_cache: std::sync::OnceLock<crate::render::cache::GatherCache>,
 }
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
@@ -267,8 +261,6 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         directional: system.directional,
         settings: *settings,
         stats,
-        enclosure: Default::default(),
-        gather_cache: Default::default(),
     })
 }
 

@@ -152,8 +152,6 @@ pub fn solve_shooting(
         directional: Vec::new(),
         settings: *settings,
         stats: Stats::default(),
-        enclosure: Default::default(),
-        gather_cache: Default::default(),
     };
     let ctx = KernelContext {
         scene,

@@ -1,0 +1,533 @@
+//! What a camera ray's radiance is estimated by ([`Estimator`]), chosen once
+//! per view, and the user-facing names of the choices ([`Mode`]).
+//!
+//! Two things are estimated: the final gather at the visible point (direct
+//! light evaluated exactly, the rest of the solution gathered; per camera
+//! ray or from the view-independent [`super::cache::GatherCache`]), or the
+//! solution itself read along the view ray, which the Haar projection
+//! stores per element and which is shown piecewise constant or smooth
+//! ([`Reconstruction`]). Only the second has a reconstruction to choose
+//! (the final gather's control variate is the smooth solution), and only
+//! the second needs glossy surfaces' radiance towards the eye
+//! ([`GlossyView`]); the final gather evaluates their BRDF per ray.
+
+use super::cache::GatherCache;
+use super::eye::EyeRadiance;
+use super::gather::{self, GatherPoint};
+use super::reconstruct::{radiance_at, Reconstruction};
+use super::{RenderSettings, Renderer};
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
+use crate::scene::Rgb;
+use crate::solve::Solution;
+use crate::{Error, Result};
+use glam::{DVec2, DVec3};
+use std::borrow::Borrow;
+
+/// What a camera ray's radiance is estimated by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimator {
+    /// Final gather over the solution at each visible point (the most
+    /// accurate): light straight from the emitters evaluated exactly, the
+    /// rest of the solution gathered ([`crate::render::gather`]); on glossy
+    /// surfaces light and BRDF sampling over the solution per camera ray.
+    /// With `cached`, diffuse surfaces (and the Lambertian lobes of glossy
+    /// ones) show the solution's view-independent final gather
+    /// ([`crate::render::cache::GatherCache`]: one gather per texel, built
+    /// the first time a view asks for it, then read by every view) instead
+    /// of gathering per camera ray: for many views of one solution.
+    FinalGather {
+        /// Read diffuse light from the gather cache.
+        cached: bool,
+    },
+    /// The solution read along the view ray, no gathering: element radiance
+    /// reconstructed as `reconstruction`, and on glossy surfaces their
+    /// radiance towards the eye from `glossy`.
+    Solution {
+        /// How element radiance is reconstructed.
+        reconstruction: Reconstruction,
+        /// Where glossy surfaces' radiance towards the eye comes from.
+        glossy: GlossyView,
+    },
+}
+
+impl Default for Estimator {
+    fn default() -> Self {
+        Estimator::FinalGather { cached: false }
+    }
+}
+
+/// Where glossy surfaces' radiance towards the eye comes from when the
+/// solution is read directly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GlossyView {
+    /// Gathered once per view into the eye as a hypothetical receiver (the
+    /// paper's §6, [`crate::render::eye`]), reconstructed as given, on top
+    /// of the surface's element radiance.
+    Eye(Reconstruction),
+    /// Read from the view-independent solution alone: the smooth element
+    /// radiance plus the directional radiance towards the surface beyond
+    /// the eye, or towards the enclosure receiver where there is none
+    /// ([`crate::render::enclosure`]). No per-view gather, softer
+    /// highlights.
+    Directional,
+}
+
+/// The render modes by their user-facing names, each an [`Estimator`]
+/// with its defaults ([`Mode::estimator`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// [`Estimator::FinalGather`].
+    #[default]
+    Gather,
+    /// The solution read directly: smooth, glossy surfaces' radiance
+    /// towards the eye per element, as stored.
+    Direct,
+    /// The solution read directly, all of it smooth.
+    Smooth,
+    /// The solution read directly, all of it piecewise constant.
+    Haar,
+}
+
+impl Mode {
+    /// Every mode by its user-facing name.
+    pub const NAMES: [(&'static str, Mode); 4] = [
+        ("gather", Mode::Gather),
+        ("direct", Mode::Direct),
+        ("smooth", Mode::Smooth),
+        ("haar", Mode::Haar),
+    ];
+
+    /// The user-facing name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES
+            .iter()
+            .find(|&&(_, mode)| mode == self)
+            .map_or("", |&(name, _)| name)
+    }
+
+    /// The estimator of this mode, with glossy surfaces' radiance towards
+    /// the eye gathered into the eye (`eye`) or read from the directional
+    /// solution, and for the final gather the gather cache (`gather_cache`).
+    /// An option the mode has no use for is an error: the final gather
+    /// needs no eye, and only it has a cache.
+    pub fn estimator(self, eye: bool, gather_cache: bool) -> Result<Estimator> {
+        let reconstruction = match self {
+            Mode::Gather if !eye => {
+                return Err(Error::RenderOption {
+                    mode: self.name(),
+                    option: "glossy radiance without the eye",
+                    reason: "the final gather evaluates glossy surfaces per camera ray; \
+                             the eye is a choice of the direct, smooth and haar modes",
+                })
+            }
+            Mode::Gather => {
+                return Ok(Estimator::FinalGather {
+                    cached: gather_cache,
+                })
+            }
+            _ if gather_cache => {
+                return Err(Error::RenderOption {
+                    mode: self.name(),
+                    option: "the gather cache",
+                    reason: "only the final gather (mode gather) has one",
+                })
+            }
+            Mode::Haar => Reconstruction::Haar,
+            Mode::Direct | Mode::Smooth => Reconstruction::Smooth,
+        };
+        let glossy = match (eye, self) {
+            (false, _) => GlossyView::Directional,
+            (true, Mode::Smooth) => GlossyView::Eye(Reconstruction::Smooth),
+            (true, _) => GlossyView::Eye(Reconstruction::Haar),
+        };
+        Ok(Estimator::Solution {
+            reconstruction,
+            glossy,
+        })
+    }
+}
+
+impl std::fmt::Display for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Mode {
+    type Err = String;
+
+    /// The mode named `name` (`gather`, `direct`, `smooth`, `haar`).
+    fn from_str(name: &str) -> std::result::Result<Self, String> {
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, mode)| mode)
+            .ok_or_else(|| {
+                let names: Vec<String> =
+                    Self::NAMES.iter().map(|(n, _)| format!("{n:?}")).collect();
+                format!(
+                    "unknown render mode {name:?} (expected one of {})",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
+/// Where a camera ray meets the front of a surface.
+pub(super) struct CameraHit {
+    /// The point, drawing its samples from its pixel's block for this ray.
+    pub(super) point: GatherPoint,
+    /// Its surface parameter.
+    pub(super) uv: DVec2,
+    /// Unit direction from the point towards the eye.
+    pub(super) wo: DVec3,
+    /// The ray's index among its pixel's camera rays, and their number.
+    pub(super) rays: (usize, usize),
+}
+
+/// An [`Estimator`] with what it gathered for one view; each estimates a
+/// camera ray's radiance in its own function.
+pub(super) enum ViewEstimator<'a> {
+    /// [`Estimator::FinalGather`], with the gather cache if it reads one.
+    FinalGather {
+        /// The view-independent final gather, if read.
+        cache: Option<&'a GatherCache>,
+    },
+    /// [`Estimator::Solution`] with [`GlossyView::Eye`]: the eye gathered
+    /// for this view.
+    Eye {
+        /// How element radiance is reconstructed.
+        reconstruction: Reconstruction,
+        /// Glossy surfaces' radiance towards this view.
+        eye: EyeRadiance,
+        /// How that is reconstructed.
+        towards_eye: Reconstruction,
+    },
+    /// [`Estimator::Solution`] read from the view-independent solution
+    /// alone.
+    Directional {
+        /// How element radiance is reconstructed.
+        reconstruction: Reconstruction,
+    },
+}
+
+impl ViewEstimator<'_> {
+    /// Radiance towards the eye at `hit`.
+    pub(super) fn radiance<S: Borrow<Solution> + Sync>(
+        &self,
+        renderer: &Renderer<S>,
+        hit: &CameraHit,
+        settings: &RenderSettings,
+    ) -> Rgb {
+        match self {
+            ViewEstimator::FinalGather { cache } => final_gather(renderer, hit, *cache, settings),
+            ViewEstimator::Eye {
+                reconstruction,
+                eye,
+                towards_eye,
+            } => read_with_eye(renderer, hit, *reconstruction, (eye, *towards_eye)),
+            ViewEstimator::Directional { reconstruction } => {
+                read_directional(renderer, hit, *reconstruction)
+            }
+        }
+    }
+}
+
+/// [`Estimator::FinalGather`] at `hit`: on a diffuse surface its
+/// [`lambertian_gather`]; on a glossy one, the light its BRDF reflects
+/// towards the eye gathered per camera ray ([`gather::glossy_radiance`]).
+/// A BRDF with a Lambertian lobe besides others shows that lobe as a
+/// diffuse surface's radiance, and the rest through every camera ray; any
+/// other, all of it through every ray. Gather rays from the glossy point
+/// see glossy surfaces lit per point (their highlights are finer than
+/// their elements), and diffuse ones as the `cache` holds them, or as
+/// their final gather.
+fn final_gather<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    cache: Option<&GatherCache>,
+    settings: &RenderSettings,
+) -> Rgb {
+    let (solution, reader) = (renderer.solution(), renderer.reader());
+    let s = hit.point.surface as usize;
+    let surface = &solution.scene.surfaces[s];
+    if !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
+        return lambertian_gather(renderer, hit, cache, settings);
+    }
+    let (brdf, base, grid) = match &reader.non_lambertian[s] {
+        Some(rest) => (
+            rest,
+            lambertian_gather(renderer, hit, cache, settings),
+            settings.glossy_grid,
+        ),
+        None => (
+            &surface.brdf,
+            surface.emission,
+            settings.glossy_grid_among(hit.rays.1),
+        ),
+    };
+    let seen = |q: u32, z: DVec3| {
+        let source = &solution.scene.surfaces[q as usize];
+        let at = || source.patch.clamp_param(source.patch.param_of(z));
+        let cached = cache.filter(|_| !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION));
+        if let Some(l) = cached.and_then(|c| c.radiance(q, at())) {
+            return l;
+        }
+        let to = (hit.point.surface, hit.point.position);
+        let seed = hit.point.samples.seed();
+        reader.radiance_leaving(solution, (q, z), to, (seed, settings.glossy_grid))
+    };
+    let reflected = gather::glossy_radiance(
+        &solution.scene,
+        &solution.tracer,
+        &reader.emitters,
+        &hit.point,
+        (brdf, hit.wo),
+        grid,
+        seen,
+    );
+    [0, 1, 2].map(|ch| base[ch] + reflected[ch])
+}
+
+/// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
+/// at `hit`: the view-independent gather `cache`'s, or the smooth element
+/// radiance corrected by the final gathers of some of the pixel's camera
+/// rays ([`GatheringRays`]: a control variate).
+fn lambertian_gather<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    cache: Option<&GatherCache>,
+    settings: &RenderSettings,
+) -> Rgb {
+    if let Some(l) = cache.and_then(|c| c.radiance(hit.point.surface, hit.uv)) {
+        return l;
+    }
+    let s = hit.point.surface as usize;
+    let reconstructed = renderer.element_radiance(Reconstruction::Smooth, s, hit.uv);
+    let (k, n) = hit.rays;
+    let local = settings.on_receiver(renderer.reader().caustic[s]);
+    let gathering = GatheringRays::new(n, local.gathers_among(n));
+    let Some(block) = gathering.rank(k) else {
+        return reconstructed;
+    };
+    let point = GatherPoint {
+        samples: hit.point.samples.final_gather(block),
+        ..hit.point
+    };
+    let rays = (gathering.rays(&local), settings.gather_grid);
+    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, rays, settings);
+    let weight = gathering.weight();
+    [0, 1, 2].map(|ch| reconstructed[ch] + weight * (gathered[ch] - reconstructed[ch]))
+}
+
+/// [`Estimator::Solution`] with [`GlossyView::Eye`] at `hit`: the element
+/// radiance, and on a glossy surface its radiance towards the `eye`
+/// gathered for this view, reconstructed as given.
+fn read_with_eye<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    reconstruction: Reconstruction,
+    (eye, towards_eye): (&EyeRadiance, Reconstruction),
+) -> Rgb {
+    let s = hit.point.surface as usize;
+    let own = renderer.element_radiance(reconstruction, s, hit.uv);
+    if !renderer.solution().scene.surfaces[s]
+        .brdf
+        .flags()
+        .contains(BrdfFlags::GLOSSY_REFLECTION)
+    {
+        return own;
+    }
+    let glossy = (eye.surfaces[s].as_ref()).map_or([0.0; 3], |(tree, l)| {
+        radiance_at(tree, l, hit.uv, towards_eye)
+    });
+    [0, 1, 2].map(|ch| own[ch] + glossy[ch])
+}
+
+/// [`Estimator::Solution`] with [`GlossyView::Directional`] at `hit`: the
+/// element radiance of a diffuse surface, and a glossy one's radiance
+/// towards the eye from the view-independent solution
+/// ([`Renderer::glossy_radiance_towards`]).
+fn read_directional<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    reconstruction: Reconstruction,
+) -> Rgb {
+    let GatherPoint {
+        surface, position, ..
+    } = hit.point;
+    match !renderer.solution().scene.surfaces[surface as usize]
+        .brdf
+        .flags()
+        .contains(BrdfFlags::GLOSSY_REFLECTION)
+    {
+        true => renderer.element_radiance(reconstruction, surface as usize, hit.uv),
+        false => renderer.glossy_radiance_towards(surface, position, hit.wo),
+    }
+}
+
+/// Which of a pixel's `n` camera rays (a √n × √n stratified grid, row by
+/// row) final-gather: `gathers` of them on a rank-1 lattice over the grid
+/// (the j-th in row ⌊j·√n/gathers⌋, column j·P mod √n with P coprime to √n,
+/// near √n/φ), so that they spread over the whole pixel at any ratio.
+/// When more gathers are asked for than the pixel has camera rays, each
+/// gathering ray traces more indirect rays instead.
+struct GatheringRays {
+    side: usize,
+    gathers: usize,
+    /// Gathers asked for per gather made (≥ 1).
+    excess: u32,
+    step: usize,
+}
+
+impl GatheringRays {
+    fn new(n: usize, wanted: u32) -> GatheringRays {
+        let side = ((n as f64).sqrt().round() as usize).max(1);
+        let gathers = (wanted as usize).clamp(1, side * side);
+        let excess = wanted.div_ceil(gathers as u32).max(1);
+        let coprime = |p: usize| {
+            (1..=p.min(side))
+                .rev()
+                .all(|d| d == 1 || !p.is_multiple_of(d) || !side.is_multiple_of(d))
+        };
+        let step = (((side as f64) * 0.618).round() as usize..)
+            .find(|&p| coprime(p))
+            .unwrap_or(1);
+        GatheringRays {
+            side,
+            gathers,
+            excess,
+            step,
+        }
+    }
+
+    /// Which of the pixel's gathers camera ray `k` makes (0 for the first),
+    /// if it gathers.
+    fn rank(&self, k: usize) -> Option<u32> {
+        let (row, col) = (k / self.side, k % self.side);
+        let first = |r: usize| (r * self.gathers).div_ceil(self.side);
+        (first(row)..first(row + 1))
+            .find(|&j| (j * self.step) % self.side == col)
+            .map(|j| j as u32)
+    }
+
+    /// The control variate's weight: rays per gathering ray.
+    fn weight(&self) -> f64 {
+        (self.side * self.side) as f64 / self.gathers as f64
+    }
+
+    /// Indirect rays per gathering ray: the pixel's share of `settings`'
+    /// total for an interior pixel, and more where the pixel has fewer
+    /// camera rays than gathers asked for.
+    fn rays(&self, settings: &RenderSettings) -> u32 {
+        let total = settings.gather_rays * settings.gather_samples_per_pixel;
+        (total / self.gathers as u32).clamp(
+            settings.gather_rays.min(4),
+            settings.gather_rays * self.excess,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each mode with the options it uses is an estimator of its own (but
+    /// `direct` and `smooth` without the eye, which read the same smooth
+    /// solution); the options a mode has no use for are errors.
+    #[test]
+    fn every_mode_option_combination_is_an_estimator_or_an_error() {
+        let mut estimators = Vec::new();
+        for (_, mode) in Mode::NAMES {
+            for eye in [true, false] {
+                for cache in [true, false] {
+                    let unused = match mode {
+                        Mode::Gather => !eye,
+                        _ => cache,
+                    };
+                    match mode.estimator(eye, cache) {
+                        Ok(e) => {
+                            assert!(!unused, "{mode} eye {eye} cache {cache}: {e:?}");
+                            estimators.push(e);
+                        }
+                        Err(Error::RenderOption { mode: name, .. }) => {
+                            assert!(unused, "{mode} eye {eye} cache {cache}");
+                            assert_eq!(name, mode.name());
+                        }
+                        Err(e) => panic!("{e}"),
+                    }
+                }
+            }
+        }
+        assert_eq!(estimators.len(), 8);
+        estimators.sort_by_key(|e| format!("{e:?}"));
+        estimators.dedup();
+        assert_eq!(estimators.len(), 7);
+        assert_eq!(
+            Mode::default().estimator(true, false),
+            Ok(Estimator::default())
+        );
+    }
+
+    #[test]
+    fn modes_are_named_as_they_parse() {
+        for (name, mode) in Mode::NAMES {
+            assert_eq!(name.parse::<Mode>(), Ok(mode));
+            assert_eq!(mode.to_string(), name);
+        }
+        assert!("phong".parse::<Mode>().is_err());
+    }
+
+    #[test]
+    fn gathering_rays_are_as_many_as_asked_and_spread_over_rows_and_columns() {
+        for (n, gathers) in [
+            (529, 16),
+            (1024, 16),
+            (64, 16),
+            (64, 64),
+            (64, 200),
+            (1, 4),
+            (256, 7),
+        ] {
+            let g = GatheringRays::new(n, gathers);
+            let chosen: Vec<usize> = (0..n).filter(|&k| g.rank(k).is_some()).collect();
+            let expect = (gathers as usize).min(n);
+            assert_eq!(chosen.len(), expect, "n {n} gathers {gathers}");
+            // Each gather has its own rank, and together they number 0, 1, ….
+            let mut ranks: Vec<u32> = chosen.iter().filter_map(|&k| g.rank(k)).collect();
+            ranks.sort_unstable();
+            assert!(ranks.iter().enumerate().all(|(i, &r)| r == i as u32));
+            assert_eq!(g.weight() * expect as f64, n as f64);
+            // No two in one column while there are columns to spare.
+            let side = (n as f64).sqrt() as usize;
+            let mut columns: Vec<usize> = chosen.iter().map(|k| k % side).collect();
+            columns.sort_unstable();
+            columns.dedup();
+            assert_eq!(columns.len(), expect.min(side), "n {n} gathers {gathers}");
+        }
+    }
+
+    #[test]
+    fn gathers_beyond_the_camera_rays_become_indirect_rays() {
+        let settings = RenderSettings::default();
+        let interior = settings.interior_samples_per_pixel as usize;
+        let rays = |gather_spp: u32| {
+            let local = RenderSettings {
+                gather_samples_per_pixel: gather_spp,
+                ..settings
+            };
+            let g = GatheringRays::new(interior, local.gathers_among(interior));
+            (g.gathers, g.rays(&local))
+        };
+        // Indirect rays in all: gathers × rays per gather, as asked for.
+        for gather_spp in [16, 64, 256, 1024] {
+            let (gathers, per_gather) = rays(gather_spp);
+            assert_eq!(gathers, (gather_spp as usize).min(interior));
+            assert_eq!(
+                gathers as u32 * per_gather,
+                gather_spp * settings.gather_rays,
+                "gather spp {gather_spp}"
+            );
+        }
+    }
+}

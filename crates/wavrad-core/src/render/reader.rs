@@ -1,0 +1,304 @@
+//! What final gathers read from a solution ([`SolutionReader`]), built once
+//! per solution by its [`super::Renderer`], and the final gather over it.
+
+use super::gather::{self, GatherPoint};
+use super::mirror::MirrorImage;
+use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
+use super::RenderSettings;
+use crate::sampling::Samples;
+use crate::scene::brdf::Brdf;
+use crate::scene::brdf::{BrdfFlags, BrdfModel};
+use crate::scene::Rgb;
+use crate::solve::Solution;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// What gather rays read from a solution on diffuse surfaces: the radiance
+/// of the element they hit (piecewise constant; `smooth`, the bilinear
+/// reconstruction, is what camera rays show); on a surface with an entry in
+/// `beyond_first` (the solution's radiance less its first bounce,
+/// [`Solution::first_bounce`]), that element's value of it plus the light
+/// reflected straight from the `emitters` evaluated at the point hit.
+///
+/// A gather averages what it reads over many elements, so the smooth
+/// reconstruction gains it nothing, and near a concave edge, where the
+/// nearby surface fills much of a gather's hemisphere, its linear
+/// extrapolation at the boundary overshoots.
+///
+/// A final gather's bias is the error of what its rays read. On a strongly
+/// lit diffuse surface ([`secondary_sources`]) that reflects over half of
+/// the scene's light, that is the first bounce, which its elements average
+/// over (Figure 3's reflector, which alone lights the receiver). Elsewhere
+/// evaluating the first bounce per point changes nothing measurable and
+/// costs a shadow ray per gather sample that meets the surface.
+///
+/// `non_lambertian` is, for a glossy surface whose BRDF has a Lambertian
+/// lobe besides others (Ward's), the rest of its BRDF: camera rays meeting
+/// it in the final gather see the Lambertian lobe's light as a diffuse
+/// surface's (cached or gathered by some of the pixel's rays, its element
+/// radiance the control variate) and gather only the rest per ray.
+///
+/// It also knows where a gather looks for concentrated light besides its
+/// cosine rays ([`gather::GatherSources`]): the `bright` surfaces, the
+/// emitters' `mirrors` images, and the `caustic` receivers they light.
+pub(super) struct SolutionReader {
+    pub(super) smooth: Vec<SmoothLookup>,
+    pub(super) non_lambertian: Vec<Option<Brdf>>,
+    beyond_first: Vec<Option<Vec<Rgb>>>,
+    pub(super) emitters: Vec<u32>,
+    pub(super) bright: Vec<u32>,
+    mirrors: Vec<MirrorImage>,
+    pub(super) caustic: Vec<bool>,
+}
+
+/// What a final gather finds at a point, in two parts: light that varies as
+/// sharply as shadows do, and light that varies smoothly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct FinalGather {
+    /// Emission and the light straight from the emitters.
+    pub(super) direct: Rgb,
+    /// Light from the rest of the solution.
+    pub(super) indirect: gather::Indirect,
+}
+
+impl FinalGather {
+    pub(super) fn total(&self) -> Rgb {
+        [0, 1, 2].map(|ch| self.direct[ch] + self.indirect.radiance[ch])
+    }
+}
+
+impl SolutionReader {
+    /// What final gathers read from `solution` (view-independent).
+    pub(super) fn new(solution: &Solution) -> SolutionReader {
+        let surfaces = &solution.scene.surfaces;
+        let emitters: Vec<u32> = (0..surfaces.len() as u32)
+            .filter(|&s| surfaces[s as usize].is_emitter())
+            .collect();
+        let glossy: Vec<u32> = (0..surfaces.len() as u32)
+            .filter(|&s| {
+                surfaces[s as usize]
+                    .brdf
+                    .flags()
+                    .contains(BrdfFlags::GLOSSY_REFLECTION)
+            })
+            .collect();
+        let bright = secondary_sources(solution, &glossy);
+        let mirrors = MirrorImage::of_scene(&solution.scene, &glossy, &emitters);
+        let caustic = (0..surfaces.len())
+            .map(|s| mirrors.iter().any(|m| m.lights(&solution.scene, s as u32)))
+            .collect();
+        // A strongly lit diffuse surface that reflects most of the scene's
+        // light shows gather rays its first bounce per point.
+        let power = reflected_power(solution);
+        let total: f64 = power.iter().sum();
+        let per_point: Vec<usize> = (bright.iter().map(|&s| s as usize))
+            .filter(|&s| power[s] > 0.5 * total)
+            .collect();
+        let mut beyond_first = vec![None; surfaces.len()];
+        if let (false, Some(first)) = (per_point.is_empty(), solution.first_bounce()) {
+            for s in per_point.into_iter().filter(|&s| !first[s].is_empty()) {
+                let less = |(b, f): (&Rgb, &Rgb)| [0, 1, 2].map(|ch| b[ch] - f[ch]);
+                beyond_first[s] = Some(
+                    solution.radiance[s]
+                        .iter()
+                        .zip(&first[s])
+                        .map(less)
+                        .collect(),
+                );
+            }
+        }
+        let non_lambertian = surfaces
+            .iter()
+            .map(|s| {
+                match (
+                    !s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION),
+                    s.brdf.lambertian(),
+                ) {
+                    (false, Some(_)) => Some(s.brdf.without_lambertian()),
+                    _ => None,
+                }
+            })
+            .collect();
+        SolutionReader {
+            smooth: solution.trees.par_iter().map(SmoothLookup::new).collect(),
+            non_lambertian,
+            beyond_first,
+            emitters,
+            bright,
+            mirrors,
+            caustic,
+        }
+    }
+
+    /// Radiance leaving the diffuse `point` (view-independent): its emission,
+    /// the light straight from the emitters (`shadow_grid` × `shadow_grid`
+    /// shadow rays to each) and `rays` cosine rays' worth of the rest of
+    /// the solution, with about as many samples of the bright surfaces
+    /// together, and of each mirror image ([`gather::indirect_radiance`]).
+    /// The bright surfaces share their samples: each glossy face of a box
+    /// counts as one, and area samples each cost a shadow ray and a glossy
+    /// evaluation.
+    pub(super) fn final_gather(
+        &self,
+        solution: &Solution,
+        point: &GatherPoint,
+        rays: (u32, u32),
+        settings: &RenderSettings,
+    ) -> Rgb {
+        self.final_gather_parts(solution, point, rays, settings)
+            .total()
+    }
+
+    /// [`SolutionReader::final_gather`] in its two parts.
+    pub(super) fn final_gather_parts(
+        &self,
+        solution: &Solution,
+        point: &GatherPoint,
+        (rays, shadow_grid): (u32, u32),
+        settings: &RenderSettings,
+    ) -> FinalGather {
+        let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let sources = gather::GatherSources {
+            bright: &self.bright,
+            mirrors: &self.mirrors,
+            grid: ((f64::from(rays) / self.bright.len().max(1) as f64)
+                .sqrt()
+                .round() as u32)
+                .max(settings.gather_grid),
+        };
+        let to = (point.surface, point.position);
+        let seed = point.samples.seed();
+        let indirect = gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
+            let l = self.radiance_leaving(solution, (q, y), to, (seed, settings.glossy_grid));
+            let e = scene.surfaces[q as usize].emission;
+            [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
+        });
+        let direct = gather::direct_radiance(scene, tracer, &self.emitters, point, shadow_grid);
+        let emission = scene.surfaces[point.surface as usize].emission;
+        FinalGather {
+            direct: [0, 1, 2].map(|ch| emission[ch] + direct[ch]),
+            indirect,
+        }
+    }
+
+    /// Radiance leaving point `y` of surface `q` towards point `x` of surface
+    /// `s`, as a gather ray from `x` sees it: the solution's for a diffuse
+    /// `q`; for a glossy one, the light its BRDF reflects there evaluated per
+    /// point (emitters exactly, the rest from the solution, `grid` × `grid`
+    /// samples of each; [`gather::glossy_radiance`]), because a highlight's
+    /// sharp edge, and the light near a contact line, are finer than the
+    /// pair tree's elements.
+    pub(super) fn radiance_leaving(
+        &self,
+        solution: &Solution,
+        (q, y): (u32, DVec3),
+        (s, x): (u32, DVec3),
+        (seed, grid): (u64, u32),
+    ) -> Rgb {
+        let source = &solution.scene.surfaces[q as usize];
+        // Decorrelated per point y: every ray of one gather has its own.
+        let bits = y.x.to_bits() ^ y.y.to_bits().rotate_left(21) ^ y.z.to_bits().rotate_left(42);
+        let seed = seed.rotate_left(17) ^ u64::from(q) ^ bits;
+        if !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
+            return self.outgoing_radiance(solution, (q, y, seed), s, x);
+        }
+        let at = GatherPoint {
+            surface: q,
+            position: y,
+            normal: source.patch.normal(),
+            samples: Samples::Hashed(seed),
+        };
+        let reflected = gather::glossy_radiance(
+            &solution.scene,
+            &solution.tracer,
+            &self.emitters,
+            &at,
+            (&source.brdf, (x - y).normalize()),
+            grid,
+            |h, z| self.outgoing_radiance(solution, (h, z, seed ^ u64::from(h) << 40), q, y),
+        );
+        [0, 1, 2].map(|ch| source.emission[ch] + reflected[ch])
+    }
+
+    /// Radiance the solution says leaves point `y` of surface `q` towards
+    /// point `x` of surface `s`: the radiance of `q`'s element at `y`, plus
+    /// for a glossy `q` its directional radiance towards `x`
+    /// ([`directional_radiance`]).
+    fn outgoing_radiance(
+        &self,
+        solution: &Solution,
+        (q, y, seed): (u32, DVec3, u64),
+        s: u32,
+        x: DVec3,
+    ) -> Rgb {
+        let surface = &solution.scene.surfaces[q as usize];
+        let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
+        let i = q as usize;
+        let element = |radiance: &[Rgb]| {
+            radiance_at(&solution.trees[i], radiance, uv_y, Reconstruction::Haar)
+        };
+        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
+            let own = element(&solution.radiance[i]);
+            let glossy = directional_radiance(solution, q, y, s, x);
+            return [0, 1, 2].map(|ch| own[ch] + glossy[ch]);
+        }
+        let Some(beyond_first) = &self.beyond_first[i] else {
+            return element(&solution.radiance[i]);
+        };
+        let solved = element(beyond_first);
+        let at = GatherPoint {
+            surface: q,
+            position: y,
+            normal: surface.patch.normal(),
+            samples: Samples::Hashed(seed),
+        };
+        let first =
+            gather::direct_radiance(&solution.scene, &solution.tracer, &self.emitters, &at, 1);
+        [0, 1, 2].map(|ch| solved[ch].max(0.0) + first[ch])
+    }
+}
+
+/// Per surface, the light its diffuse solution reflects: average radiance
+/// (mean of the channels) times area, zero for emitters and glossy
+/// surfaces.
+fn reflected_power(solution: &Solution) -> Vec<f64> {
+    let lum = |l: Rgb| (l[0] + l[1] + l[2]) / 3.0;
+    (solution.scene.surfaces.iter().enumerate())
+        .map(|(s, surface)| {
+            match !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+                && !surface.is_emitter()
+            {
+                true => lum(solution.radiance[s][0]) * surface.patch.area(),
+                false => 0.0,
+            }
+        })
+        .collect()
+}
+
+/// The surfaces a diffuse point's final gather samples by area besides its
+/// cosine rays: every `glossy` one (its reflected light is concentrated in
+/// its lobes) and every diffuse non-emitter whose average radiance is over
+/// four times the area-weighted mean of all non-emitters (a small, strongly
+/// lit surface that lights the others: cosine rays rarely find it).
+fn secondary_sources(solution: &Solution, glossy: &[u32]) -> Vec<u32> {
+    let surfaces = &solution.scene.surfaces;
+    let power = reflected_power(solution);
+    let lit = |s: usize| {
+        !surfaces[s]
+            .brdf
+            .flags()
+            .contains(BrdfFlags::GLOSSY_REFLECTION)
+            && !surfaces[s].is_emitter()
+    };
+    let area = |s: usize| surfaces[s].patch.area();
+    let n = surfaces.len();
+    let total_area: f64 = (0..n).filter(|&s| lit(s)).map(area).sum();
+    let mean = power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
+    let mut out = glossy.to_vec();
+    out.extend((0..n as u32).filter(|&s| {
+        let s = s as usize;
+        lit(s) && power[s] > 4.0 * mean * area(s)
+    }));
+    out.sort_unstable();
+    out
+}
