@@ -192,13 +192,10 @@ impl BrdfModel for Ward {
     /// Both lobes whatever their weights, anisotropic when α_u ≠ α_v, as
     /// Mitsuba 0.6's `Ward::configure`.
     fn flags(&self) -> BrdfFlags {
-        let lobes = BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION;
-        let anisotropic = if self.alpha_u == self.alpha_v {
-            BrdfFlags::empty()
-        } else {
-            BrdfFlags::ANISOTROPIC
-        };
-        lobes | BrdfFlags::FRONT_SIDE | anisotropic
+        let mut flags =
+            BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION | BrdfFlags::FRONT_SIDE;
+        flags.set(BrdfFlags::ANISOTROPIC, self.alpha_u != self.alpha_v);
+        flags
     }
 }
 
