@@ -17,10 +17,9 @@ use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::average_detail;
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{refine_each, Part};
+use crate::refine::{project_all, refine_further, Part, Refiner};
 use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::{Patch, Rgb, Scene};
-use rayon::prelude::*;
 
 /// A three-point interaction r → p → q: `L_{a→b} += coefficient · L_{c→a}`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -283,27 +282,20 @@ pub fn refine_three_point_links(
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
 ) -> Vec<ThreePointLink> {
-    progress.start("3-point kernels", triples.len() as u64);
-    let per_triple: Vec<Vec<ThreePointLink>> = triples
-        .par_iter()
-        .map(|&(r, p, q)| {
-            let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
-            let (c, a, b) = (
-                Part::of(ctx.scene, ElementRef::root(r)),
-                Part::of(ctx.scene, ElementRef::root(p)),
-                Part {
-                    element: ElementRef::root(q),
-                    patch: receiver(q),
-                },
-            );
-            let k = refiner.coefficient(&c, &a, &b);
-            refiner.refine(c, a, b, k);
-            progress.advance(1);
-            refiner.links
-        })
-        .collect();
-    progress.finish();
-    per_triple.into_iter().flatten().collect()
+    project_all("3-point kernels", triples, progress, |&(r, p, q)| {
+        let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
+        let (c, a, b) = (
+            Part::of(ctx.scene, ElementRef::root(r)),
+            Part::of(ctx.scene, ElementRef::root(p)),
+            Part {
+                element: ElementRef::root(q),
+                patch: receiver(q),
+            },
+        );
+        let k = refiner.coefficient(&c, &a, &b);
+        refiner.refine(c, a, b, k);
+        refiner.links
+    })
 }
 
 /// One pass of the refine–solve loop for three-point links (see
@@ -316,17 +308,32 @@ pub fn refine_three_point_links_further(
     links: Vec<ThreePointLink>,
     progress: &dyn Progress,
 ) -> (Vec<ThreePointLink>, usize) {
-    progress.start("3-point kernels", links.len() as u64);
-    let out = refine_each(&links, progress, |l| {
-        let mut refiner = TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q));
-        let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
-        let weight = refiner.weight(estimate, &[c, a, b]);
-        if f64::from(l.detail) * weight <= settings.refine.oracle.threshold {
-            return vec![*l];
-        }
-        refiner.refine(c, a, b, l.coefficient);
-        refiner.links
-    });
-    progress.finish();
-    out
+    refine_further::<TripleRefiner>("3-point kernels", ctx, settings, estimate, &links, progress)
+}
+
+impl<'a> Refiner<'a> for TripleRefiner<'a> {
+    type Link = ThreePointLink;
+    type Settings = ThreePointSettings;
+
+    fn for_link(
+        ctx: &KernelContext<'a>,
+        settings: ThreePointSettings,
+        estimate: &'a LightEstimate,
+        l: &ThreePointLink,
+    ) -> Self {
+        TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q))
+    }
+
+    fn still_accepts(&self, l: &ThreePointLink) -> bool {
+        let parts = l.elements().map(|e| Part::of(self.ctx.scene, e));
+        self.estimate.is_none_or(|e| {
+            f64::from(l.detail) * self.weight(e, &parts) <= self.settings.refine.oracle.threshold
+        })
+    }
+
+    fn refine_link(mut self, l: &ThreePointLink) -> Vec<ThreePointLink> {
+        let [c, a, b] = l.elements().map(|e| Part::of(self.ctx.scene, e));
+        self.refine(c, a, b, l.coefficient);
+        self.links
+    }
 }

@@ -13,9 +13,8 @@ use crate::kernel::{self, KernelContext, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
-use crate::refine::{refine_each, Part};
+use crate::refine::{project_all, refine_further, Part, Refiner};
 use crate::scene::{Patch, Scene, Surface};
-use rayon::prelude::*;
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
@@ -49,6 +48,12 @@ impl Link {
             ElementRef::new(self.p, self.a),
             ElementRef::new(self.r, self.c),
         ]
+    }
+
+    /// The children's shares of its throughput ([`ChildShares`]) when they
+    /// are those of its receiving element, `a` when `into_a`, else `c`.
+    pub fn shares_into(&self, into_a: bool) -> Option<[f32; 4]> {
+        self.children.filter(|s| s.of_a == into_a).map(|s| s.shares)
     }
 }
 
@@ -422,17 +427,9 @@ pub fn refine_links(
     progress: &dyn Progress,
 ) -> Vec<Link> {
     let pairs = linked_pairs(ctx.scene);
-    progress.start("kernels", pairs.len() as u64);
-    let per_pair: Vec<Vec<Link>> = pairs
-        .par_iter()
-        .map(|&pair| {
-            let links = refine_pair(ctx, settings, estimate, pair);
-            progress.advance(1);
-            links
-        })
-        .collect();
-    progress.finish();
-    per_pair.into_iter().flatten().collect()
+    project_all("kernels", &pairs, progress, |&pair| {
+        refine_pair(ctx, settings, estimate, pair)
+    })
 }
 
 /// The surface pairs (p < r) that get two-point links: those not facing
@@ -469,7 +466,8 @@ pub fn refine_pair(
     refiner.links
 }
 
-/// One pass of the refine–solve loop: every link that the weighted oracle
+/// One pass of the refine–solve loop for two-point links
+/// ([`crate::refine::refine_further`]): every link that the weighted oracle
 /// rejects under the new `estimate` is refined further (links are never
 /// coarsened); the others are kept as they are. Returns the links, in a
 /// deterministic order, and how many were refined.
@@ -480,22 +478,35 @@ pub fn refine_links_further(
     links: Vec<Link>,
     progress: &dyn Progress,
 ) -> (Vec<Link>, usize) {
-    progress.start("kernels", links.len() as u64);
-    let out = refine_each(&links, progress, |l| {
-        let mut refiner = PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r));
-        if refiner.still_smooth(l) {
-            return vec![*l];
-        }
-        let [a, c] = l.elements().map(|e| Part::of(ctx.scene, e));
-        refiner.refine(a, c, l.throughput, false);
-        match refiner.links[..] {
+    refine_further::<PairRefiner>("kernels", ctx, settings, estimate, &links, progress)
+}
+
+impl<'a> Refiner<'a> for PairRefiner<'a> {
+    type Link = Link;
+    type Settings = RefineSettings;
+
+    fn for_link(
+        ctx: &KernelContext<'a>,
+        settings: RefineSettings,
+        estimate: &'a LightEstimate,
+        l: &Link,
+    ) -> Self {
+        PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r))
+    }
+
+    fn still_accepts(&self, l: &Link) -> bool {
+        self.still_smooth(l)
+    }
+
+    fn refine_link(mut self, l: &Link) -> Vec<Link> {
+        let [a, c] = l.elements().map(|e| Part::of(self.ctx.scene, e));
+        self.refine(a, c, l.throughput, false);
+        match self.links[..] {
             // Tested again and kept: unchanged.
             [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],
-            _ => refiner.links,
+            _ => self.links,
         }
-    });
-    progress.finish();
-    out
+    }
 }
 
 #[cfg(test)]

@@ -54,7 +54,7 @@
 //! assert_eq!(solution.stats.shooting_steps, steps);
 //! ```
 
-use super::gather::{form_factor, receiver_gradient, Interactions};
+use super::gather::{form_factor, receiver_gradient, reflected, Interactions};
 use super::push_pull::Gathered;
 use super::{push_pull, Solution, SolveSettings, System};
 use crate::geometry::hierarchy::{ElementId, ElementTree};
@@ -276,14 +276,10 @@ impl SurfaceState {
         for l in links {
             let (a, c) = ends(l);
             let node = self.tree.index_of(a).expect("link element is in its tree") as usize;
-            let area = self.tree.nodes[node].patch.area();
-            let form_factor = form_factor(l.throughput, area, self.exposure[node]);
+            let form_factor = form_factor(&self.tree, &self.exposure, node, l.throughput);
             let sent = unshot[tree.node_containing(c) as usize];
-            let value = [0, 1, 2].map(|ch| rho[ch] * form_factor * sent[ch]);
-            let shares = l
-                .children
-                .filter(|s| s.of_a == (l.p == r))
-                .map(|s| s.shares);
+            let value = reflected(rho, form_factor, sent);
+            let shares = l.shares_into(l.p == r);
             let source = c.patch(&tree.nodes[0].patch);
             let gradient = receiver_gradient(&self.tree, &self.exposure, node, &source, shares);
             gathered.add(node, value, gradient);
