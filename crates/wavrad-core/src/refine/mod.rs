@@ -105,48 +105,38 @@ pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
     (per_link.into_iter().flatten().collect(), changed)
 }
 
-/// The refiner of one projection (two-point or three-point) as a pass of
-/// the refine–solve loop takes it, for one link already kept.
-pub(crate) trait Refiner<'a>: Sized {
+/// A kernel projection (two-point or three-point), named by its settings,
+/// as the refine–solve loop re-judges the links it made.
+pub trait Projection: Copy + Sync {
     /// The links it makes.
     type Link: Copy + PartialEq + Send + Sync;
-    /// Its settings.
-    type Settings: Copy + Sync;
+    /// The progress phase of a pass over its links.
+    const PHASE: &'static str;
 
-    /// The refiner of `link`'s surfaces, weighing by `estimate`.
-    fn for_link(
-        ctx: &KernelContext<'a>,
-        settings: Self::Settings,
-        estimate: &'a LightEstimate,
+    /// What `link` becomes under the new `estimate`: itself while the
+    /// weighted oracle still accepts it (as far as its stored detail tells,
+    /// without new quadrature), else the links it is refined into.
+    fn refine_link(
+        &self,
+        ctx: &KernelContext,
+        estimate: &LightEstimate,
         link: &Self::Link,
-    ) -> Self;
-
-    /// Whether the oracle still accepts `link` as far as its stored detail
-    /// tells, without new quadrature.
-    fn still_accepts(&self, link: &Self::Link) -> bool;
-
-    /// The links `link` becomes when refined further.
-    fn refine_link(self, link: &Self::Link) -> Vec<Self::Link>;
+    ) -> Vec<Self::Link>;
 }
 
-/// One pass of the refine–solve loop over `links`: every link the oracle
-/// rejects under the new `estimate` is refined further (links are never
-/// coarsened); the others are kept as they are. Returns the links, in a
-/// deterministic order, and how many were refined.
-pub(crate) fn refine_further<'a, R: Refiner<'a>>(
-    label: &str,
-    ctx: &KernelContext<'a>,
-    settings: R::Settings,
-    estimate: &'a LightEstimate,
-    links: &[R::Link],
+/// One pass of the refine–solve loop over the `links` of the projection
+/// `settings`: every link that the weighted oracle rejects under the new
+/// `estimate` is refined further (links are never coarsened); the others
+/// are kept as they are. Returns the links, in a deterministic order, and
+/// how many were refined.
+pub fn refine_further<P: Projection>(
+    ctx: &KernelContext,
+    settings: P,
+    estimate: &LightEstimate,
+    links: Vec<P::Link>,
     progress: &dyn Progress,
-) -> (Vec<R::Link>, usize) {
-    refine_each(label, links, progress, |l| {
-        let refiner = R::for_link(ctx, settings, estimate, l);
-        if refiner.still_accepts(l) {
-            vec![*l]
-        } else {
-            refiner.refine_link(l)
-        }
+) -> (Vec<P::Link>, usize) {
+    refine_each(P::PHASE, &links, progress, |l| {
+        settings.refine_link(ctx, estimate, l)
     })
 }

@@ -17,7 +17,7 @@ use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::average_detail;
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{project_all, refine_further, Part, Refiner};
+use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
@@ -298,42 +298,23 @@ pub fn refine_three_point_links(
     })
 }
 
-/// One pass of the refine–solve loop for three-point links (see
-/// [`crate::refine::two_point_projection::refine_links_further`]); the receivers are the scene's
-/// surfaces. Returns the links and how many were refined.
-pub fn refine_three_point_links_further(
-    ctx: &KernelContext,
-    settings: ThreePointSettings,
-    estimate: &LightEstimate,
-    links: Vec<ThreePointLink>,
-    progress: &dyn Progress,
-) -> (Vec<ThreePointLink>, usize) {
-    refine_further::<TripleRefiner>("3-point kernels", ctx, settings, estimate, &links, progress)
-}
-
-impl<'a> Refiner<'a> for TripleRefiner<'a> {
+impl Projection for ThreePointSettings {
     type Link = ThreePointLink;
-    type Settings = ThreePointSettings;
+    const PHASE: &'static str = "3-point kernels";
 
-    fn for_link(
-        ctx: &KernelContext<'a>,
-        settings: ThreePointSettings,
-        estimate: &'a LightEstimate,
+    fn refine_link(
+        &self,
+        ctx: &KernelContext,
+        estimate: &LightEstimate,
         l: &ThreePointLink,
-    ) -> Self {
-        TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q))
-    }
-
-    fn still_accepts(&self, l: &ThreePointLink) -> bool {
-        let parts = l.elements().map(|e| Part::of(self.ctx.scene, e));
-        self.estimate.is_none_or(|e| {
-            f64::from(l.detail) * self.weight(e, &parts) <= self.settings.refine.oracle.threshold
-        })
-    }
-
-    fn refine_link(mut self, l: &ThreePointLink) -> Vec<ThreePointLink> {
-        let [c, a, b] = l.elements().map(|e| Part::of(self.ctx.scene, e));
-        self.refine(c, a, b, l.coefficient);
-        self.links
+    ) -> Vec<ThreePointLink> {
+        let mut refiner = TripleRefiner::new(ctx, *self, Some(estimate), (l.r, l.p, l.q));
+        let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
+        let weight = refiner.weight(estimate, &[c, a, b]);
+        if f64::from(l.detail) * weight <= self.refine.oracle.threshold {
+            return vec![*l];
+        }
+        refiner.refine(c, a, b, l.coefficient);
+        refiner.links
     }
 }

@@ -13,7 +13,7 @@ use crate::kernel::{self, KernelContext, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, KernelSmoothness};
-use crate::refine::{project_all, refine_further, Part, Refiner};
+use crate::refine::{project_all, Part, Projection};
 use crate::scene::{Patch, Scene, Surface};
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
@@ -466,45 +466,21 @@ pub fn refine_pair(
     refiner.links
 }
 
-/// One pass of the refine–solve loop for two-point links
-/// ([`crate::refine::refine_further`]): every link that the weighted oracle
-/// rejects under the new `estimate` is refined further (links are never
-/// coarsened); the others are kept as they are. Returns the links, in a
-/// deterministic order, and how many were refined.
-pub fn refine_links_further(
-    ctx: &KernelContext,
-    settings: RefineSettings,
-    estimate: &LightEstimate,
-    links: Vec<Link>,
-    progress: &dyn Progress,
-) -> (Vec<Link>, usize) {
-    refine_further::<PairRefiner>("kernels", ctx, settings, estimate, &links, progress)
-}
-
-impl<'a> Refiner<'a> for PairRefiner<'a> {
+impl Projection for RefineSettings {
     type Link = Link;
-    type Settings = RefineSettings;
+    const PHASE: &'static str = "kernels";
 
-    fn for_link(
-        ctx: &KernelContext<'a>,
-        settings: RefineSettings,
-        estimate: &'a LightEstimate,
-        l: &Link,
-    ) -> Self {
-        PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r))
-    }
-
-    fn still_accepts(&self, l: &Link) -> bool {
-        self.still_smooth(l)
-    }
-
-    fn refine_link(mut self, l: &Link) -> Vec<Link> {
-        let [a, c] = l.elements().map(|e| Part::of(self.ctx.scene, e));
-        self.refine(a, c, l.throughput, false);
-        match self.links[..] {
+    fn refine_link(&self, ctx: &KernelContext, estimate: &LightEstimate, l: &Link) -> Vec<Link> {
+        let mut refiner = PairRefiner::new(ctx, *self, Some(estimate), (l.p, l.r));
+        if refiner.still_smooth(l) {
+            return vec![*l];
+        }
+        let [a, c] = l.elements().map(|e| Part::of(ctx.scene, e));
+        refiner.refine(a, c, l.throughput, false);
+        match refiner.links[..] {
             // Tested again and kept: unchanged.
             [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],
-            _ => self.links,
+            _ => refiner.links,
         }
     }
 }
@@ -516,6 +492,7 @@ mod tests {
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
     use crate::refine::oracle::KernelSmoothness;
+    use crate::refine::refine_further;
     use crate::scene::Surface;
     use glam::DVec3;
 
@@ -630,13 +607,13 @@ mod tests {
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
         // partition (Howell's parallel unit squares at distance 0.5).
-        let (same, changed) = refine_links_further(&ctx, settings, &lit, links.clone(), &Silent);
+        let (same, changed) = refine_further(&ctx, settings, &lit, links.clone(), &Silent);
         assert_eq!((same.len(), changed), (links.len(), 0));
         let stricter = RefineSettings {
             oracle: KernelSmoothness { threshold: 3e-4 },
             ..settings
         };
-        let (finer, changed) = refine_links_further(&ctx, stricter, &lit, links.clone(), &Silent);
+        let (finer, changed) = refine_further(&ctx, stricter, &lit, links.clone(), &Silent);
         assert!(changed > 0 && finer.len() > links.len());
         assert!(finer.iter().any(|l| l.a.level + l.c.level > 6));
         for set in [&links, &finer] {
@@ -704,7 +681,7 @@ mod tests {
             let ctx = context(&scene, &tracer);
             let links = refine_links(&ctx, settings, Some(&estimate), &Silent);
             let (again, changed) =
-                refine_links_further(&ctx, settings, &estimate, links.clone(), &Silent);
+                refine_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));
             let t: f64 = links.iter().map(|l| l.throughput).sum();
             // Howell's parallel unit squares at distance 2.

@@ -19,13 +19,11 @@ use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
 use crate::refine::oracle::Oracle;
+use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links, refine_three_point_links_further, surface_triples, ThreePointLink,
-    ThreePointSettings,
+    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
 };
-use crate::refine::two_point_projection::{
-    refine_links, refine_links_further, Link, RefineSettings,
-};
+use crate::refine::two_point_projection::{refine_links, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
@@ -244,10 +242,9 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
                 .directional_radiance(&system.directional),
             importance(&links),
         );
-        let (more, refined) =
-            refine_links_further(&ctx, settings.refine, &estimate, links, progress);
+        let (more, refined) = refine_further(&ctx, settings.refine, &estimate, links, progress);
         links = more;
-        let (more, refined_three_point) = refine_three_point_links_further(
+        let (more, refined_three_point) = refine_further(
             &ctx,
             settings.three_point_refine(),
             &estimate,

@@ -10,7 +10,7 @@
 //! [`crate::refine::two_point_projection::linked_pairs`]), the pair's links are projected the first
 //! time power flows through them, with the power-weighted oracle weighing
 //! the kernel by the shooter's unshot radiance, and re-tested from their
-//! stored details ([`crate::refine::two_point_projection::refine_links_further`]) when a later shot
+//! stored details ([`crate::refine::refine_further`]) when a later shot
 //! carries more power than they were refined for. Each receiver element
 //! gains ρ·F·ΔL, push–pull keeps its averages, and the shooter's unshot
 //! radiance becomes zero. Kernels between surfaces no light flows between
@@ -65,7 +65,8 @@ use crate::progress::{Progress, Silent};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
-use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
+use crate::refine::refine_further;
+use crate::refine::two_point_projection::{linked_pairs, refine_pair, Link};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
@@ -398,9 +399,7 @@ impl<'a> Shooting<'a> {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
                 (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), pair),
-                (Some(old), Some(e)) => {
-                    refine_links_further(ctx, settings.refine, e, old, &Silent).0
-                }
+                (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, &Silent).0,
                 (Some(old), None) => old,
             });
         });
