@@ -272,10 +272,10 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
     let scene = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
     let mut settings = SolveSettings::for_oracle(args.oracle);
     if let Some(n) = args.refine_passes {
-        settings.refine_passes = n;
+        settings.max_refine_passes = n;
     }
     if let Some(t) = args.threshold {
-        settings.refine.oracle.threshold = t;
+        settings.refine.threshold = t;
     }
     if let Some(j) = args.max_level {
         settings.refine.max_level = j;

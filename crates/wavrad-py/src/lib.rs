@@ -203,7 +203,7 @@ fn solve(
     let solver: Solver = solver.map_or(Ok(Solver::default()), parse)?;
     let mut settings = SolveSettings::for_oracle(oracle);
     if let Some(threshold) = threshold {
-        settings.refine.oracle.threshold = threshold;
+        settings.refine.threshold = threshold;
     }
     if let Some(max_level) = max_level {
         settings.refine.max_level = max_level;
@@ -224,7 +224,7 @@ fn solve(
         settings.max_iterations = max_iterations;
     }
     if let Some(passes) = refine_passes {
-        settings.refine_passes = passes;
+        settings.max_refine_passes = passes;
     }
     if on_step.is_some() && solver != Solver::Shoot {
         return Err(Error::Argument(

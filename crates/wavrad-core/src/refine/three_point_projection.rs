@@ -15,7 +15,7 @@ use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
 use crate::kernel::{faces_away, KernelContext};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
-use crate::refine::oracle::average_detail;
+use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
 use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{Brdf, Frame};
@@ -70,8 +70,7 @@ pub struct ThreePointSettings {
 struct TripleRefiner<'a> {
     ctx: KernelContext<'a>,
     settings: ThreePointSettings,
-    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
-    estimate: Option<&'a LightEstimate>,
+    judge: Judge<'a>,
     r: u32,
     p: u32,
     q: u32,
@@ -92,7 +91,10 @@ impl<'a> TripleRefiner<'a> {
         TripleRefiner {
             ctx: *ctx,
             settings,
-            estimate,
+            judge: Judge {
+                threshold: settings.refine.threshold,
+                estimate,
+            },
             r,
             p,
             q,
@@ -176,9 +178,9 @@ impl<'a> TripleRefiner<'a> {
                     self.coefficient(&t[0], &t[1], &t[2])
                 })
             };
-            let (smooth, d) = self.test(&parts, split, &children, &coefficients);
-            detail = detail.max(d);
-            if !smooth {
+            let verdict = self.test(&parts, split, &children, &coefficients);
+            detail = detail.max(verdict.detail);
+            if !verdict.smooth {
                 for (child, k) in children.into_iter().zip(coefficients) {
                     let mut t = parts;
                     t[split] = child;
@@ -196,25 +198,32 @@ impl<'a> TripleRefiner<'a> {
         self.push(&c, &a, &b, kept.unwrap_or(known), detail);
     }
 
-    /// The oracle on the children of `parts[split]` with coefficients `k`:
-    /// whether they pass, and their largest detail in element-average units
-    /// (for the weighted oracles; zero for the paper's).
-    fn test(
-        &self,
-        parts: &[Part; 3],
-        split: usize,
-        children: &[Part; 4],
-        k: &[Rgb; 4],
-    ) -> (bool, f64) {
-        let Some(e) = self.estimate else {
-            return (self.smooth(parts, split, children, k), 0.0);
-        };
-        // R integrates over c: a child of c carries a quarter of the light.
-        let scale = if split == 0 { 4.0 } else { 1.0 };
-        let detail = average_detail(k.map(|k| scale * k.iter().fold(0.0f64, |m, &x| m.max(x))));
-        (
-            detail * self.weight(e, parts) <= self.settings.refine.oracle.threshold,
-            detail,
+    /// The oracle on the children of `parts[split]` with coefficients `k`.
+    fn test(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> Verdict {
+        let largest = |k: &Rgb| k.iter().fold(0.0f64, |m, &x| m.max(x));
+        self.judge.verdict(
+            || {
+                // The paper's: the kernel in its parametrisation,
+                // K = f·G·V·A_r, averaged over each child triple.
+                let area_c = if split == 0 {
+                    children[0].patch.area()
+                } else {
+                    parts[0].patch.area()
+                };
+                let means = k.map(|k| largest(&k) / area_c);
+                let other_levels: u32 = (0..3)
+                    .filter(|&i| i != split)
+                    .map(|i| parts[i].element.id.level)
+                    .sum();
+                let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
+                kernel_detail(means, parts[split].element.id.level, other_levels, r_area)
+            },
+            |e| {
+                // R integrates over c: a child of c carries a quarter of the light.
+                let scale = if split == 0 { 4.0 } else { 1.0 };
+                let detail = average_detail(k.map(|k| scale * largest(&k)));
+                (detail, [detail * self.weight(e, parts)])
+            },
         )
     }
 
@@ -222,29 +231,6 @@ impl<'a> TripleRefiner<'a> {
     /// relative to the brightest emission, times the importance of b.
     fn weight(&self, e: &LightEstimate, [c, a, b]: &[Part; 3]) -> f64 {
         e.radiance(c.element, a.element) * e.importance(b.element)
-    }
-
-    /// The paper's oracle on the children of `parts[split]`: the kernel in
-    /// its parametrisation, K = f·G·V·A_r, averaged over each child triple,
-    /// has Haar details at most the threshold.
-    fn smooth(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> bool {
-        let area_c = if split == 0 {
-            children[0].patch.area()
-        } else {
-            parts[0].patch.area()
-        };
-        let means = k.map(|k| k.iter().fold(0.0f64, |m, &x| m.max(x)) / area_c);
-        let other_levels: u32 = (0..3)
-            .filter(|&i| i != split)
-            .map(|i| parts[i].element.id.level)
-            .sum();
-        let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
-        self.settings.refine.oracle.accepts(
-            means,
-            parts[split].element.id.level,
-            other_levels,
-            r_area,
-        )
     }
 }
 
@@ -310,8 +296,8 @@ impl Projection for ThreePointSettings {
     ) -> Vec<ThreePointLink> {
         let mut refiner = TripleRefiner::new(ctx, *self, Some(estimate), (l.r, l.p, l.q));
         let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
-        let weight = refiner.weight(estimate, &[c, a, b]);
-        if f64::from(l.detail) * weight <= self.refine.oracle.threshold {
+        let error = |e| Some(f64::from(l.detail) * refiner.weight(e, &[c, a, b]));
+        if refiner.judge.still_accepts(error) {
             return vec![*l];
         }
         refiner.refine(c, a, b, l.coefficient);

@@ -12,7 +12,7 @@ use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::{self, KernelContext, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
-use crate::refine::oracle::{average_detail, KernelSmoothness};
+use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::{project_all, Part, Projection};
 use crate::scene::{Patch, Scene, Surface};
 
@@ -84,8 +84,10 @@ impl ChildShares {
 /// Settings of the adaptive kernel projection.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineSettings {
-    /// The oracle deciding when to stop refining.
-    pub oracle: KernelSmoothness,
+    /// The oracle's threshold: the largest kernel detail the paper's
+    /// oracle accepts (paper: 1e-4), or the largest relative radiance
+    /// error the weighted ones do.
+    pub threshold: f64,
     /// Deepest element level (paper: 8).
     pub max_level: u32,
 }
@@ -95,22 +97,13 @@ struct PairRefiner<'a> {
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<ElementRef, bool>,
     settings: RefineSettings,
-    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
-    estimate: Option<&'a LightEstimate>,
+    judge: Judge<'a>,
     /// Reflectance (largest channel) and area of the two surfaces, by
     /// surface index.
     reflectance: [(u32, f64, f64); 2],
     /// max(ρ_p A_r, ρ_r A_p): the paper's kernel scale for both directions.
     scale: f64,
     links: Vec<Link>,
-}
-
-/// What an oracle test found: whether the details pass, and the largest
-/// detail in element-average units (for the weighted oracles).
-#[derive(Clone, Copy)]
-struct Verdict {
-    smooth: bool,
-    detail: f64,
 }
 
 impl<'a> PairRefiner<'a> {
@@ -131,7 +124,10 @@ impl<'a> PairRefiner<'a> {
             ctx: *ctx,
             straddling: Default::default(),
             settings,
-            estimate,
+            judge: Judge {
+                threshold: settings.threshold,
+                estimate,
+            },
             reflectance: [(p, rho(sp), sp.patch.area()), (r, rho(sr), sr.patch.area())],
             scale: (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area()),
             links: Vec::new(),
@@ -209,40 +205,27 @@ impl<'a> PairRefiner<'a> {
     /// The oracle on the mean kernel over the four children of `split`
     /// against `other`.
     fn test(&self, means: [f64; 4], split: &Part, other: &Part) -> Verdict {
-        let threshold = self.settings.oracle.threshold;
-        match self.estimate {
-            None => Verdict {
-                smooth: self.settings.oracle.accepts(
-                    means,
-                    split.element.id.level,
-                    other.element.id.level,
-                    self.scale,
-                ),
-                detail: 0.0,
-            },
-            Some(e) => {
+        let levels = (split.element.id.level, other.element.id.level);
+        self.judge.verdict(
+            || kernel_detail(means, levels.0, levels.1, self.scale),
+            |e| {
                 let detail = average_detail(means);
                 let w = self.weight(e, split.element, other.element);
-                Verdict {
-                    smooth: detail * w <= threshold
-                        && self.directional_error(e, means, split, other) <= threshold,
-                    detail,
-                }
-            }
-        }
+                let directional =
+                    std::iter::once_with(|| self.directional_error(e, means, split, other));
+                (detail, std::iter::once(detail * w).chain(directional))
+            },
+        )
     }
 
     /// True when a kept link still passes the weighted oracle under a new
     /// estimate, as far as its stored detail tells: a link with a glossy
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
-        let threshold = self.settings.oracle.threshold;
         let glossy = |s: u32| !self.ctx.scene.surfaces[s as usize].is_diffuse();
-        self.estimate.is_none_or(|e| {
-            !glossy(l.p)
-                && !glossy(l.r)
-                && f64::from(l.detail) * self.weight(e, l.elements()[0], l.elements()[1])
-                    <= threshold
+        self.judge.still_accepts(|e| {
+            let [x, y] = l.elements();
+            (!glossy(l.p) && !glossy(l.r)).then(|| f64::from(l.detail) * self.weight(e, x, y))
         })
     }
 
@@ -291,14 +274,7 @@ impl<'a> PairRefiner<'a> {
         other: &Part,
     ) -> (Verdict, Verdict) {
         let max = self.settings.max_level;
-        let pass = Verdict {
-            smooth: true,
-            detail: 0.0,
-        };
-        let both = |x: Verdict, y: Verdict| Verdict {
-            smooth: x.smooth && y.smooth,
-            detail: x.detail.max(y.detail),
-        };
+        let pass = Verdict::PASS;
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
             if !s.outer_is_a || child.element.id.level >= max {
@@ -306,7 +282,7 @@ impl<'a> PairRefiner<'a> {
             }
             four(s)
                 .and_then(|c| self.quadrant_means(c, child, other))
-                .map_or(v, |m| both(v, self.test(m, child, other)))
+                .map_or(v, |m| v.and(self.test(m, child, other)))
         });
         if other.element.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
             return (children_verdict, pass);
@@ -381,7 +357,7 @@ impl<'a> PairRefiner<'a> {
         // with the kernel taken as constant there.
         let mean = means.iter().sum::<f64>() / 4.0;
         let other_smooth = other_verdict.smooth
-            && (self.estimate.is_none() || self.test([mean; 4], other, split).smooth)
+            && (!self.judge.is_weighted() || self.test([mean; 4], other, split).smooth)
             && !self.straddles(other);
         // Hierarchical decomposition: keep the link here if the details pass;
         // if only the unsplit element's fail, refine it instead.
@@ -491,7 +467,6 @@ mod tests {
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
-    use crate::refine::oracle::KernelSmoothness;
     use crate::refine::refine_further;
     use crate::scene::Surface;
     use glam::DVec3;
@@ -516,7 +491,7 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 1e-3 },
+            threshold: 1e-3,
             max_level: 4,
         };
         let links = refine_links(&ctx, settings, None, &Silent);
@@ -579,7 +554,7 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 1e-3 },
+            threshold: 1e-3,
             max_level: 4,
         };
         let dark = Scene::from_surfaces(
@@ -610,7 +585,7 @@ mod tests {
         let (same, changed) = refine_further(&ctx, settings, &lit, links.clone(), &Silent);
         assert_eq!((same.len(), changed), (links.len(), 0));
         let stricter = RefineSettings {
-            oracle: KernelSmoothness { threshold: 3e-4 },
+            threshold: 3e-4,
             ..settings
         };
         let (finer, changed) = refine_further(&ctx, stricter, &lit, links.clone(), &Silent);
@@ -672,7 +647,7 @@ mod tests {
     #[test]
     fn weighted_oracle_resolves_a_glossy_sources_highlight_on_its_receiver() {
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 2e-3 },
+            threshold: 2e-3,
             max_level: 3,
         };
         let receiver_levels = |quadrants| {

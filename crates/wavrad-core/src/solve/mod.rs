@@ -18,7 +18,7 @@ use crate::progress::Progress;
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
-use crate::refine::oracle::Oracle;
+use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
     refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
@@ -81,7 +81,7 @@ pub struct SolveSettings {
     pub oracle: Oracle,
     /// Most projections of the refine–solve loop of the weighted oracles
     /// (the first counts; 1 keeps the links projected with the emission).
-    pub refine_passes: u32,
+    pub max_refine_passes: u32,
 }
 
 /// How the radiance system is solved.
@@ -163,7 +163,7 @@ pub struct Solution {
 /// the system is solved, every link is re-tested against the new solution
 /// (from the detail stored with it, without new quadrature) and refined
 /// further where it fails, until no link changes or after
-/// `settings.refine_passes` passes.
+/// `settings.max_refine_passes` passes.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     settings.validate()?;
     check_size(scene)?;
@@ -226,12 +226,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
-    let looping = settings.oracle.is_weighted() && settings.refine_passes > 1;
+    let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
     let (mut system, mut sweeps, mut resolved) =
         assemble_and_solve(&links, &three_point, !looping, &mut times);
     let mut passes = 1;
     let mut final_system = !looping;
-    while looping && passes < settings.refine_passes {
+    while looping && passes < settings.max_refine_passes {
         let clock = Instant::now();
         let estimate = LightEstimate::from_solution(
             scene,
@@ -257,7 +257,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        final_system = passes == settings.refine_passes;
+        final_system = passes == settings.max_refine_passes;
         (system, sweeps, resolved) =
             assemble_and_solve(&links, &three_point, final_system, &mut times);
     }
@@ -554,8 +554,8 @@ impl SolveSettings {
             ..SolveSettings::default()
         };
         if oracle.is_weighted() {
-            settings.refine.oracle.threshold = 2e-4;
-            settings.three_point_threshold = 2e-4;
+            settings.refine.threshold = WEIGHTED_THRESHOLD;
+            settings.three_point_threshold = WEIGHTED_THRESHOLD;
         }
         settings
     }
@@ -565,9 +565,7 @@ impl SolveSettings {
         ThreePointSettings {
             refine: RefineSettings {
                 max_level: self.three_point_max_level,
-                oracle: crate::refine::oracle::KernelSmoothness {
-                    threshold: self.three_point_threshold,
-                },
+                threshold: self.three_point_threshold,
             },
             receiver_max_level: self
                 .three_point_max_level
@@ -598,7 +596,7 @@ impl SolveSettings {
     pub fn validate(&self) -> Result<()> {
         let r = &self.refine;
         for (name, t) in [
-            ("threshold", r.oracle.threshold),
+            ("threshold", r.threshold),
             ("three-point threshold", self.three_point_threshold),
         ] {
             if !(t >= 0.0 && t.is_finite()) {
@@ -627,7 +625,7 @@ impl SolveSettings {
                 "quadrature orders must be at least 1".into(),
             ));
         }
-        if self.refine_passes == 0 {
+        if self.max_refine_passes == 0 {
             return Err(Error::InvalidSetting(
                 "refine passes must be at least 1".into(),
             ));
@@ -648,7 +646,7 @@ impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
             refine: RefineSettings {
-                oracle: crate::refine::oracle::KernelSmoothness { threshold: 1e-3 },
+                threshold: 1e-3,
                 max_level: 5,
             },
             quadrature: Quadrature::default(),
@@ -658,7 +656,7 @@ impl Default for SolveSettings {
             tolerance: 1e-5,
             max_iterations: 200,
             oracle: Oracle::Kernel,
-            refine_passes: 4,
+            max_refine_passes: 4,
         }
     }
 }

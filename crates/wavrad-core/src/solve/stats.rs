@@ -146,7 +146,7 @@ impl Stats {
             interactions_per_level,
             oracle: settings.oracle.to_string(),
             refine_passes: 1,
-            threshold: settings.refine.oracle.threshold,
+            threshold: settings.refine.threshold,
             max_level: settings.refine.max_level,
             three_point_max_level: settings.three_point_max_level,
             three_point_receiver_levels: settings.three_point_receiver_levels,
