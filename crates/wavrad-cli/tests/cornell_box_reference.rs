@@ -206,7 +206,7 @@ fn figure3_highlight_is_resolved_in_direct_mode() {
     let scene = wavrad_io::load_scene(&dir.join("specular.xml")).unwrap();
     let (_, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference-specular.exr")).unwrap();
     let mut settings = SolveSettings::for_oracle(wavrad_core::refine::oracle::Oracle::Importance);
-    settings.refine.oracle.threshold = 2e-6;
+    settings.refine.threshold = 2e-6;
     settings.refine.max_level = 8;
     settings.three_point_threshold = 1e-6;
     settings.three_point_max_level = 3;

@@ -89,7 +89,7 @@ fn weighted_oracles_conserve_energy_in_the_furnace() {
     // The refine–solve loop refines links where light flows; whatever it
     // keeps, each element's form factors must still sum to one.
     let settings = SolveSettings {
-        refine_passes: 3,
+        max_refine_passes: 3,
         ..SolveSettings::for_oracle(Oracle::Power)
     };
     let (surfaces, elements) = furnace(0.5, 1.0, &settings, false);

@@ -28,7 +28,7 @@ fn settings(max_level: u32) -> SolveSettings {
     let mut s = SolveSettings::default();
     s.refine.max_level = max_level;
     s.three_point_max_level = max_level;
-    s.three_point_threshold = s.refine.oracle.threshold;
+    s.three_point_threshold = s.refine.threshold;
     s
 }
 

@@ -111,10 +111,10 @@ fn every_solution_has_its_emitter_links_resolved() {
         (Oracle::Power, 4),
     ] {
         let mut settings = SolveSettings {
-            refine_passes: passes,
+            max_refine_passes: passes,
             ..SolveSettings::for_oracle(oracle)
         };
-        settings.refine.oracle.threshold = 1e9;
+        settings.refine.threshold = 1e9;
         settings.refine.max_level = 3;
         let solution = solve(&scene, &settings, &Silent).unwrap();
         assert_eq!(solution.trees[0].depth(), 3, "{oracle:?}, {passes} passes");

@@ -142,6 +142,7 @@ impl<'a> IncidentLight<'a> {
 mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::default_context;
     use crate::scene::Scene;
     use crate::testing::grey;
     use glam::DVec3;
@@ -168,6 +169,28 @@ mod tests {
         ([floor, light, wall], scene)
     }
 
+    /// The floor (surface 0) with `brdf` as the glossy element, and the
+    /// light (surface 1) as the source.
+    fn floor_and_light<'a>(
+        floor: &'a Patch,
+        light: &'a Patch,
+        brdf: &'a Brdf,
+    ) -> (GlossyElement<'a>, KernelElement<'a>) {
+        let a = GlossyElement {
+            element: KernelElement {
+                patch: floor,
+                surface: 0,
+            },
+            brdf,
+            frame: Frame::new(floor.normal(), floor.tangent()),
+        };
+        let c = KernelElement {
+            patch: light,
+            surface: 1,
+        };
+        (a, c)
+    }
+
     /// Through a Lambertian p, R(c,a,b) for a receiver b in front of a is
     /// ρ/π · T(a,c)/|a| · π/π = ρ F(a,c): every direction carries the same
     /// reflected radiance.
@@ -175,24 +198,9 @@ mod tests {
     fn lambertian_three_point_kernel_is_rho_times_the_form_factor() {
         let ([floor, light, wall], scene) = floor_light_wall();
         let tracer = SceneTracer::new(&scene);
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: Quadrature::default(),
-        };
+        let ctx = default_context(&scene, &tracer);
         let brdf = Brdf::diffuse([0.5, 0.25, 0.125]);
-        let a = GlossyElement {
-            element: KernelElement {
-                patch: &floor,
-                surface: 0,
-            },
-            brdf: &brdf,
-            frame: Frame::new(floor.normal(), floor.tangent()),
-        };
-        let c = KernelElement {
-            patch: &light,
-            surface: 1,
-        };
+        let (a, c) = floor_and_light(&floor, &light, &brdf);
         let r = coefficient(&ctx, c, a, &wall.flipped());
         let f = ctx.throughput(a.element, c) / floor.area();
         for (ch, rho) in [0.5, 0.25, 0.125].into_iter().enumerate() {
@@ -211,11 +219,7 @@ mod tests {
     fn incident_light_reused_over_receivers_is_bit_identical() {
         let ([floor, light, wall], scene) = floor_light_wall();
         let tracer = SceneTracer::new(&scene);
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: Quadrature::default(),
-        };
+        let ctx = default_context(&scene, &tracer);
         let brdf = Brdf::Ward(crate::scene::brdf::Ward {
             variant: crate::scene::brdf::WardVariant::Balanced,
             alpha_u: 0.1,
@@ -223,18 +227,7 @@ mod tests {
             specular_reflectance: [0.15; 3],
             diffuse_reflectance: [0.6, 0.5, 0.4],
         });
-        let a = GlossyElement {
-            element: KernelElement {
-                patch: &floor,
-                surface: 0,
-            },
-            brdf: &brdf,
-            frame: Frame::new(floor.normal(), floor.tangent()),
-        };
-        let c = KernelElement {
-            patch: &light,
-            surface: 1,
-        };
+        let (a, c) = floor_and_light(&floor, &light, &brdf);
         let incident = IncidentLight::new(&ctx, c, a);
         for b in wall.flipped().subdivide() {
             let r = coefficient(&ctx, c, a, &b);

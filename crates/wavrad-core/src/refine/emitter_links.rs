@@ -42,8 +42,7 @@ pub fn resolve_emitter_links(
         let surface = &scene.surfaces[s as usize];
         surface.brdf.lambertian().is_some() && !surface.is_emitter()
     };
-    progress.start("emitter links", links.len() as u64);
-    let out = refine_each(links, progress, |l| {
+    refine_each("emitter links", links, progress, |l| {
         // (receiver, element, emitter, element), and the link's orientation.
         let (receiver, a, emitter, c, flipped) = match (emits(l.p), emits(l.r)) {
             (false, true) if receives(l.p) => (l.p, l.a, l.r, l.c, false),
@@ -103,9 +102,7 @@ pub fn resolve_emitter_links(
             }
         }
         out
-    });
-    progress.finish();
-    out
+    })
 }
 
 #[cfg(test)]

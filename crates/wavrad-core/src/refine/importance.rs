@@ -158,7 +158,6 @@ mod tests {
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::default_context;
     use crate::progress::Silent;
-    use crate::refine::oracle::KernelSmoothness;
     use crate::refine::two_point_projection::{refine_links, RefineSettings};
     use crate::scene::{FovAxis, Projection, Scene};
     use crate::testing::{grey, inward_box};
@@ -213,7 +212,7 @@ mod tests {
         // Through the links, what lights the floor matters too: the ceiling
         // most, being the floor's largest form factor.
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 1e-2 },
+            threshold: 1e-2,
             max_level: 3,
         };
         let links = refine_links(&ctx, settings, None, &Silent);

@@ -11,8 +11,9 @@ pub mod three_point_projection;
 pub mod two_point_projection;
 
 use crate::geometry::hierarchy::ElementRef;
-use crate::kernel::KernelElement;
+use crate::kernel::{KernelContext, KernelElement};
 use crate::progress::Progress;
+use crate::refine::estimate::LightEstimate;
 use crate::scene::{Patch, Scene};
 use rayon::prelude::*;
 
@@ -53,25 +54,89 @@ impl Part {
     }
 }
 
-/// Replace every link by what `refine` makes of it, in parallel and in
-/// order; also count the links that changed.
-pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
-    links: &[L],
+/// What `project` makes of every item, in parallel and in order, one
+/// progress step each under the phase `label`; the result does not depend
+/// on the number of threads.
+fn project_each<T: Sync, L: Send>(
+    label: &str,
+    items: &[T],
     progress: &dyn Progress,
-    refine: impl Fn(&L) -> Vec<L> + Sync,
-) -> (Vec<L>, usize) {
-    let per_link: Vec<Vec<L>> = links
+    project: impl Fn(&T) -> Vec<L> + Sync,
+) -> Vec<Vec<L>> {
+    progress.start(label, items.len() as u64);
+    let out = items
         .par_iter()
-        .map(|l| {
-            let out = refine(l);
+        .map(|item| {
+            let out = project(item);
             progress.advance(1);
             out
         })
         .collect();
+    progress.finish();
+    out
+}
+
+/// The links `project` makes of every item (a surface pair or triple
+/// projected from the whole surfaces down), concatenated in order.
+pub(crate) fn project_all<T: Sync, L: Send>(
+    label: &str,
+    items: &[T],
+    progress: &dyn Progress,
+    project: impl Fn(&T) -> Vec<L> + Sync,
+) -> Vec<L> {
+    let per_item = project_each(label, items, progress, project);
+    per_item.into_iter().flatten().collect()
+}
+
+/// Replace every link by what `refine` makes of it, in parallel and in
+/// order; also count the links that changed.
+pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
+    label: &str,
+    links: &[L],
+    progress: &dyn Progress,
+    refine: impl Fn(&L) -> Vec<L> + Sync,
+) -> (Vec<L>, usize) {
+    let per_link = project_each(label, links, progress, refine);
     let changed = per_link
         .iter()
         .zip(links)
         .filter(|(new, old)| new.as_slice() != [**old])
         .count();
     (per_link.into_iter().flatten().collect(), changed)
+}
+
+/// A kernel projection (two-point or three-point), named by its settings,
+/// as the refine–solve loop re-judges the links it made.
+pub trait Projection: Copy + Sync {
+    /// The links it makes.
+    type Link: Copy + PartialEq + Send + Sync;
+    /// The progress phase of a pass over its links.
+    const PHASE: &'static str;
+
+    /// What `link` becomes under the new `estimate`: itself while the
+    /// weighted oracle still accepts it (as far as its stored detail tells,
+    /// without new quadrature), else the links it is refined into.
+    fn refine_link(
+        &self,
+        ctx: &KernelContext,
+        estimate: &LightEstimate,
+        link: &Self::Link,
+    ) -> Vec<Self::Link>;
+}
+
+/// One pass of the refine–solve loop over the `links` of the projection
+/// `settings`: every link that the weighted oracle rejects under the new
+/// `estimate` is refined further (links are never coarsened); the others
+/// are kept as they are. Returns the links, in a deterministic order, and
+/// how many were refined.
+pub fn refine_further<P: Projection>(
+    ctx: &KernelContext,
+    settings: P,
+    estimate: &LightEstimate,
+    links: Vec<P::Link>,
+    progress: &dyn Progress,
+) -> (Vec<P::Link>, usize) {
+    refine_each(P::PHASE, &links, progress, |l| {
+        settings.refine_link(ctx, estimate, l)
+    })
 }

@@ -16,12 +16,13 @@
 //! so they run in a refine–solve loop ([`crate::solve`]).
 
 use crate::geometry::haar;
+use crate::refine::estimate::LightEstimate;
 use crate::setting::Choice;
 
 /// Which test decides that a link is projected finely enough.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Oracle {
-    /// The paper's: Haar details of the kernel alone ([`KernelSmoothness`]).
+    /// The paper's: Haar details of the kernel alone ([`kernel_detail`]).
     #[default]
     Kernel,
     /// The kernel's variation ([`average_detail`] of the receiver's
@@ -57,43 +58,107 @@ pub fn average_detail(child_means: [f64; 4]) -> f64 {
         .fold(0.0f64, |m, d| m.max(d.abs()))
 }
 
-/// The paper's kernel-smoothness test for a two-point kernel.
+/// The threshold of the weighted oracles by default: a relative radiance
+/// error, not a kernel detail.
+pub const WEIGHTED_THRESHOLD: f64 = 2e-4;
+
+/// Largest orthonormal Haar detail of a kernel over a split element: the
+/// quantity the paper's oracle (§4.2) bounds.
 ///
 /// The kernel of the transfer from surface r to diffuse surface p in the
 /// paper's parametrisation is K_rp(u,u') = ρ_p · A_r · cosθ cosθ' V/(π r²)
 /// (§3; A_r = dx/du). One element of the pair (level `split_level`) is split
 /// into four (virtual resolution), the other stays at `other_level`;
 /// `child_kernel_means[i]` is the mean of cosθ cosθ' V/(π r²) over child i
-/// times the other element. Both directions of the link are tested, so
+/// times the other element. Both directions of a link are tested, so
 /// `scale = max(ρ_p A_r, ρ_r A_p)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct KernelSmoothness {
-    /// Largest allowed detail coefficient (paper: 1e-4).
-    pub threshold: f64,
+pub fn kernel_detail(
+    child_kernel_means: [f64; 4],
+    split_level: u32,
+    other_level: u32,
+    scale: f64,
+) -> f64 {
+    let d = haar::details_2d(child_kernel_means, split_level);
+    let other = haar::coefficient_from_average_2d(1.0, other_level);
+    scale * other * d.iter().fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
-impl KernelSmoothness {
-    /// Largest absolute Haar detail of the kernel over the split element.
-    pub fn largest_detail(
-        child_kernel_means: [f64; 4],
-        split_level: u32,
-        other_level: u32,
-        scale: f64,
-    ) -> f64 {
-        let d = haar::details_2d(child_kernel_means, split_level);
-        let other = haar::coefficient_from_average_2d(1.0, other_level);
-        scale * other * d.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+/// What an oracle test found: whether the kernel passes, and the largest
+/// detail in element-average units the weighted oracles saw (zero for the
+/// paper's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Verdict {
+    /// Whether the link may be kept at this level.
+    pub smooth: bool,
+    /// Largest detail seen ([`average_detail`] units).
+    pub detail: f64,
+}
+
+impl Verdict {
+    /// Nothing to object to.
+    pub const PASS: Verdict = Verdict {
+        smooth: true,
+        detail: 0.0,
+    };
+
+    /// Both verdicts: smooth when both are, the larger detail.
+    pub fn and(self, other: Verdict) -> Verdict {
+        Verdict {
+            smooth: self.smooth && other.smooth,
+            detail: self.detail.max(other.detail),
+        }
+    }
+}
+
+/// The oracle as a projection consults it: the projection's threshold and,
+/// for the weighted oracles, the light estimate they weigh by (`None`: the
+/// paper's oracle). Every decision to keep or refine a link is made here.
+#[derive(Debug, Clone, Copy)]
+pub struct Judge<'a> {
+    /// Largest allowed kernel detail (the paper's oracle) or relative
+    /// radiance error (the weighted ones).
+    pub threshold: f64,
+    /// The light estimate of the weighted oracles.
+    pub estimate: Option<&'a LightEstimate>,
+}
+
+impl<'a> Judge<'a> {
+    /// True for the weighted oracles.
+    pub fn is_weighted(&self) -> bool {
+        self.estimate.is_some()
     }
 
-    /// True when the kernel is smooth enough to keep the link unrefined.
-    pub fn accepts(
+    /// The verdict on a kernel over the children of a split element: the
+    /// paper's test of its largest orthonormal detail `kernel_detail`, or,
+    /// with an estimate, the weighted test of `weighted(estimate)`: the
+    /// detail seen and the errors it makes (detail × light carried), each
+    /// at most the threshold (evaluated in order, only as far as needed).
+    pub fn verdict<E: IntoIterator<Item = f64>>(
         &self,
-        child_kernel_means: [f64; 4],
-        split_level: u32,
-        other_level: u32,
-        scale: f64,
-    ) -> bool {
-        Self::largest_detail(child_kernel_means, split_level, other_level, scale) <= self.threshold
+        kernel_detail: impl FnOnce() -> f64,
+        weighted: impl FnOnce(&'a LightEstimate) -> (f64, E),
+    ) -> Verdict {
+        match self.estimate {
+            None => Verdict {
+                smooth: kernel_detail() <= self.threshold,
+                detail: 0.0,
+            },
+            Some(e) => {
+                let (detail, errors) = weighted(e);
+                Verdict {
+                    smooth: errors.into_iter().all(|x| x <= self.threshold),
+                    detail,
+                }
+            }
+        }
+    }
+
+    /// Whether a kept link still passes under the estimate, from the error
+    /// its stored detail makes (`None` when the detail cannot tell and the
+    /// link must be tested again). Always, for the paper's oracle.
+    pub fn still_accepts(&self, error: impl FnOnce(&'a LightEstimate) -> Option<f64>) -> bool {
+        self.estimate
+            .is_none_or(|e| error(e).is_some_and(|x| x <= self.threshold))
     }
 }
 
@@ -123,17 +188,21 @@ mod tests {
 
     #[test]
     fn constant_kernel_has_no_detail() {
-        assert_eq!(KernelSmoothness::largest_detail([0.3; 4], 2, 1, 5.0), 0.0);
-        let o = KernelSmoothness { threshold: 0.0 };
-        assert!(o.accepts([0.3; 4], 0, 0, 1.0));
+        assert_eq!(kernel_detail([0.3; 4], 2, 1, 5.0), 0.0);
+        let judge = Judge {
+            threshold: 0.0,
+            estimate: None,
+        };
+        let verdict = judge.verdict(|| kernel_detail([0.3; 4], 0, 0, 1.0), |_| (1.0, [1.0]));
+        assert_eq!(verdict, Verdict::PASS);
     }
 
     #[test]
     fn details_shrink_with_both_levels() {
         let k = [1.0, 0.0, 0.0, 0.0];
-        let d00 = KernelSmoothness::largest_detail(k, 0, 0, 1.0);
+        let d00 = kernel_detail(k, 0, 0, 1.0);
         assert!((d00 - 0.25).abs() < 1e-15);
-        assert!((KernelSmoothness::largest_detail(k, 1, 0, 1.0) - d00 / 2.0).abs() < 1e-15);
-        assert!((KernelSmoothness::largest_detail(k, 0, 2, 1.0) - d00 / 4.0).abs() < 1e-15);
+        assert!((kernel_detail(k, 1, 0, 1.0) - d00 / 2.0).abs() < 1e-15);
+        assert!((kernel_detail(k, 0, 2, 1.0) - d00 / 4.0).abs() < 1e-15);
     }
 }

@@ -15,12 +15,11 @@ use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
 use crate::kernel::{faces_away, KernelContext};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
-use crate::refine::oracle::average_detail;
+use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{refine_each, Part};
+use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
-use rayon::prelude::*;
 
 /// A three-point interaction r → p → q: `L_{a→b} += coefficient · L_{c→a}`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,8 +70,7 @@ pub struct ThreePointSettings {
 struct TripleRefiner<'a> {
     ctx: KernelContext<'a>,
     settings: ThreePointSettings,
-    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
-    estimate: Option<&'a LightEstimate>,
+    judge: Judge<'a>,
     r: u32,
     p: u32,
     q: u32,
@@ -93,7 +91,10 @@ impl<'a> TripleRefiner<'a> {
         TripleRefiner {
             ctx: *ctx,
             settings,
-            estimate,
+            judge: Judge {
+                threshold: settings.refine.threshold,
+                estimate,
+            },
             r,
             p,
             q,
@@ -177,9 +178,9 @@ impl<'a> TripleRefiner<'a> {
                     self.coefficient(&t[0], &t[1], &t[2])
                 })
             };
-            let (smooth, d) = self.test(&parts, split, &children, &coefficients);
-            detail = detail.max(d);
-            if !smooth {
+            let verdict = self.test(&parts, split, &children, &coefficients);
+            detail = detail.max(verdict.detail);
+            if !verdict.smooth {
                 for (child, k) in children.into_iter().zip(coefficients) {
                     let mut t = parts;
                     t[split] = child;
@@ -197,25 +198,32 @@ impl<'a> TripleRefiner<'a> {
         self.push(&c, &a, &b, kept.unwrap_or(known), detail);
     }
 
-    /// The oracle on the children of `parts[split]` with coefficients `k`:
-    /// whether they pass, and their largest detail in element-average units
-    /// (for the weighted oracles; zero for the paper's).
-    fn test(
-        &self,
-        parts: &[Part; 3],
-        split: usize,
-        children: &[Part; 4],
-        k: &[Rgb; 4],
-    ) -> (bool, f64) {
-        let Some(e) = self.estimate else {
-            return (self.smooth(parts, split, children, k), 0.0);
-        };
-        // R integrates over c: a child of c carries a quarter of the light.
-        let scale = if split == 0 { 4.0 } else { 1.0 };
-        let detail = average_detail(k.map(|k| scale * k.iter().fold(0.0f64, |m, &x| m.max(x))));
-        (
-            detail * self.weight(e, parts) <= self.settings.refine.oracle.threshold,
-            detail,
+    /// The oracle on the children of `parts[split]` with coefficients `k`.
+    fn test(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> Verdict {
+        let largest = |k: &Rgb| k.iter().fold(0.0f64, |m, &x| m.max(x));
+        self.judge.verdict(
+            || {
+                // The paper's: the kernel in its parametrisation,
+                // K = f·G·V·A_r, averaged over each child triple.
+                let area_c = if split == 0 {
+                    children[0].patch.area()
+                } else {
+                    parts[0].patch.area()
+                };
+                let means = k.map(|k| largest(&k) / area_c);
+                let other_levels: u32 = (0..3)
+                    .filter(|&i| i != split)
+                    .map(|i| parts[i].element.id.level)
+                    .sum();
+                let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
+                kernel_detail(means, parts[split].element.id.level, other_levels, r_area)
+            },
+            |e| {
+                // R integrates over c: a child of c carries a quarter of the light.
+                let scale = if split == 0 { 4.0 } else { 1.0 };
+                let detail = average_detail(k.map(|k| scale * largest(&k)));
+                (detail, [detail * self.weight(e, parts)])
+            },
         )
     }
 
@@ -223,29 +231,6 @@ impl<'a> TripleRefiner<'a> {
     /// relative to the brightest emission, times the importance of b.
     fn weight(&self, e: &LightEstimate, [c, a, b]: &[Part; 3]) -> f64 {
         e.radiance(c.element, a.element) * e.importance(b.element)
-    }
-
-    /// The paper's oracle on the children of `parts[split]`: the kernel in
-    /// its parametrisation, K = f·G·V·A_r, averaged over each child triple,
-    /// has Haar details at most the threshold.
-    fn smooth(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> bool {
-        let area_c = if split == 0 {
-            children[0].patch.area()
-        } else {
-            parts[0].patch.area()
-        };
-        let means = k.map(|k| k.iter().fold(0.0f64, |m, &x| m.max(x)) / area_c);
-        let other_levels: u32 = (0..3)
-            .filter(|&i| i != split)
-            .map(|i| parts[i].element.id.level)
-            .sum();
-        let r_area = self.ctx.scene.surfaces[self.r as usize].patch.area();
-        self.settings.refine.oracle.accepts(
-            means,
-            parts[split].element.id.level,
-            other_levels,
-            r_area,
-        )
     }
 }
 
@@ -288,50 +273,39 @@ pub fn refine_three_point_links(
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
 ) -> Vec<ThreePointLink> {
-    progress.start("3-point kernels", triples.len() as u64);
-    let per_triple: Vec<Vec<ThreePointLink>> = triples
-        .par_iter()
-        .map(|&(r, p, q)| {
-            let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
-            let (c, a, b) = (
-                Part::of(ctx.scene, ElementRef::root(r)),
-                Part::of(ctx.scene, ElementRef::root(p)),
-                Part {
-                    element: ElementRef::root(q),
-                    patch: receiver(q),
-                },
-            );
-            let k = refiner.coefficient(&c, &a, &b);
-            refiner.refine(c, a, b, k);
-            progress.advance(1);
-            refiner.links
-        })
-        .collect();
-    progress.finish();
-    per_triple.into_iter().flatten().collect()
+    project_all("3-point kernels", triples, progress, |&(r, p, q)| {
+        let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
+        let (c, a, b) = (
+            Part::of(ctx.scene, ElementRef::root(r)),
+            Part::of(ctx.scene, ElementRef::root(p)),
+            Part {
+                element: ElementRef::root(q),
+                patch: receiver(q),
+            },
+        );
+        let k = refiner.coefficient(&c, &a, &b);
+        refiner.refine(c, a, b, k);
+        refiner.links
+    })
 }
 
-/// One pass of the refine–solve loop for three-point links (see
-/// [`crate::refine::two_point_projection::refine_links_further`]); the receivers are the scene's
-/// surfaces. Returns the links and how many were refined.
-pub fn refine_three_point_links_further(
-    ctx: &KernelContext,
-    settings: ThreePointSettings,
-    estimate: &LightEstimate,
-    links: Vec<ThreePointLink>,
-    progress: &dyn Progress,
-) -> (Vec<ThreePointLink>, usize) {
-    progress.start("3-point kernels", links.len() as u64);
-    let out = refine_each(&links, progress, |l| {
-        let mut refiner = TripleRefiner::new(ctx, settings, Some(estimate), (l.r, l.p, l.q));
+impl Projection for ThreePointSettings {
+    type Link = ThreePointLink;
+    const PHASE: &'static str = "3-point kernels";
+
+    fn refine_link(
+        &self,
+        ctx: &KernelContext,
+        estimate: &LightEstimate,
+        l: &ThreePointLink,
+    ) -> Vec<ThreePointLink> {
+        let mut refiner = TripleRefiner::new(ctx, *self, Some(estimate), (l.r, l.p, l.q));
         let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
-        let weight = refiner.weight(estimate, &[c, a, b]);
-        if f64::from(l.detail) * weight <= settings.refine.oracle.threshold {
+        let error = |e| Some(f64::from(l.detail) * refiner.weight(e, &[c, a, b]));
+        if refiner.judge.still_accepts(error) {
             return vec![*l];
         }
         refiner.refine(c, a, b, l.coefficient);
         refiner.links
-    });
-    progress.finish();
-    out
+    }
 }

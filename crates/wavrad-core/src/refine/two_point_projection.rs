@@ -12,11 +12,10 @@ use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::{self, KernelContext, OuterSamples};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
-use crate::refine::oracle::{average_detail, KernelSmoothness};
-use crate::refine::{refine_each, Part};
+use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
+use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
-use rayon::prelude::*;
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
@@ -51,6 +50,12 @@ impl Link {
             ElementRef::new(self.r, self.c),
         ]
     }
+
+    /// The children's shares of its throughput ([`ChildShares`]) when they
+    /// are those of its receiving element, `a` when `into_a`, else `c`.
+    pub fn shares_into(&self, into_a: bool) -> Option<[f32; 4]> {
+        self.children.filter(|s| s.of_a == into_a).map(|s| s.shares)
+    }
 }
 
 /// Each child's share of a link's throughput T(a,c), from its own
@@ -80,8 +85,10 @@ impl ChildShares {
 /// Settings of the adaptive kernel projection.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineSettings {
-    /// The oracle deciding when to stop refining.
-    pub oracle: KernelSmoothness,
+    /// The oracle's threshold: the largest kernel detail the paper's
+    /// oracle accepts (paper: 1e-4), or the largest relative radiance
+    /// error the weighted ones do.
+    pub threshold: f64,
     /// Deepest element level (paper: 8).
     pub max_level: u32,
 }
@@ -91,22 +98,13 @@ struct PairRefiner<'a> {
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<ElementRef, bool>,
     settings: RefineSettings,
-    /// Light carried, for the weighted oracles; `None`: the paper's oracle.
-    estimate: Option<&'a LightEstimate>,
+    judge: Judge<'a>,
     /// Reflectance (largest channel) and area of the two surfaces, by
     /// surface index.
     reflectance: [(u32, f64, f64); 2],
     /// max(ρ_p A_r, ρ_r A_p): the paper's kernel scale for both directions.
     scale: f64,
     links: Vec<Link>,
-}
-
-/// What an oracle test found: whether the details pass, and the largest
-/// detail in element-average units (for the weighted oracles).
-#[derive(Clone, Copy)]
-struct Verdict {
-    smooth: bool,
-    detail: f64,
 }
 
 impl<'a> PairRefiner<'a> {
@@ -127,7 +125,10 @@ impl<'a> PairRefiner<'a> {
             ctx: *ctx,
             straddling: Default::default(),
             settings,
-            estimate,
+            judge: Judge {
+                threshold: settings.threshold,
+                estimate,
+            },
             reflectance: [(p, rho(sp), sp.patch.area()), (r, rho(sr), sr.patch.area())],
             scale: (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area()),
             links: Vec::new(),
@@ -210,45 +211,32 @@ impl<'a> PairRefiner<'a> {
     /// The oracle on the mean kernel over the four children of `split`
     /// against `other`.
     fn test(&self, means: [f64; 4], split: &Part, other: &Part) -> Verdict {
-        let threshold = self.settings.oracle.threshold;
-        match self.estimate {
-            None => Verdict {
-                smooth: self.settings.oracle.accepts(
-                    means,
-                    split.element.id.level,
-                    other.element.id.level,
-                    self.scale,
-                ),
-                detail: 0.0,
-            },
-            Some(e) => {
+        let levels = (split.element.id.level, other.element.id.level);
+        self.judge.verdict(
+            || kernel_detail(means, levels.0, levels.1, self.scale),
+            |e| {
                 let detail = average_detail(means);
                 let w = self.weight(e, split.element, other.element);
-                Verdict {
-                    smooth: detail * w <= threshold
-                        && self.directional_error(e, means, split, other) <= threshold,
-                    detail,
-                }
-            }
-        }
+                let directional =
+                    std::iter::once_with(|| self.directional_error(e, means, split, other));
+                (detail, std::iter::once(detail * w).chain(directional))
+            },
+        )
     }
 
     /// True when a kept link still passes the weighted oracle under a new
     /// estimate, as far as its stored detail tells: a link with a glossy
     /// side must be tested again ([`Self::directional_error`]).
     fn still_smooth(&self, l: &Link) -> bool {
-        let threshold = self.settings.oracle.threshold;
         let glossy = |s: u32| {
             self.ctx.scene.surfaces[s as usize]
                 .brdf
                 .flags()
                 .contains(BrdfFlags::GLOSSY_REFLECTION)
         };
-        self.estimate.is_none_or(|e| {
-            !glossy(l.p)
-                && !glossy(l.r)
-                && f64::from(l.detail) * self.weight(e, l.elements()[0], l.elements()[1])
-                    <= threshold
+        self.judge.still_accepts(|e| {
+            let [x, y] = l.elements();
+            (!glossy(l.p) && !glossy(l.r)).then(|| f64::from(l.detail) * self.weight(e, x, y))
         })
     }
 
@@ -297,14 +285,7 @@ impl<'a> PairRefiner<'a> {
         other: &Part,
     ) -> (Verdict, Verdict) {
         let max = self.settings.max_level;
-        let pass = Verdict {
-            smooth: true,
-            detail: 0.0,
-        };
-        let both = |x: Verdict, y: Verdict| Verdict {
-            smooth: x.smooth && y.smooth,
-            detail: x.detail.max(y.detail),
-        };
+        let pass = Verdict::PASS;
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
             if !s.outer_is_a || child.element.id.level >= max {
@@ -312,7 +293,7 @@ impl<'a> PairRefiner<'a> {
             }
             four(s)
                 .and_then(|c| self.quadrant_means(c, child, other))
-                .map_or(v, |m| both(v, self.test(m, child, other)))
+                .map_or(v, |m| v.and(self.test(m, child, other)))
         });
         if other.element.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
             return (children_verdict, pass);
@@ -387,7 +368,7 @@ impl<'a> PairRefiner<'a> {
         // with the kernel taken as constant there.
         let mean = means.iter().sum::<f64>() / 4.0;
         let other_smooth = other_verdict.smooth
-            && (self.estimate.is_none() || self.test([mean; 4], other, split).smooth)
+            && (!self.judge.is_weighted() || self.test([mean; 4], other, split).smooth)
             && !self.straddles(other);
         // Hierarchical decomposition: keep the link here if the details pass;
         // if only the unsplit element's fail, refine it instead.
@@ -433,17 +414,9 @@ pub fn refine_links(
     progress: &dyn Progress,
 ) -> Vec<Link> {
     let pairs = linked_pairs(ctx.scene);
-    progress.start("kernels", pairs.len() as u64);
-    let per_pair: Vec<Vec<Link>> = pairs
-        .par_iter()
-        .map(|&pair| {
-            let links = refine_pair(ctx, settings, estimate, pair);
-            progress.advance(1);
-            links
-        })
-        .collect();
-    progress.finish();
-    per_pair.into_iter().flatten().collect()
+    project_all("kernels", &pairs, progress, |&pair| {
+        refine_pair(ctx, settings, estimate, pair)
+    })
 }
 
 /// The surface pairs (p < r) that get two-point links: those not facing
@@ -480,20 +453,12 @@ pub fn refine_pair(
     refiner.links
 }
 
-/// One pass of the refine–solve loop: every link that the weighted oracle
-/// rejects under the new `estimate` is refined further (links are never
-/// coarsened); the others are kept as they are. Returns the links, in a
-/// deterministic order, and how many were refined.
-pub fn refine_links_further(
-    ctx: &KernelContext,
-    settings: RefineSettings,
-    estimate: &LightEstimate,
-    links: Vec<Link>,
-    progress: &dyn Progress,
-) -> (Vec<Link>, usize) {
-    progress.start("kernels", links.len() as u64);
-    let out = refine_each(&links, progress, |l| {
-        let mut refiner = PairRefiner::new(ctx, settings, Some(estimate), (l.p, l.r));
+impl Projection for RefineSettings {
+    type Link = Link;
+    const PHASE: &'static str = "kernels";
+
+    fn refine_link(&self, ctx: &KernelContext, estimate: &LightEstimate, l: &Link) -> Vec<Link> {
+        let mut refiner = PairRefiner::new(ctx, *self, Some(estimate), (l.p, l.r));
         if refiner.still_smooth(l) {
             return vec![*l];
         }
@@ -504,9 +469,7 @@ pub fn refine_links_further(
             [new] if (new.a, new.c) == (l.a, l.c) => vec![*l],
             _ => refiner.links,
         }
-    });
-    progress.finish();
-    out
+    }
 }
 
 #[cfg(test)]
@@ -515,7 +478,7 @@ mod tests {
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
-    use crate::refine::oracle::KernelSmoothness;
+    use crate::refine::refine_further;
     use crate::scene::Surface;
     use glam::DVec3;
 
@@ -539,7 +502,7 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 1e-3 },
+            threshold: 1e-3,
             max_level: 4,
         };
         let links = refine_links(&ctx, settings, None, &Silent);
@@ -602,7 +565,7 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let ctx = context(&scene, &tracer);
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 1e-3 },
+            threshold: 1e-3,
             max_level: 4,
         };
         let dark = Scene::from_surfaces(
@@ -630,13 +593,13 @@ mod tests {
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
         // partition (Howell's parallel unit squares at distance 0.5).
-        let (same, changed) = refine_links_further(&ctx, settings, &lit, links.clone(), &Silent);
+        let (same, changed) = refine_further(&ctx, settings, &lit, links.clone(), &Silent);
         assert_eq!((same.len(), changed), (links.len(), 0));
         let stricter = RefineSettings {
-            oracle: KernelSmoothness { threshold: 3e-4 },
+            threshold: 3e-4,
             ..settings
         };
-        let (finer, changed) = refine_links_further(&ctx, stricter, &lit, links.clone(), &Silent);
+        let (finer, changed) = refine_further(&ctx, stricter, &lit, links.clone(), &Silent);
         assert!(changed > 0 && finer.len() > links.len());
         assert!(finer.iter().any(|l| l.a.level + l.c.level > 6));
         for set in [&links, &finer] {
@@ -695,7 +658,7 @@ mod tests {
     #[test]
     fn weighted_oracle_resolves_a_glossy_sources_highlight_on_its_receiver() {
         let settings = RefineSettings {
-            oracle: KernelSmoothness { threshold: 2e-3 },
+            threshold: 2e-3,
             max_level: 3,
         };
         let receiver_levels = |quadrants| {
@@ -704,7 +667,7 @@ mod tests {
             let ctx = context(&scene, &tracer);
             let links = refine_links(&ctx, settings, Some(&estimate), &Silent);
             let (again, changed) =
-                refine_links_further(&ctx, settings, &estimate, links.clone(), &Silent);
+                refine_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));
             let t: f64 = links.iter().map(|l| l.throughput).sum();
             // Howell's parallel unit squares at distance 2.

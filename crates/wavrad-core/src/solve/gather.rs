@@ -72,12 +72,21 @@ pub enum Source {
     },
 }
 
-/// The form factor of a link of throughput T(a,c) into an element of area
-/// |a| of which the fraction `exposed` is exposed: T / (|a| · exposed), the
-/// average over the exposed part (the whole element when none is).
-pub fn form_factor(throughput: f64, area: f64, exposed: f64) -> f64 {
+/// The form factor of a link of throughput T(a,c) into element `node` of
+/// `tree`, whose nodes have the exposed fractions `exposure`:
+/// T / (|a| · exposed), the average over the exposed part (the whole
+/// element when none is).
+pub fn form_factor(tree: &ElementTree, exposure: &[f64], node: usize, throughput: f64) -> f64 {
+    let (area, exposed) = (tree.nodes[node].patch.area(), exposure[node]);
     let exposed = if exposed > 0.0 { exposed } else { 1.0 };
     throughput / (area * exposed)
+}
+
+/// The radiance a diffuse element of `reflectance` reflects from a
+/// transfer of form factor `form_factor` carrying `radiance`: ρ·F·L, one
+/// term of eq. 12.
+pub fn reflected(reflectance: Rgb, form_factor: f64, radiance: Rgb) -> Rgb {
+    [0, 1, 2].map(|ch| reflectance[ch] * form_factor * radiance[ch])
 }
 
 /// A two-point link in the direction of a diffuse receiver.
@@ -240,22 +249,21 @@ impl Interactions {
         // receiver's, beside `incoming` until the gradients are made.
         let mut shares_of = vec![Vec::new(); scene.surfaces.len()];
         for l in links {
-            let shares = |of_a: bool| l.children.filter(|s| s.of_a == of_a).map(|s| s.shares);
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
                 if scene.surfaces[p as usize].brdf.lambertian().is_none() {
                     continue; // they gather through three-point links alone
                 }
                 let receiver = node(p, a);
-                let area = trees[p as usize].nodes[receiver as usize].patch.area();
-                let exposed = out.exposure[p as usize][receiver as usize];
+                let (tree, exposure) = (&trees[p as usize], &out.exposure[p as usize]);
+                let form_factor = form_factor(tree, exposure, receiver as usize, l.throughput);
                 let source = out.source(scene, trees, ElementRef::new(r, c), ElementRef::new(p, a));
                 out.incoming[p as usize].push(Transfer {
                     receiver,
                     source,
-                    form_factor: form_factor(l.throughput, area, exposed),
+                    form_factor,
                     gradient: Vec3::ZERO,
                 });
-                shares_of[p as usize].push(shares(of_a));
+                shares_of[p as usize].push(l.shares_into(of_a));
             }
         }
         for (p, shares) in shares_of.into_iter().enumerate() {
@@ -367,7 +375,7 @@ impl Interactions {
         let mut gathered = Gathered::new(tree.nodes.len());
         for t in &self.incoming[p] {
             let l = self.read(&t.source, radiance, directional);
-            let value = [0, 1, 2].map(|ch| reflectance[ch] * t.form_factor * l[ch]);
+            let value = reflected(reflectance, t.form_factor, l);
             gathered.add(t.receiver as usize, value, t.gradient.as_dvec3());
         }
         gathered.into_averages(tree)

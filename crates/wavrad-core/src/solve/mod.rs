@@ -19,14 +19,12 @@ use crate::progress::Progress;
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
-use crate::refine::oracle::Oracle;
+use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
+use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links, refine_three_point_links_further, surface_triples, ThreePointLink,
-    ThreePointSettings,
+    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
 };
-use crate::refine::two_point_projection::{
-    refine_links, refine_links_further, Link, RefineSettings,
-};
+use crate::refine::two_point_projection::{refine_links, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
@@ -82,7 +80,7 @@ pub struct SolveSettings {
     pub oracle: Oracle,
     /// Most projections of the refine–solve loop of the weighted oracles
     /// (the first counts; 1 keeps the links projected with the emission).
-    pub refine_passes: u32,
+    pub max_refine_passes: u32,
 }
 
 /// How the radiance system is solved.
@@ -133,7 +131,7 @@ pub struct Solution {
 /// the system is solved, every link is re-tested against the new solution
 /// (from the detail stored with it, without new quadrature) and refined
 /// further where it fails, until no link changes or after
-/// `settings.refine_passes` passes.
+/// `settings.max_refine_passes` passes.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     settings.validate()?;
     check_size(scene)?;
@@ -196,12 +194,12 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
-    let looping = settings.oracle.is_weighted() && settings.refine_passes > 1;
+    let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
     let (mut system, mut sweeps, mut resolved) =
         assemble_and_solve(&links, &three_point, !looping, &mut times);
     let mut passes = 1;
     let mut final_system = !looping;
-    while looping && passes < settings.refine_passes {
+    while looping && passes < settings.max_refine_passes {
         let clock = Instant::now();
         let estimate = LightEstimate::from_solution(
             scene,
@@ -212,10 +210,9 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
                 .directional_radiance(&system.directional),
             importance(&links),
         );
-        let (more, refined) =
-            refine_links_further(&ctx, settings.refine, &estimate, links, progress);
+        let (more, refined) = refine_further(&ctx, settings.refine, &estimate, links, progress);
         links = more;
-        let (more, refined_three_point) = refine_three_point_links_further(
+        let (more, refined_three_point) = refine_further(
             &ctx,
             settings.three_point_refine(),
             &estimate,
@@ -228,7 +225,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             break;
         }
         passes += 1;
-        final_system = passes == settings.refine_passes;
+        final_system = passes == settings.max_refine_passes;
         (system, sweeps, resolved) =
             assemble_and_solve(&links, &three_point, final_system, &mut times);
     }
@@ -523,8 +520,8 @@ impl SolveSettings {
             ..SolveSettings::default()
         };
         if oracle.is_weighted() {
-            settings.refine.oracle.threshold = 2e-4;
-            settings.three_point_threshold = 2e-4;
+            settings.refine.threshold = WEIGHTED_THRESHOLD;
+            settings.three_point_threshold = WEIGHTED_THRESHOLD;
         }
         settings
     }
@@ -534,9 +531,7 @@ impl SolveSettings {
         ThreePointSettings {
             refine: RefineSettings {
                 max_level: self.three_point_max_level,
-                oracle: crate::refine::oracle::KernelSmoothness {
-                    threshold: self.three_point_threshold,
-                },
+                threshold: self.three_point_threshold,
             },
             receiver_max_level: self
                 .three_point_max_level
@@ -567,7 +562,7 @@ impl SolveSettings {
     pub fn validate(&self) -> Result<()> {
         let r = &self.refine;
         for (name, t) in [
-            ("threshold", r.oracle.threshold),
+            ("threshold", r.threshold),
             ("three-point threshold", self.three_point_threshold),
         ] {
             if !(t >= 0.0 && t.is_finite()) {
@@ -596,7 +591,7 @@ impl SolveSettings {
                 "quadrature orders must be at least 1".into(),
             ));
         }
-        if self.refine_passes == 0 {
+        if self.max_refine_passes == 0 {
             return Err(Error::InvalidSetting(
                 "refine passes must be at least 1".into(),
             ));
@@ -617,7 +612,7 @@ impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
             refine: RefineSettings {
-                oracle: crate::refine::oracle::KernelSmoothness { threshold: 1e-3 },
+                threshold: 1e-3,
                 max_level: 5,
             },
             quadrature: Quadrature::default(),
@@ -627,7 +622,7 @@ impl Default for SolveSettings {
             tolerance: 1e-5,
             max_iterations: 200,
             oracle: Oracle::Kernel,
-            refine_passes: 4,
+            max_refine_passes: 4,
         }
     }
 }

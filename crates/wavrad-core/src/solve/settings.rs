@@ -114,12 +114,12 @@ impl Described for SolveSettings {
     fn get(&self, name: &str) -> Option<Value> {
         Some(match name {
             "oracle" => Value::Choice(self.oracle.name()),
-            "threshold" => Value::Real(self.refine.oracle.threshold),
+            "threshold" => Value::Real(self.refine.threshold),
             "max_level" => Value::Count(self.refine.max_level),
             "three_point_threshold" => Value::Real(self.three_point_threshold),
             "three_point_max_level" => Value::Count(self.three_point_max_level),
             "three_point_receiver_levels" => Value::Count(self.three_point_receiver_levels),
-            "refine_passes" => Value::Count(self.refine_passes),
+            "refine_passes" => Value::Count(self.max_refine_passes),
             "tolerance" => Value::Real(self.tolerance),
             "max_iterations" => Value::Count(self.max_iterations),
             _ => return None,
@@ -131,14 +131,14 @@ impl Described for SolveSettings {
             ("oracle", Value::Choice(name)) => {
                 self.oracle = name.parse().expect("checked against the oracles' names")
             }
-            ("threshold", Value::Real(t)) => self.refine.oracle.threshold = t,
+            ("threshold", Value::Real(t)) => self.refine.threshold = t,
             ("max_level", Value::Count(j)) => self.refine.max_level = j,
             ("three_point_threshold", Value::Real(t)) => self.three_point_threshold = t,
             ("three_point_max_level", Value::Count(j)) => self.three_point_max_level = j,
             ("three_point_receiver_levels", Value::Count(j)) => {
                 self.three_point_receiver_levels = j
             }
-            ("refine_passes", Value::Count(n)) => self.refine_passes = n,
+            ("refine_passes", Value::Count(n)) => self.max_refine_passes = n,
             ("tolerance", Value::Real(t)) => self.tolerance = t,
             ("max_iterations", Value::Count(n)) => self.max_iterations = n,
             _ => unreachable!("{name} = {value:?} was checked against SETTINGS"),

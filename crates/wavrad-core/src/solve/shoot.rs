@@ -10,7 +10,7 @@
 //! [`crate::refine::two_point_projection::linked_pairs`]), the pair's links are projected the first
 //! time power flows through them, with the power-weighted oracle weighing
 //! the kernel by the shooter's unshot radiance, and re-tested from their
-//! stored details ([`crate::refine::two_point_projection::refine_links_further`]) when a later shot
+//! stored details ([`crate::refine::refine_further`]) when a later shot
 //! carries more power than they were refined for. Each receiver element
 //! gains ρ·F·ΔL, push–pull keeps its averages, and the shooter's unshot
 //! radiance becomes zero. Kernels between surfaces no light flows between
@@ -54,7 +54,7 @@
 //! assert_eq!(solution.stats.shooting_steps, steps);
 //! ```
 
-use super::gather::{form_factor, receiver_gradient, Interactions};
+use super::gather::{form_factor, receiver_gradient, reflected, Interactions};
 use super::push_pull::Gathered;
 use super::{push_pull, Solution, SolveSettings, System};
 use crate::geometry::hierarchy::{ElementId, ElementTree};
@@ -65,7 +65,8 @@ use crate::progress::{Progress, Silent};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
-use crate::refine::two_point_projection::{linked_pairs, refine_links_further, refine_pair, Link};
+use crate::refine::refine_further;
+use crate::refine::two_point_projection::{linked_pairs, refine_pair, Link};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
@@ -279,14 +280,10 @@ impl SurfaceState {
         for l in links {
             let (a, c) = ends(l);
             let node = self.tree.index_of(a).expect("link element is in its tree") as usize;
-            let area = self.tree.nodes[node].patch.area();
-            let form_factor = form_factor(l.throughput, area, self.exposure[node]);
+            let form_factor = form_factor(&self.tree, &self.exposure, node, l.throughput);
             let sent = unshot[tree.node_containing(c) as usize];
-            let value = [0, 1, 2].map(|ch| rho[ch] * form_factor * sent[ch]);
-            let shares = l
-                .children
-                .filter(|s| s.of_a == (l.p == r))
-                .map(|s| s.shares);
+            let value = reflected(rho, form_factor, sent);
+            let shares = l.shares_into(l.p == r);
             let source = c.patch(&tree.nodes[0].patch);
             let gradient = receiver_gradient(&self.tree, &self.exposure, node, &source, shares);
             gathered.add(node, value, gradient);
@@ -405,9 +402,7 @@ impl<'a> Shooting<'a> {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
                 (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), pair),
-                (Some(old), Some(e)) => {
-                    refine_links_further(ctx, settings.refine, e, old, &Silent).0
-                }
+                (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, &Silent).0,
                 (Some(old), None) => old,
             });
         });
