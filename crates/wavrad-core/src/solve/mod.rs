@@ -63,12 +63,8 @@ pub struct SolveSettings {
     /// normalisation). Glossy lobes concentrate light that the kernel-only
     /// oracle sees as small kernel values, so it is finer than the
     /// two-point threshold by default; the paper uses 1e-4 for both. At the
-    /// default maximum level three-point links are cheap: on the glossy
-    /// Cornell box 1e-5 instead of 1e-4 made 177 278 instead of 112 453 of
-    /// them, solved in 2.34 s instead of 2.22 s, and took the cached final
-    /// gather's walkthrough views 0, 5, 10, 15 from 0.80 / 1.14 / 0.89 /
-    /// 0.86 % to 0.73 / 0.97 / 0.76 / 0.73 % (measured while choosing;
-    /// finer still gained under 0.01 %).
+    /// default maximum level three-point links are cheap enough to afford it
+    /// (commit c9faf7d has the measurements).
     pub three_point_threshold: f64,
     /// Stop when no surface's coarsest radiance changes by more than this,
     /// relative to the brightest emitted radiance.
