@@ -148,8 +148,8 @@ def test_coarse_solution_matches_the_reference_brightness(
     assert abs(image.mean() - reference.mean()) < 0.1 * reference.mean()
 
 
-def test_unknown_mode_is_a_value_error(solution: wavrad.Solution) -> None:
-    with pytest.raises(ValueError, match="unknown render mode"):
+def test_unknown_mode_is_a_solve_error_naming_the_modes(solution: wavrad.Solution) -> None:
+    with pytest.raises(wavrad.SolveError, match='mode: "phong" is not one of: gather, direct'):
         solution.render("phong")  # type: ignore[arg-type]
 
 
@@ -162,10 +162,10 @@ def test_unknown_mode_is_a_value_error(solution: wavrad.Solution) -> None:
         (None, {"eye": False}, "without the eye"),
     ],
 )
-def test_an_option_the_mode_has_no_use_for_is_a_value_error(
+def test_an_option_the_mode_has_no_use_for_is_a_solve_error(
     solution: wavrad.Solution, mode: str | None, options: dict[str, bool], unused: str
 ) -> None:
-    with pytest.raises(ValueError, match=unused):
+    with pytest.raises(wavrad.SolveError, match=unused):
         solution.render(mode, 1, **options)  # type: ignore[arg-type]
 
 

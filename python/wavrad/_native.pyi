@@ -64,6 +64,7 @@ class Solution:
         fov: float | None = None,
         eye: bool = True,
         gather_cache: bool = False,
+        gather_spp: int | None = None,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
@@ -97,10 +98,12 @@ class Solution:
         view-independent final gather, one gather per texel (half an element
         wide), made by the first render that asks for it and read by every
         later one, instead of gathering per camera ray: for many views of
-        one solution. Raises ``ValueError`` for an unknown mode or an option
-        the mode has no use for (``eye=False`` with ``"gather"``,
-        ``gather_cache=True`` with any other mode) and ``SolveError`` when
-        the scene has no sensor.
+        one solution. ``gather_spp``: for ``"gather"``, how many of an
+        interior pixel's camera rays also final-gather (default ``spp`` / 32).
+        Raises ``SolveError`` for an unknown mode, a value out of range, an
+        option the mode has no use for (``eye=False`` with ``"gather"``,
+        ``gather_cache=True`` with any other mode) and a scene without a
+        sensor; ``TypeError`` for an unknown keyword.
         """
     @property
     def stats(self) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 //! image and statistics. Option strings become core enums here; everything
 //! else lives in `wavrad-core` and `wavrad-io`.
 
-use clap::{Arg, ArgMatches, Args, FromArgMatches, Parser, Subcommand, ValueEnum};
+use clap::{Arg, ArgAction, ArgMatches, Args, FromArgMatches, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::marker::PhantomData;
@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
 use wavrad_core::progress::Progress;
-use wavrad_core::render::{estimator, RenderSettings, Renderer};
+use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
@@ -33,40 +33,10 @@ enum Command {
         #[command(flatten)]
         solve: SolveArgs,
         /// Output image; the extension (.exr or .png) chooses the format.
-        #[arg(short, long)]
+        #[arg(short, long, help_heading = "Output options")]
         output: PathBuf,
-        /// What camera rays show: the final gather (the most accurate), or
-        /// the solution read directly and reconstructed one of three ways.
-        #[arg(long, value_enum, default_value_t = Mode::Gather)]
-        mode: Mode,
-        /// Camera rays per pixel where an edge shows [default: 256, or the
-        /// scene sampler's sample_count if larger]; pixels that show one
-        /// surface (as do their neighbours) get a quarter.
-        #[arg(long)]
-        spp: Option<u32>,
-        /// Of an interior pixel's camera rays, how many also final-gather,
-        /// each with 4 shadow rays per emitter and 32 indirect rays (gather
-        /// mode) [default: an eighth]; other pixels gather in the same
-        /// proportion, with fewer indirect rays each, and a caustic's
-        /// receivers (diffuse surfaces facing a sharp glossy surface that
-        /// mirrors an emitter) eight times as much (as more indirect rays
-        /// per gather where there are fewer camera rays than that).
-        #[arg(long)]
-        gather_spp: Option<u32>,
-        /// With the direct, smooth or haar mode, read glossy surfaces'
-        /// radiance from the view-independent solution (directional radiance
-        /// towards what the view ray meets beyond the eye, or towards an
-        /// enclosure receiver around the scene) instead of gathering once
-        /// into the eye: no per-view work, softer highlights. An error with
-        /// the gather mode, which evaluates glossy surfaces per camera ray.
-        #[arg(long)]
-        no_eye: bool,
-        /// In gather mode, gather once per texel of every diffuse surface
-        /// (view-independent; texels half an element wide) and read the
-        /// texels, instead of gathering per camera ray: for many views of
-        /// one solution. An error with the other modes, which do not gather.
-        #[arg(long)]
-        gather_cache: bool,
+        #[command(flatten)]
+        settings: Given<RenderSettings>,
     },
     /// Solve the scene (view-independent) and report statistics, without an image.
     Solve {
@@ -121,7 +91,12 @@ impl<S: Described> FromArgMatches for Given<S> {
     fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
         let values = S::SETTINGS
             .iter()
-            .filter_map(|s| matches.get_one::<Value>(s.name).map(|&v| (s.name, v)))
+            .filter_map(|s| match s.domain {
+                Domain::Flag => matches
+                    .get_flag(s.name)
+                    .then_some((s.name, Value::Flag(s.default != "true"))),
+                _ => matches.get_one::<Value>(s.name).map(|&v| (s.name, v)),
+            })
             .collect();
         Ok(Given {
             values,
@@ -138,52 +113,34 @@ impl<S: Described> FromArgMatches for Given<S> {
 impl<S: Described> Args for Given<S> {
     fn augment_args(command: clap::Command) -> clap::Command {
         S::SETTINGS.iter().fold(command, |command, setting| {
-            command.arg(
-                Arg::new(setting.name)
-                    .long(setting.flag().trim_start_matches('-').to_string())
-                    .value_name(match setting.domain {
+            let long = setting.flag().trim_start_matches('-').to_string();
+            let arg = Arg::new(setting.name).help_heading(setting.group.heading());
+            // A flag is given to change it: `--no-NAME` where it is on by default.
+            let arg = match setting.domain {
+                Domain::Flag if setting.default == "true" => arg
+                    .long(format!("no-{long}"))
+                    .action(ArgAction::SetTrue)
+                    .help(format!(
+                        "{} [default: on; this flag turns it off]",
+                        setting.help
+                    )),
+                Domain::Flag => arg.long(long).action(ArgAction::SetTrue).help(setting.help),
+                domain => arg
+                    .long(long)
+                    .value_name(match domain {
                         Domain::Real { .. } => "X",
-                        Domain::Count { .. } => "N",
-                        Domain::Flag => "BOOL",
                         Domain::Choice(_) => "NAME",
+                        _ => "N",
                     })
                     .help(format!("{} [default: {}]", setting.help, setting.default))
-                    .help_heading(setting.group.heading())
                     .value_parser(move |text: &str| setting.parse(text)),
-            )
+            };
+            command.arg(arg)
         })
     }
 
     fn augment_args_for_update(command: clap::Command) -> clap::Command {
         Self::augment_args(command)
-    }
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug)]
-enum Mode {
-    /// Piecewise-constant Haar projection, as solved.
-    Haar,
-    /// Smooth reconstruction (linear spline dual of the Haar basis); glossy
-    /// surfaces smoothly from their radiance towards the eye.
-    Smooth,
-    /// The solution looked up along view rays: smooth on diffuse surfaces,
-    /// glossy ones from their directional radiance towards the eye per
-    /// element.
-    Direct,
-    /// Final gather per pixel over the solution (the most accurate): exact
-    /// direct light plus the smooth solution on diffuse surfaces, light and
-    /// BRDF sampling over the solution on glossy ones.
-    Gather,
-}
-
-impl From<Mode> for estimator::Mode {
-    fn from(mode: Mode) -> Self {
-        match mode {
-            Mode::Haar => estimator::Mode::Haar,
-            Mode::Smooth => estimator::Mode::Smooth,
-            Mode::Direct => estimator::Mode::Direct,
-            Mode::Gather => estimator::Mode::Gather,
-        }
     }
 }
 
@@ -252,30 +209,21 @@ fn run(cli: Cli) -> Result<(), String> {
         Command::Solve { solve: args } => {
             let solution = load_and_solve(&args, &progress)?;
             report(&solution, None);
-            write_stats(&args, &solution)
+            write_stats(&args, &solution, None)
         }
         Command::Render {
             solve: args,
             output,
-            mode,
-            spp,
-            gather_spp,
-            no_eye,
-            gather_cache,
+            settings,
         } => {
             check_output_extension(&output)?;
-            let estimator = estimator::Mode::from(mode)
-                .estimator(!no_eye, gather_cache)
+            // Options that do not go together fail before the solve.
+            let scene_free = wavrad_core::scene::Scene::from_surfaces(Vec::new());
+            RenderSettings::from_values(&scene_free, &settings.values)
                 .map_err(|e| e.to_string())?;
             let solution = load_and_solve(&args, &progress)?;
-            let mut settings = RenderSettings::for_scene(&solution.scene);
-            settings.estimator = estimator;
-            if let Some(n) = spp {
-                settings = settings.with_samples_per_pixel(n);
-            }
-            if let Some(n) = gather_spp {
-                settings.gather_samples_per_pixel = n.max(1);
-            }
+            let settings = RenderSettings::from_values(&solution.scene, &settings.values)
+                .map_err(|e| e.to_string())?;
             let renderer = Renderer::new(solution);
             let clock = Instant::now();
             let image = renderer
@@ -287,7 +235,7 @@ fn run(cli: Cli) -> Result<(), String> {
             wavrad_io::write_image(&output, image.width, image.height, &image.rgb)
                 .map_err(|e| e.to_string())?;
             report(&solution, Some(&output));
-            write_stats(&args, &solution)
+            write_stats(&args, &solution, Some(&settings))
         }
     }
 }
@@ -391,12 +339,22 @@ fn report(solution: &Solution, output: Option<&Path>) {
     }
 }
 
-fn write_stats(args: &SolveArgs, solution: &Solution) -> Result<(), String> {
+/// The solve's statistics as JSON to `--stats`, with the scene file and,
+/// after a render, the render's settings by their described names.
+fn write_stats(
+    args: &SolveArgs,
+    solution: &Solution,
+    render: Option<&RenderSettings>,
+) -> Result<(), String> {
     let Some(path) = &args.stats else {
         return Ok(());
     };
     let mut json = serde_json::to_value(&solution.stats).map_err(|e| e.to_string())?;
     json["scene"] = serde_json::Value::String(args.scene.display().to_string());
+    if let Some(settings) = render {
+        let values: std::collections::BTreeMap<_, _> = settings.values().into_iter().collect();
+        json["render"] = serde_json::to_value(values).map_err(|e| e.to_string())?;
+    }
     let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
     wavrad_io::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())
 }

@@ -173,8 +173,9 @@ pub trait Described {
     /// The value of setting `name` (`None` if the table has no such name).
     fn get(&self, name: &str) -> Option<Value>;
 
-    /// Write a value that [`Setting::check`] accepted.
-    fn set_checked(&mut self, name: &str, value: Value);
+    /// Write a value that [`Setting::check`] accepted; an error where it
+    /// does not go with the other settings.
+    fn set_checked(&mut self, name: &str, value: Value) -> Result<()>;
 
     /// The setting called `name`.
     fn setting(name: &str) -> Result<&'static Setting> {
@@ -187,15 +188,13 @@ pub trait Described {
     /// Set `name` to `value`, checked against its domain.
     fn set(&mut self, name: &str, value: Value) -> Result<()> {
         let value = Self::setting(name)?.check(value)?;
-        self.set_checked(name, value);
-        Ok(())
+        self.set_checked(name, value)
     }
 
     /// Set `name` from a command line's `text`.
     fn apply(&mut self, name: &str, text: &str) -> Result<()> {
         let value = Self::setting(name)?.parse(text)?;
-        self.set_checked(name, value);
-        Ok(())
+        self.set_checked(name, value)
     }
 
     /// Every setting's current value, in table order.

@@ -7,9 +7,10 @@
 //!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line)
 //!     └── SolveError   wavrad-core: settings, empty scene, missing sensor
 //! ```
-//! Bad argument values (an unknown render mode, oracle or solver, a render
-//! option the mode has no use for, a wrongly shaped image) raise the
-//! built-in `ValueError`.
+//! Settings outside their described range or choices, and settings that do
+//! not go together, are `SolveError`s; arguments Python cannot convert (a
+//! wrongly typed setting, a wrongly shaped image) raise the built-in
+//! `ValueError`, an unknown keyword `TypeError`.
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};
@@ -58,10 +59,7 @@ impl From<wavrad_io::Error> for Error {
 
 impl From<wavrad_core::Error> for Error {
     fn from(e: wavrad_core::Error) -> Self {
-        match e {
-            wavrad_core::Error::RenderOption { .. } => Error::Argument(e.to_string()),
-            e => Error::Solve(e),
-        }
+        Error::Solve(e)
     }
 }
 

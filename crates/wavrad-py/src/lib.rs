@@ -9,7 +9,6 @@
 mod error;
 
 use std::path::PathBuf;
-use std::str::FromStr;
 
 use glam::DVec3;
 use numpy::ndarray::Array3;
@@ -22,7 +21,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ops::ControlFlow;
 use wavrad_core::progress::Silent;
-use wavrad_core::render::estimator::Mode;
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
@@ -73,8 +71,10 @@ impl Solution {
     /// Render the scene's sensor, or another view of the solution (moved by
     /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
     /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
-    /// linear RGB radiance.
-    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, eye=true, gather_cache=false))]
+    /// linear RGB radiance. The render settings (`mode`, `spp`, and by
+    /// keyword `gather_spp`, `eye`, `gather_cache`) are those of
+    /// [`RenderSettings::SETTINGS`].
+    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, **settings))]
     #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
@@ -85,16 +85,21 @@ impl Solution {
         target: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         fov: Option<f64>,
-        eye: bool,
-        gather_cache: bool,
+        settings: Option<&Bound<'py, PyDict>>,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
         let scene = &self.0.solution().scene;
-        let mode = mode.map_or(Ok(Mode::default()), parse::<Mode>)?;
-        let mut settings = RenderSettings::for_scene(scene);
-        settings.estimator = mode.estimator(eye, gather_cache)?;
-        if let Some(spp) = spp {
-            settings = settings.with_samples_per_pixel(spp);
+        let positional = PyDict::new(py);
+        if let Some(mode) = mode {
+            positional.set_item("mode", mode)?;
         }
+        if let Some(spp) = spp {
+            positional.set_item("spp", spp)?;
+        }
+        if let Some(settings) = settings {
+            positional.update(settings.as_mapping())?;
+        }
+        let given = described_values::<RenderSettings>(Some(&positional))?;
+        let settings = RenderSettings::from_values(scene, &given)?;
         let mut camera = scene.camera.ok_or(wavrad_core::Error::NoSensor)?;
         let (origin, target, up) = (
             vector("origin", origin)?,
@@ -255,11 +260,6 @@ fn call_on_step(
 
 /// A core enum named by a Python string (`mode`, `oracle`, `solver`); an unknown
 /// name is a `ValueError` listing the valid ones.
-/// `name` parsed as a core enum whose errors are plain messages.
-fn parse<T: FromStr<Err = String>>(name: &str) -> Result<T> {
-    name.parse().map_err(Error::Argument)
-}
-
 /// The keyword arguments `given` as values of the settings `S` describes.
 fn described_values<S: Described>(
     given: Option<&Bound<'_, PyDict>>,

@@ -28,7 +28,7 @@
 
 use super::gather::GatherPoint;
 use super::reader::{FinalGather, SolutionReader};
-use super::RenderSettings;
+use super::{RenderSettings, GATHER_GRID, GATHER_RAYS};
 use crate::kernel::exposure::is_buried;
 use crate::sampling::Samples;
 use crate::scene::{Patch, Rgb};
@@ -68,7 +68,7 @@ impl GatherCache {
     /// of threads: each texel's samples are its own). Each texel takes half
     /// the indirect rays and as many shadow rays as an interior pixel's
     /// gathers of `settings` do together, and caustic receivers
-    /// `settings.caustic_gathers` times as many.
+    /// [`CAUSTIC_GATHERS`](super::CAUSTIC_GATHERS) times as many.
     pub(super) fn build(
         solution: &Solution,
         reader: &SolutionReader,
@@ -117,9 +117,9 @@ impl GatherCache {
                     .on_receiver(reader.caustic[s])
                     .gather_samples_per_pixel
                     .max(1);
-                let rays = settings.gather_rays.saturating_mul(gathers) / 2;
+                let rays = GATHER_RAYS.saturating_mul(gathers) / 2;
                 // As many shadow rays as the pixel's gathers, in one grid.
-                let shadow_grid = (f64::from(settings.gather_grid) * f64::from(gathers).sqrt())
+                let shadow_grid = (f64::from(GATHER_GRID) * f64::from(gathers).sqrt())
                     .round()
                     .max(1.0) as u32;
                 let point = GatherPoint {
@@ -128,7 +128,7 @@ impl GatherCache {
                     normal,
                     samples: Samples::pixel((s as u64) << 40 ^ t as u64, 0),
                 };
-                Some(reader.final_gather_parts(solution, &point, (rays, shadow_grid), settings))
+                Some(reader.final_gather_parts(solution, &point, (rays, shadow_grid)))
             })
             .collect();
         let mut values = values.into_iter();

@@ -15,9 +15,10 @@ use super::cache::GatherCache;
 use super::eye::EyeRadiance;
 use super::gather::{self, GatherPoint};
 use super::reconstruct::{radiance_at, Reconstruction};
-use super::{RenderSettings, Renderer};
+use super::{RenderSettings, Renderer, GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::Rgb;
+use crate::setting::Choice;
 use crate::solve::Solution;
 use crate::{Error, Result};
 use glam::{DVec2, DVec3};
@@ -88,23 +89,14 @@ pub enum Mode {
     Haar,
 }
 
+impl Choice for Mode {
+    const KIND: &'static str = "render mode";
+    const ALL: &'static [Self] = &[Mode::Gather, Mode::Direct, Mode::Smooth, Mode::Haar];
+    const NAMES: &'static [&'static str] = &["gather", "direct", "smooth", "haar"];
+}
+crate::named_choice!(Mode);
+
 impl Mode {
-    /// Every mode by its user-facing name.
-    pub const NAMES: [(&'static str, Mode); 4] = [
-        ("gather", Mode::Gather),
-        ("direct", Mode::Direct),
-        ("smooth", Mode::Smooth),
-        ("haar", Mode::Haar),
-    ];
-
-    /// The user-facing name.
-    pub fn name(self) -> &'static str {
-        Self::NAMES
-            .iter()
-            .find(|&&(_, mode)| mode == self)
-            .map_or("", |&(name, _)| name)
-    }
-
     /// The estimator of this mode, with glossy surfaces' radiance towards
     /// the eye gathered into the eye (`eye`) or read from the directional
     /// solution, and for the final gather the gather cache (`gather_cache`).
@@ -147,29 +139,25 @@ impl Mode {
     }
 }
 
-impl std::fmt::Display for Mode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Mode {
-    type Err = String;
-
-    /// The mode named `name` (`gather`, `direct`, `smooth`, `haar`).
-    fn from_str(name: &str) -> std::result::Result<Self, String> {
-        Self::NAMES
-            .iter()
-            .find(|(n, _)| *n == name)
-            .map(|&(_, mode)| mode)
-            .ok_or_else(|| {
-                let names: Vec<String> =
-                    Self::NAMES.iter().map(|(n, _)| format!("{n:?}")).collect();
-                format!(
-                    "unknown render mode {name:?} (expected one of {})",
-                    names.join(", ")
-                )
-            })
+impl Estimator {
+    /// The mode, eye and gather-cache choice that make this estimator
+    /// ([`Mode::estimator`] backwards; `direct` and `smooth` without the
+    /// eye are one estimator, read as `direct`).
+    pub fn choices(self) -> (Mode, bool, bool) {
+        match self {
+            Estimator::FinalGather { cached } => (Mode::Gather, true, cached),
+            Estimator::Solution {
+                reconstruction: Reconstruction::Haar,
+                glossy,
+            } => (Mode::Haar, glossy != GlossyView::Directional, false),
+            Estimator::Solution {
+                glossy: GlossyView::Eye(Reconstruction::Smooth),
+                ..
+            } => (Mode::Smooth, true, false),
+            Estimator::Solution { glossy, .. } => {
+                (Mode::Direct, glossy != GlossyView::Directional, false)
+            }
+        }
     }
 }
 
@@ -258,7 +246,7 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         Some(rest) => (
             rest,
             lambertian_gather(renderer, hit, cache, settings),
-            settings.glossy_grid,
+            GLOSSY_GRID,
         ),
         None => (
             &surface.brdf,
@@ -275,7 +263,7 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         }
         let to = (hit.point.surface, hit.point.position);
         let seed = hit.point.samples.seed();
-        reader.radiance_leaving(solution, (q, z), to, (seed, settings.glossy_grid))
+        reader.radiance_leaving(solution, (q, z), to, (seed, GLOSSY_GRID))
     };
     let reflected = gather::glossy_radiance(
         &solution.scene,
@@ -314,8 +302,8 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
         samples: hit.point.samples.final_gather(block),
         ..hit.point
     };
-    let rays = (gathering.rays(&local), settings.gather_grid);
-    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, rays, settings);
+    let rays = (gathering.rays(&local), GATHER_GRID);
+    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, rays);
     let weight = gathering.weight();
     [0, 1, 2].map(|ch| reconstructed[ch] + weight * (gathered[ch] - reconstructed[ch]))
 }
@@ -420,11 +408,8 @@ impl GatheringRays {
     /// total for an interior pixel, and more where the pixel has fewer
     /// camera rays than gathers asked for.
     fn rays(&self, settings: &RenderSettings) -> u32 {
-        let total = settings.gather_rays * settings.gather_samples_per_pixel;
-        (total / self.gathers as u32).clamp(
-            settings.gather_rays.min(4),
-            settings.gather_rays * self.excess,
-        )
+        let total = GATHER_RAYS * settings.gather_samples_per_pixel;
+        (total / self.gathers as u32).clamp(GATHER_RAYS.min(4), GATHER_RAYS * self.excess)
     }
 }
 
@@ -438,7 +423,7 @@ mod tests {
     #[test]
     fn every_mode_option_combination_is_an_estimator_or_an_error() {
         let mut estimators = Vec::new();
-        for (_, mode) in Mode::NAMES {
+        for &mode in Mode::ALL {
             for eye in [true, false] {
                 for cache in [true, false] {
                     let unused = match mode {
@@ -471,7 +456,7 @@ mod tests {
 
     #[test]
     fn modes_are_named_as_they_parse() {
-        for (name, mode) in Mode::NAMES {
+        for (&name, &mode) in Mode::NAMES.iter().zip(Mode::ALL) {
             assert_eq!(name.parse::<Mode>(), Ok(mode));
             assert_eq!(mode.to_string(), name);
         }
@@ -510,7 +495,7 @@ mod tests {
     #[test]
     fn gathers_beyond_the_camera_rays_become_indirect_rays() {
         let settings = RenderSettings::default();
-        let interior = settings.interior_samples_per_pixel as usize;
+        let interior = settings.interior_samples_per_pixel() as usize;
         let rays = |gather_spp: u32| {
             let local = RenderSettings {
                 gather_samples_per_pixel: gather_spp,
@@ -525,7 +510,7 @@ mod tests {
             assert_eq!(gathers, (gather_spp as usize).min(interior));
             assert_eq!(
                 gathers as u32 * per_gather,
-                gather_spp * settings.gather_rays,
+                gather_spp * GATHER_RAYS,
                 "gather spp {gather_spp}"
             );
         }

@@ -15,6 +15,7 @@ pub mod gather;
 pub mod mirror;
 mod reader;
 pub mod reconstruct;
+pub mod settings;
 
 use crate::progress::Silent;
 use crate::sampling::Samples;
@@ -35,32 +36,64 @@ use reconstruct::{radiance_at, Reconstruction};
 use std::borrow::Borrow;
 use std::sync::OnceLock;
 
-/// How to render a view.
+/// Camera rays per pixel in the others, whose 4×4 probe rays all meet one
+/// surface, as do their neighbours': radiance varies smoothly there, and the
+/// final gather, not the camera rays, resolves its shadows (on a glossy
+/// surface, each camera ray takes proportionally more light and BRDF
+/// samples). A quarter of an edge pixel's.
+const INTERIOR_SHARE: u32 = 4;
+
+/// Camera rays per pixel at the outline of an emitter, or of a diffuse
+/// surface lit strongly enough to light others as one does, relative to an
+/// edge pixel's: an emitter outshines what surrounds it a hundredfold
+/// (Figure 3's lit reflector fiftyfold), so the sampling noise of its
+/// coverage of a pixel dominates an image's error; the extra rays cost a
+/// lookup each, because these pixels gather no more often than any other
+/// edge pixel.
+const EMITTER_EDGE_FACTOR: u32 = 16;
+
+/// Of an edge pixel's camera rays, the share that also gathers by default.
+const GATHER_SHARE: u32 = 32;
+
+/// How many times as many camera rays gather on a caustic's receiver: a
+/// diffuse surface that sees a sharp glossy surface mirror an emitter
+/// ([`mirror::is_sharp`]). All of that light reaches it through its
+/// gathers, each sample of which evaluates the glossy reflection at one
+/// point, so its gathers are noisier than any other surface's (Figure 3's
+/// receiver gets nothing else).
+const CAUSTIC_GATHERS: u32 = 16;
+
+/// Shadow rays per emitter for each gathering camera ray: a `GATHER_GRID` ×
+/// `GATHER_GRID` jittered grid. Bright surfaces (glossy ones and strongly
+/// lit diffuse ones) get grids of about as many area samples in all as the
+/// gathering ray has indirect rays, and each at least this.
+const GATHER_GRID: u32 = 2;
+
+/// Indirect gather rays per gathering camera ray of an interior pixel; in a
+/// pixel with more gathering rays, as many indirect rays in total (at least
+/// 4 per gathering ray).
+const GATHER_RAYS: u32 = 32;
+
+/// On glossy surfaces in [`Estimator::FinalGather`], where every camera ray
+/// gathers through the BRDF: `GLOSSY_GRID` × `GLOSSY_GRID` light samples per
+/// emitter and as many BRDF samples per ray. A BRDF without a Lambertian
+/// lobe gets that many per ray of a pixel with all its camera rays, and
+/// more in interior pixels (in proportion, the same in all); one with a
+/// Lambertian lobe gathers only its other lobes per ray, that lobe's light
+/// coming as a diffuse surface's, and gets that many in every pixel.
+const GLOSSY_GRID: u32 = 1;
+
+/// How to render a view: what users choose ([`settings`] describes it); the
+/// rest are the constants above.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
     /// What a camera ray's radiance is estimated by.
     pub estimator: Estimator,
     /// Camera rays per pixel (rounded up to a square) where a pixel needs
     /// them: where it shows more than one surface (an edge, the outline of a
-    /// light). Multi-jittered, an outline's coverage error falls as 1/spp,
-    /// and more rays than the default leave the bundled scenes' errors as
-    /// they are.
+    /// light). Multi-jittered, an outline's coverage error falls as 1/spp.
+    /// Interior pixels get a quarter, emitters' outlines sixteen times.
     pub samples_per_pixel: u32,
-    /// Camera rays per pixel in the others, whose 4×4 probe rays all meet
-    /// one surface, as do their neighbours': radiance varies smoothly there,
-    /// and the final gather, not the camera rays, resolves its shadows (on
-    /// a glossy surface, each camera ray takes proportionally more light and
-    /// BRDF samples).
-    pub interior_samples_per_pixel: u32,
-    /// Camera rays per pixel at the outline of an emitter, or of a diffuse
-    /// surface lit strongly enough to light others as one does (a pixel
-    /// that shows more than one surface, in its probe rays or its
-    /// neighbours', where some of them meet such a surface).
-    /// An emitter outshines what surrounds it a hundredfold (Figure 3's lit
-    /// reflector fiftyfold), so the sampling noise of its coverage of a
-    /// pixel dominates an image's error; the extra rays cost a lookup each,
-    /// because these pixels gather no more often than any other edge pixel.
-    pub emitter_edge_samples_per_pixel: u32,
     /// In [`Estimator::FinalGather`], how many of the camera rays of an
     /// interior pixel also gather (the others use the smooth solution, and
     /// the gathering ones carry the correction for them: a control variate,
@@ -69,33 +102,6 @@ pub struct RenderSettings {
     /// correction jumps, and its coverage needs as many rays as the
     /// solution's.
     pub gather_samples_per_pixel: u32,
-    /// How many times as many camera rays gather on a caustic's receiver: a
-    /// diffuse surface that sees a sharp glossy surface mirror an emitter
-    /// ([`mirror::is_sharp`]). All of that light reaches it through its
-    /// gathers, each sample of which evaluates the glossy reflection at one
-    /// point, so its gathers are noisier than any other surface's (Figure
-    /// 3's receiver gets nothing else).
-    pub caustic_gathers: u32,
-    /// Shadow rays per emitter for each gathering camera ray: a
-    /// `gather_grid` × `gather_grid` jittered grid. Bright surfaces (glossy
-    /// ones and strongly lit diffuse ones) get grids of about as many area
-    /// samples in all as the gathering ray has indirect rays, and each at
-    /// least this.
-    pub gather_grid: u32,
-    /// Indirect gather rays per gathering camera ray of an interior pixel;
-    /// in a pixel with more gathering rays, as many indirect rays in total
-    /// (at least 4 per gathering ray).
-    pub gather_rays: u32,
-    /// On glossy surfaces in [`Estimator::FinalGather`], where every camera
-    /// ray gathers through the BRDF: `glossy_grid` × `glossy_grid` light
-    /// samples per emitter and as many BRDF samples per ray. A BRDF without
-    /// a Lambertian lobe gets that many per ray of a pixel with all its
-    /// camera rays, and more in interior pixels (in proportion, the same
-    /// in all); one with a Lambertian lobe gathers only its other lobes
-    /// per ray, that lobe's light coming as a diffuse surface's, and gets
-    /// that many in every pixel (more per interior pixel leave the error
-    /// as it is and cost time per view).
-    pub glossy_grid: u32,
 }
 
 impl Default for RenderSettings {
@@ -103,13 +109,7 @@ impl Default for RenderSettings {
         RenderSettings {
             estimator: Estimator::default(),
             samples_per_pixel: 256,
-            interior_samples_per_pixel: 64,
-            emitter_edge_samples_per_pixel: 4096,
-            gather_samples_per_pixel: 8,
-            caustic_gathers: 16,
-            gather_grid: 2,
-            gather_rays: 32,
-            glossy_grid: 1,
+            gather_samples_per_pixel: 256 / GATHER_SHARE,
         }
     }
 }
@@ -127,11 +127,23 @@ impl RenderSettings {
         }
     }
 
+    /// Camera rays per pixel where a pixel shows one surface, as do its
+    /// neighbours ([`INTERIOR_SHARE`]).
+    pub fn interior_samples_per_pixel(&self) -> u32 {
+        (self.samples_per_pixel / INTERIOR_SHARE).max(1)
+    }
+
+    /// Camera rays per pixel at an emitter's outline ([`EMITTER_EDGE_FACTOR`]).
+    pub fn emitter_edge_samples_per_pixel(&self) -> u32 {
+        self.samples_per_pixel.saturating_mul(EMITTER_EDGE_FACTOR)
+    }
+
     /// How many of a pixel's `n` camera rays gather: in proportion to `n`,
     /// as in an interior pixel, up to as many as an edge pixel's.
     pub(super) fn gathers_among(&self, n: usize) -> u32 {
         let n = n.min(crate::sampling::pixel_offsets_len(self.samples_per_pixel) as usize);
-        let interior = crate::sampling::pixel_offsets_len(self.interior_samples_per_pixel) as usize;
+        let interior =
+            crate::sampling::pixel_offsets_len(self.interior_samples_per_pixel()) as usize;
         let share = self.gather_samples_per_pixel as f64 / interior as f64;
         ((n as f64 * share).round() as u32).max(1)
     }
@@ -139,7 +151,7 @@ impl RenderSettings {
     /// The settings a diffuse surface gathers with: these, or on a caustic's
     /// receiver `caustic_gathers` times as many gathers.
     pub(super) fn on_receiver(&self, caustic: bool) -> RenderSettings {
-        let factor = if caustic { self.caustic_gathers } else { 1 };
+        let factor = if caustic { CAUSTIC_GATHERS } else { 1 };
         RenderSettings {
             gather_samples_per_pixel: self.gather_samples_per_pixel.saturating_mul(factor),
             ..*self
@@ -151,19 +163,16 @@ impl RenderSettings {
     /// samples in all.
     pub(super) fn glossy_grid_among(&self, n: usize) -> u32 {
         let ratio = (self.samples_per_pixel as f64 / n as f64).max(1.0);
-        ((f64::from(self.glossy_grid) * ratio.sqrt()).round() as u32).max(1)
+        ((f64::from(GLOSSY_GRID) * ratio.sqrt()).round() as u32).max(1)
     }
 
-    /// The same settings with `n` camera rays per pixel, a quarter of them
-    /// in interior pixels, a thirty-second gathering and sixteen times as
-    /// many at an emitter's outline (the default proportions).
+    /// The same settings with `n` camera rays per pixel where an edge shows
+    /// and the default share of them gathering.
     pub fn with_samples_per_pixel(self, n: u32) -> RenderSettings {
         let n = n.max(1);
         RenderSettings {
             samples_per_pixel: n,
-            interior_samples_per_pixel: (n / 4).max(1),
-            emitter_edge_samples_per_pixel: n.saturating_mul(16),
-            gather_samples_per_pixel: (n / 32).max(1),
+            gather_samples_per_pixel: (n / GATHER_SHARE).max(1),
             ..self
         }
     }
@@ -432,9 +441,9 @@ fn camera_rays(
         emitter_edge |= p.glaring;
     }
     if uniform {
-        settings.interior_samples_per_pixel
+        settings.interior_samples_per_pixel()
     } else if emitter_edge {
-        settings.emitter_edge_samples_per_pixel
+        settings.emitter_edge_samples_per_pixel()
     } else {
         settings.samples_per_pixel
     }
@@ -462,9 +471,9 @@ mod tests {
         let settings = RenderSettings::default();
         let rays = |px, py| camera_rays(&probes, &film, (px, py), &settings);
         for px in 0..3 {
-            assert_eq!(rays(px, 0), settings.emitter_edge_samples_per_pixel);
-            assert_eq!(rays(px, 1), settings.emitter_edge_samples_per_pixel);
-            assert_eq!(rays(px, 2), settings.interior_samples_per_pixel);
+            assert_eq!(rays(px, 0), settings.emitter_edge_samples_per_pixel());
+            assert_eq!(rays(px, 1), settings.emitter_edge_samples_per_pixel());
+            assert_eq!(rays(px, 2), settings.interior_samples_per_pixel());
         }
         // The same outline between two walls is an ordinary edge.
         let walls: Vec<PixelProbe> = (0..9)
@@ -490,7 +499,7 @@ mod tests {
         assert_eq!(
             (
                 s.samples_per_pixel,
-                s.interior_samples_per_pixel,
+                s.interior_samples_per_pixel(),
                 s.gather_samples_per_pixel
             ),
             (4096, 1024, 128)

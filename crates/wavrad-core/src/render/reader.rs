@@ -4,7 +4,7 @@
 use super::gather::{self, GatherPoint};
 use super::mirror::MirrorImage;
 use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
-use super::RenderSettings;
+use super::{GATHER_GRID, GLOSSY_GRID};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -143,10 +143,8 @@ impl SolutionReader {
         solution: &Solution,
         point: &GatherPoint,
         rays: (u32, u32),
-        settings: &RenderSettings,
     ) -> Rgb {
-        self.final_gather_parts(solution, point, rays, settings)
-            .total()
+        self.final_gather_parts(solution, point, rays).total()
     }
 
     /// [`SolutionReader::final_gather`] in its two parts.
@@ -155,7 +153,6 @@ impl SolutionReader {
         solution: &Solution,
         point: &GatherPoint,
         (rays, shadow_grid): (u32, u32),
-        settings: &RenderSettings,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
         let sources = gather::GatherSources {
@@ -164,12 +161,12 @@ impl SolutionReader {
             grid: ((f64::from(rays) / self.bright.len().max(1) as f64)
                 .sqrt()
                 .round() as u32)
-                .max(settings.gather_grid),
+                .max(GATHER_GRID),
         };
         let to = (point.surface, point.position);
         let seed = point.samples.seed();
         let indirect = gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
-            let l = self.radiance_leaving(solution, (q, y), to, (seed, settings.glossy_grid));
+            let l = self.radiance_leaving(solution, (q, y), to, (seed, GLOSSY_GRID));
             let e = scene.surfaces[q as usize].emission;
             [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
         });

@@ -126,7 +126,7 @@ impl Described for SolveSettings {
         })
     }
 
-    fn set_checked(&mut self, name: &str, value: Value) {
+    fn set_checked(&mut self, name: &str, value: Value) -> Result<()> {
         match (name, value) {
             ("oracle", Value::Choice(name)) => {
                 self.oracle = name.parse().expect("checked against the oracles' names")
@@ -143,6 +143,7 @@ impl Described for SolveSettings {
             ("max_iterations", Value::Count(n)) => self.max_iterations = n,
             _ => unreachable!("{name} = {value:?} was checked against SETTINGS"),
         }
+        Ok(())
     }
 }
 
