@@ -41,7 +41,7 @@ use std::sync::OnceLock;
 /// final gather, not the camera rays, resolves its shadows (on a glossy
 /// surface, each camera ray takes proportionally more light and BRDF
 /// samples). A quarter of an edge pixel's.
-const INTERIOR_SHARE: u32 = 4;
+pub const INTERIOR_SHARE: u32 = 4;
 
 /// Camera rays per pixel at the outline of an emitter, or of a diffuse
 /// surface lit strongly enough to light others as one does, relative to an
@@ -50,10 +50,10 @@ const INTERIOR_SHARE: u32 = 4;
 /// coverage of a pixel dominates an image's error; the extra rays cost a
 /// lookup each, because these pixels gather no more often than any other
 /// edge pixel.
-const EMITTER_EDGE_FACTOR: u32 = 16;
+pub const EMITTER_EDGE_FACTOR: u32 = 16;
 
 /// Of an edge pixel's camera rays, the share that also gathers by default.
-const GATHER_SHARE: u32 = 32;
+pub const GATHER_SHARE: u32 = 32;
 
 /// How many times as many camera rays gather on a caustic's receiver: a
 /// diffuse surface that sees a sharp glossy surface mirror an emitter
@@ -61,18 +61,18 @@ const GATHER_SHARE: u32 = 32;
 /// gathers, each sample of which evaluates the glossy reflection at one
 /// point, so its gathers are noisier than any other surface's (Figure 3's
 /// receiver gets nothing else).
-const CAUSTIC_GATHERS: u32 = 16;
+pub const CAUSTIC_GATHERS: u32 = 16;
 
 /// Shadow rays per emitter for each gathering camera ray: a `GATHER_GRID` ×
 /// `GATHER_GRID` jittered grid. Bright surfaces (glossy ones and strongly
 /// lit diffuse ones) get grids of about as many area samples in all as the
 /// gathering ray has indirect rays, and each at least this.
-const GATHER_GRID: u32 = 2;
+pub const GATHER_GRID: u32 = 2;
 
 /// Indirect gather rays per gathering camera ray of an interior pixel; in a
 /// pixel with more gathering rays, as many indirect rays in total (at least
 /// 4 per gathering ray).
-const GATHER_RAYS: u32 = 32;
+pub const GATHER_RAYS: u32 = 32;
 
 /// On glossy surfaces in [`Estimator::FinalGather`], where every camera ray
 /// gathers through the BRDF: `GLOSSY_GRID` × `GLOSSY_GRID` light samples per
@@ -81,7 +81,7 @@ const GATHER_RAYS: u32 = 32;
 /// more in interior pixels (in proportion, the same in all); one with a
 /// Lambertian lobe gathers only its other lobes per ray, that lobe's light
 /// coming as a diffuse surface's, and gets that many in every pixel.
-const GLOSSY_GRID: u32 = 1;
+pub const GLOSSY_GRID: u32 = 1;
 
 /// How to render a view: what users choose ([`settings`] describes it); the
 /// rest are the constants above.
