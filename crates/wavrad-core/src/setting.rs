@@ -275,8 +275,22 @@ macro_rules! named_choice {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// Every setting `S` describes reads back what was written, and writing
+    /// a setting's own value changes nothing else.
+    pub(crate) fn every_setting_reads_back<S: Described + Default + PartialEq + fmt::Debug>() {
+        for setting in S::SETTINGS {
+            let mut settings = S::default();
+            let value = settings
+                .get(setting.name)
+                .expect("described settings can be read");
+            settings.set(setting.name, value).unwrap();
+            assert_eq!(settings.get(setting.name), Some(value), "{}", setting.name);
+            assert_eq!(settings, S::default(), "{} wrote elsewhere", setting.name);
+        }
+    }
 
     const LEVEL: Setting = Setting {
         name: "max_level",

@@ -136,14 +136,7 @@ mod tests {
 
     #[test]
     fn every_setting_reads_back_what_was_written() {
-        for setting in RenderSettings::SETTINGS {
-            let mut settings = RenderSettings::default();
-            let value = settings
-                .get(setting.name)
-                .expect("described settings can be read");
-            settings.set(setting.name, value).unwrap();
-            assert_eq!(settings, RenderSettings::default(), "{}", setting.name);
-        }
+        crate::setting::tests::every_setting_reads_back::<RenderSettings>();
     }
 
     #[test]

@@ -178,20 +178,7 @@ mod tests {
 
     #[test]
     fn every_setting_reads_back_what_was_written() {
-        for setting in SolveSettings::SETTINGS {
-            let mut settings = SolveSettings::default();
-            let value = settings
-                .get(setting.name)
-                .expect("described settings can be read");
-            settings.set(setting.name, value).unwrap();
-            assert_eq!(settings.get(setting.name), Some(value), "{}", setting.name);
-            assert_eq!(
-                settings,
-                SolveSettings::default(),
-                "{} wrote elsewhere",
-                setting.name
-            );
-        }
+        crate::setting::tests::every_setting_reads_back::<SolveSettings>();
     }
 
     #[test]
