@@ -9,7 +9,8 @@
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
-use crate::kernel::{self, KernelContext, OuterSamples};
+use crate::kernel::two_point_quadrature::OuterSamples;
+use crate::kernel::{self, KernelContext};
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
