@@ -131,6 +131,31 @@ def test_unknown_solver_is_a_solve_error_naming_the_choices(scene: wavrad.Scene)
         wavrad.solve(scene, solver="nope")  # type: ignore[arg-type]
 
 
+def test_every_setting_given_is_the_one_the_stats_report(scene: wavrad.Scene) -> None:
+    given = {
+        "oracle": "power",
+        "threshold": 5e-4,
+        "max_level": 2,
+        "three_point_threshold": 3e-4,
+        "three_point_max_level": 1,
+        "three_point_receiver_levels": 1,
+        "refine_passes": 2,
+        "tolerance": 1e-4,
+        "max_iterations": 50,
+    }
+    solution = wavrad.solve(scene, **given)  # type: ignore[arg-type]
+    assert solution.stats["settings"] == given
+    assert 1 <= solution.stats["projections"] <= given["refine_passes"]
+
+
+def test_render_settings_are_taken_by_name(kernel: wavrad.Solution) -> None:
+    a = kernel.render("gather", 4, gather_spp=1)
+    b = kernel.render(mode="gather", spp=4, gather_spp=1)
+    assert (a == b).all()
+    with pytest.raises(wavrad.SolveError, match="gather_spp: must be in 1..="):
+        kernel.render("gather", 4, gather_spp=0)
+
+
 def test_unknown_setting_is_a_type_error(scene: wavrad.Scene) -> None:
     with pytest.raises(TypeError, match="colour"):
         wavrad.solve(scene, colour=1)  # type: ignore[call-arg]
