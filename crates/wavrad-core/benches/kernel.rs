@@ -91,7 +91,7 @@ fn three_point(c: &mut Criterion) {
     let lit = |source: &Element, receiver: &Element| {
         support::elements(2)
             .map(|id| Element::new(&scene, floor, id))
-            .find(|a| reflect(source, a, receiver).iter().all(|&x| x > 0.0))
+            .find(|a| reflect(source, a, receiver).0.iter().all(|&x| x > 0.0))
             .expect("a lit floor element")
     };
     let cases = [

@@ -2,7 +2,7 @@
 
 use crate::scene::brdf::ward::{Ward, WardVariant};
 use crate::scene::brdf::Brdf;
-use crate::scene::{Patch, Scene, Surface};
+use crate::scene::{Patch, Rgb, Scene, Surface};
 use glam::DVec3;
 
 /// A non-emitting surface reflecting 50 % in every channel.
@@ -10,8 +10,8 @@ pub fn grey(patch: Patch) -> Surface {
     Surface {
         name: String::new(),
         patch,
-        brdf: Brdf::diffuse([0.5; 3]),
-        emission: [0.0; 3],
+        brdf: Brdf::diffuse(Rgb::splat(0.5)),
+        emission: Rgb::ZERO,
     }
 }
 
@@ -22,8 +22,8 @@ pub fn rolled_aluminium() -> Brdf {
         variant: WardVariant::Ward,
         alpha_u: 0.04,
         alpha_v: 0.09,
-        specular_reflectance: [0.21; 3],
-        diffuse_reflectance: [0.10; 3],
+        specular_reflectance: Rgb::splat(0.21),
+        diffuse_reflectance: Rgb::splat(0.10),
     })
 }
 
@@ -47,7 +47,7 @@ pub fn light_over_a_corner(h: f64) -> Scene {
     Scene::from_surfaces(vec![
         grey(unit_floor()),
         Surface {
-            emission: [1.0; 3],
+            emission: Rgb::splat(1.0),
             ..grey(light)
         },
     ])
@@ -68,7 +68,7 @@ pub fn mirror_floor_and_light() -> Scene {
             ..grey(floor)
         },
         Surface {
-            emission: [1.0; 3],
+            emission: Rgb::splat(1.0),
             ..grey(light)
         },
     ])

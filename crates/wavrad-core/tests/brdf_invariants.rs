@@ -13,6 +13,7 @@ use wavrad_core::scene::brdf::{
     Brdf, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams,
     Ward, WardVariant,
 };
+use wavrad_core::scene::Rgb;
 
 const VARIANTS: [WardVariant; 3] = [
     WardVariant::Ward,
@@ -25,8 +26,8 @@ fn ward(variant: WardVariant, alpha_u: f64, alpha_v: f64, spec: f64, diff: f64) 
         variant,
         alpha_u,
         alpha_v,
-        specular_reflectance: [spec; 3],
-        diffuse_reflectance: [diff; 3],
+        specular_reflectance: Rgb::splat(spec),
+        diffuse_reflectance: Rgb::splat(diff),
     })
 }
 
@@ -36,7 +37,7 @@ fn conductor(kind: MicrofacetType, alpha_u: f64, alpha_v: f64, material: &str) -
         distribution: Microfacet::new(kind, alpha_u, alpha_v),
         eta: ior.eta,
         k: ior.k,
-        specular_reflectance: [1.0; 3],
+        specular_reflectance: Rgb::splat(1.0),
     })
 }
 
@@ -44,7 +45,7 @@ fn plastic(kind: MicrofacetType, alpha: f64, diffuse: f64) -> Brdf {
     Brdf::RoughPlastic(RoughPlastic::new(RoughPlasticParams {
         distribution: kind,
         alpha,
-        diffuse_reflectance: [diffuse; 3],
+        diffuse_reflectance: Rgb::splat(diffuse),
         ..Default::default()
     }))
 }
@@ -52,7 +53,7 @@ fn plastic(kind: MicrofacetType, alpha: f64, diffuse: f64) -> Brdf {
 /// A representative set of models and parameters (name, model).
 fn models() -> Vec<(String, Brdf)> {
     use MicrofacetType::{Beckmann, Ggx};
-    let mut v = vec![("diffuse".to_string(), Brdf::diffuse([0.7; 3]))];
+    let mut v = vec![("diffuse".to_string(), Brdf::diffuse(Rgb::splat(0.7)))];
     for variant in VARIANTS {
         v.push((
             format!("ward {variant} 0.2/0.2"),
@@ -97,7 +98,7 @@ fn albedo(model: &Brdf, wo: DVec3, samples: usize, seed: u64) -> (f64, f64) {
     for _ in 0..samples {
         let u = DVec2::new(rng.uniform(), rng.uniform());
         if let Some(s) = model.sample(wo, u, rng.uniform()) {
-            let w = s.weight.iter().copied().fold(0.0, f64::max);
+            let w = s.weight.max_channel();
             sum += w;
             sum2 += w * w;
         }
@@ -215,7 +216,7 @@ fn brdf_sample_weight_is_f_cos_over_pdf() {
                 s.pdf
             );
             let f = model.eval(wo, s.direction);
-            for (w, f) in s.weight.iter().zip(f) {
+            for (w, f) in s.weight.0.iter().zip(f.0) {
                 let expect = f * s.direction.z / s.pdf;
                 assert!(
                     (w - expect).abs() <= 1e-9 * expect.max(1e-12),
@@ -235,8 +236,8 @@ fn brdf_is_its_lambertian_lobe_plus_the_rest() {
     let mut rng = Rng::new(11);
     for (name, model) in models() {
         let rest = model.without_lambertian();
-        assert_eq!(rest.lambertian().unwrap_or([0.0; 3]), [0.0; 3], "{name}");
-        let rho = model.lambertian().unwrap_or([0.0; 3]);
+        assert_eq!(rest.lambertian().unwrap_or(Rgb::ZERO), Rgb::ZERO, "{name}");
+        let rho = model.lambertian().unwrap_or(Rgb::ZERO);
         let lambertian_models = ["diffuse", "ward"];
         assert_eq!(
             model.lambertian().is_some(),

@@ -20,9 +20,9 @@ const NEGLIGIBLE: f64 = 1e-7;
 
 fn color(params: &Value, key: &str, default: f64) -> Rgb {
     match params.get(key) {
-        None => [default; 3],
-        Some(Value::Array(v)) => std::array::from_fn(|c| v[c].as_f64().unwrap()),
-        Some(v) => [v.as_f64().unwrap(); 3],
+        None => Rgb::splat(default),
+        Some(Value::Array(v)) => Rgb(std::array::from_fn(|c| v[c].as_f64().unwrap())),
+        Some(v) => Rgb::splat(v.as_f64().unwrap()),
     }
 }
 

@@ -6,7 +6,7 @@
 use glam::DVec3;
 use wavrad_core::progress::Silent;
 use wavrad_core::refine::oracle::Oracle;
-use wavrad_core::scene::{Patch, Scene, Surface};
+use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
 use wavrad_core::solve::{solve, SolveSettings};
 use wavrad_core::testing::inward_box;
 
@@ -32,18 +32,14 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings, triangles: bool) -> (f64
         .map(|patch| Surface {
             name: "wall".into(),
             patch,
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([rho; 3]),
-            emission: [le; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(rho)),
+            emission: Rgb::splat(le),
         })
         .collect();
     let solution = solve(&Scene::from_surfaces(surfaces), settings, &Silent).unwrap();
     assert!(solution.stats.converged);
     let expect = le / (1.0 - rho);
-    let error = |l: &[f64; 3]| {
-        l.iter()
-            .map(|x| (x - expect).abs() / expect)
-            .fold(0.0, f64::max)
-    };
+    let error = |l: &Rgb| l.map(|x| (x - expect).abs() / expect).max_channel();
     let surfaces = solution
         .radiance
         .iter()
@@ -104,8 +100,8 @@ fn the_importance_oracle_without_a_sensor_is_a_clear_error() {
         .map(|patch| Surface {
             name: "wall".into(),
             patch,
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
-            emission: [1.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+            emission: Rgb::splat(1.0),
         })
         .collect();
     let settings = SolveSettings::for_oracle(Oracle::Importance);
@@ -130,8 +126,8 @@ fn a_box_resting_on_the_floor_leaves_the_furnace_exact() {
         .map(|patch| Surface {
             name: if patch == bottom { "bottom" } else { "wall" }.into(),
             patch,
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
-            emission: [1.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+            emission: Rgb::splat(1.0),
         })
         .collect();
     let scene = Scene::from_surfaces(surfaces);

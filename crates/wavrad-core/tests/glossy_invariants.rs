@@ -18,8 +18,8 @@ fn lambertian_ward(rho: f64) -> Brdf {
         variant: WardVariant::Balanced,
         alpha_u: 0.2,
         alpha_v: 0.2,
-        specular_reflectance: [0.0; 3],
-        diffuse_reflectance: [rho; 3],
+        specular_reflectance: Rgb::ZERO,
+        diffuse_reflectance: Rgb::splat(rho),
     })
 }
 
@@ -56,15 +56,15 @@ fn floor_light_wall(floor_brdf: Brdf) -> Scene {
         edge_t: DVec3::Y,
     };
     Scene::from_surfaces(vec![
-        surface(floor, floor_brdf, [0.0; 3]),
-        surface(light, Brdf::diffuse([0.0; 3]), [5.0; 3]),
-        surface(wall, Brdf::diffuse([0.5; 3]), [0.0; 3]),
+        surface(floor, floor_brdf, Rgb::ZERO),
+        surface(light, Brdf::diffuse(Rgb::ZERO), Rgb::splat(5.0)),
+        surface(wall, Brdf::diffuse(Rgb::splat(0.5)), Rgb::ZERO),
     ])
 }
 
 /// Every directional radiance value of the solution.
 fn directional_values(solution: &Solution) -> impl Iterator<Item = f64> + '_ {
-    solution.directional.iter().flatten().flat_map(|l| *l)
+    solution.directional.iter().flatten().flat_map(|l| l.0)
 }
 
 #[test]
@@ -75,7 +75,7 @@ fn closed_glossy_box_furnace_radiance_is_le_over_one_minus_rho() {
     let (rho, le) = (0.5, 1.0);
     let walls = inward_box(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 1.5, 3.0))
         .into_iter()
-        .map(|p| surface(p, lambertian_ward(rho), [le; 3]))
+        .map(|p| surface(p, lambertian_ward(rho), Rgb::splat(le)))
         .collect();
     let solution = solve(&Scene::from_surfaces(walls), &settings(2), &Silent).unwrap();
     assert!(solution.stats.converged);
@@ -97,7 +97,7 @@ fn a_lambertian_lobe_solves_exactly_as_a_diffuse_surface() {
     // whole BRDF went through three-point links, whose glossy elements stop
     // at the three-point maximum level, the wall came out 0.25 % off.)
     let diffuse = solve(
-        &floor_light_wall(Brdf::diffuse([0.6; 3])),
+        &floor_light_wall(Brdf::diffuse(Rgb::splat(0.6))),
         &settings(4),
         &Silent,
     )
@@ -136,8 +136,8 @@ fn a_specular_lobe_adds_to_the_lambertian_light() {
             variant: WardVariant::Balanced,
             alpha_u: 0.2,
             alpha_v: 0.2,
-            specular_reflectance: [specular; 3],
-            diffuse_reflectance: [0.6; 3],
+            specular_reflectance: Rgb::splat(specular),
+            diffuse_reflectance: Rgb::splat(0.6),
         })
     };
     let diffuse = solve(&floor_light_wall(ward(0.0)), &settings(3), &Silent).unwrap();
@@ -161,13 +161,19 @@ fn glossy_box_with_albedo_below_one_gains_no_energy() {
         variant: WardVariant::Balanced,
         alpha_u: 0.15,
         alpha_v: 0.4,
-        specular_reflectance: [0.25; 3],
-        diffuse_reflectance: [0.5; 3],
+        specular_reflectance: Rgb::splat(0.25),
+        diffuse_reflectance: Rgb::splat(0.5),
     });
     let walls = inward_box(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(1.0, 1.5, 3.0))
         .into_iter()
         .enumerate()
-        .map(|(i, p)| surface(p, ward.clone(), if i == 0 { [1.0; 3] } else { [0.0; 3] }))
+        .map(|(i, p)| {
+            surface(
+                p,
+                ward.clone(),
+                if i == 0 { Rgb::splat(1.0) } else { Rgb::ZERO },
+            )
+        })
         .collect();
     let solution = solve(&Scene::from_surfaces(walls), &settings(2), &Silent).unwrap();
     assert!(solution.stats.converged, "{:?}", solution.stats);
@@ -198,7 +204,7 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
     // receiver's), is its diffuse radiance. Averaged over the floor for a
     // fixed direction, it must match the diffuse solve's floor average.
     let diffuse = solve(
-        &floor_light_wall(Brdf::diffuse([0.6; 3])),
+        &floor_light_wall(Brdf::diffuse(Rgb::splat(0.6))),
         &settings(3),
         &Silent,
     )
@@ -232,7 +238,7 @@ fn every_direction_leaving_a_glossy_surface_has_a_receiver() {
     // through the open sides only.
     let mut scene = floor_light_wall(lambertian_ward(0.6));
     if let Brdf::Ward(w) = &mut scene.surfaces[0].brdf {
-        w.specular_reflectance = [0.2; 3];
+        w.specular_reflectance = Rgb::splat(0.2);
     }
     let shiny = Renderer::new(solve(&scene, &settings(3), &Silent).unwrap());
     let enclosure = shiny.enclosure();

@@ -6,7 +6,9 @@ use wavrad_core::progress::Silent;
 use wavrad_core::refine::oracle::Oracle;
 use wavrad_core::render::estimator::{Estimator, Mode};
 use wavrad_core::render::{RenderSettings, Renderer};
-use wavrad_core::scene::{Camera, Film, FovAxis, Patch, PixelFilter, Projection, Scene, Surface};
+use wavrad_core::scene::{
+    Camera, Film, FovAxis, Patch, PixelFilter, Projection, Rgb, Scene, Surface,
+};
 use wavrad_core::solve::{solve, SolveSettings};
 
 fn square(z: f64, up: bool) -> Patch {
@@ -32,14 +34,14 @@ fn open_scene_energy_balance_single_bounce() {
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.6, 0.3, 0.1]),
-            emission: [0.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.6, 0.3, 0.1])),
+            emission: Rgb::ZERO,
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.0; 3]),
-            emission: [5.0, 5.0, 5.0],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::ZERO),
+            emission: Rgb([5.0, 5.0, 5.0]),
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -52,13 +54,13 @@ fn open_scene_energy_balance_single_bounce() {
         );
     }
     // The emitter's radiance is its emission only.
-    assert_eq!(solution.radiance[1][0], [5.0; 3]);
+    assert_eq!(solution.radiance[1][0], Rgb::splat(5.0));
     // Everything the receiver reflects is a first bounce, node by node.
     let first = solution.first_bounce().unwrap();
     for (f, l) in first[0].iter().zip(&solution.radiance[0]) {
         (0..3).for_each(|ch| assert!((f[ch] - l[ch]).abs() < 1e-12, "{f:?} vs {l:?}"));
     }
-    assert!(first[1].iter().all(|f| *f == [0.0; 3]));
+    assert!(first[1].iter().all(|f| *f == Rgb::ZERO));
 }
 
 /// With a reflecting emitter the receiver's radiance has a second bounce
@@ -69,14 +71,14 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.8; 3]),
-            emission: [0.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
+            emission: Rgb::ZERO,
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.8; 3]),
-            emission: [5.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
+            emission: Rgb::splat(5.0),
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -129,11 +131,11 @@ fn results_do_not_depend_on_thread_count() {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.7, 0.5, 0.3]),
-                emission: [0.0; 3],
+                brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.7, 0.5, 0.3])),
+                emission: Rgb::ZERO,
             })
             .collect();
-    surfaces[1].emission = [3.0; 3];
+    surfaces[1].emission = Rgb::splat(3.0);
     surfaces[2].brdf = wavrad_core::scene::brdf::Brdf::Ward(wavrad_core::scene::brdf::Ward {
         alpha_u: 0.15,
         alpha_v: 0.3,
@@ -146,8 +148,8 @@ fn results_do_not_depend_on_thread_count() {
             DVec3::new(0.5, -0.5, 0.0),
             DVec3::new(0.0, 0.5, 0.2),
         ]),
-        brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
-        emission: [0.0; 3],
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+        emission: Rgb::ZERO,
     });
     let mut scene = Scene::from_surfaces(surfaces);
     scene.camera = Some(Camera {
@@ -235,8 +237,8 @@ fn too_many_surfaces_is_a_clear_error() {
     let tiny = Surface {
         name: "t".into(),
         patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
-        brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
-        emission: [0.0; 3],
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+        emission: Rgb::ZERO,
     };
     let scene = Scene::from_surfaces(vec![tiny; wavrad_core::solve::MAX_SURFACES + 1]);
     let err = solve(&scene, &SolveSettings::default(), &Silent)

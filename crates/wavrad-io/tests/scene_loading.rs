@@ -4,7 +4,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use wavrad_core::scene::{FovAxis, Patch, PixelFilter, Projection, Scene};
+use wavrad_core::scene::{FovAxis, Patch, PixelFilter, Projection, Rgb, Scene};
 use wavrad_io::{load_scene, load_scene_str, load_scene_with};
 
 fn load(xml: &str) -> Scene {
@@ -38,7 +38,7 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
     let lights: Vec<_> = s.surfaces.iter().filter(|x| x.is_emitter()).collect();
     assert_eq!(lights.len(), 1);
     assert_eq!(lights[0].name, "light");
-    assert_eq!(lights[0].emission, [18.387, 13.9873, 6.75357]);
+    assert_eq!(lights[0].emission, Rgb([18.387, 13.9873, 6.75357]));
     assert!((lights[0].patch.area() - 4.0 * 0.23 * 0.19).abs() < 1e-6);
     assert!(lights[0].patch.normal().y < -0.999, "light faces down");
     let floor = s.surfaces.iter().find(|x| x.name == "floor").unwrap();
@@ -112,10 +112,10 @@ fn rectangle_area_normal_and_parametrisation() {
     assert!(close(edge_s, DVec3::new(4.0, 0.0, 0.0)));
     assert_eq!(
         s.surfaces[0].brdf.lambertian(),
-        Some([0.5; 3]),
+        Some(Rgb::splat(0.5)),
         "Mitsuba's default BSDF"
     );
-    assert_eq!(s.surfaces[0].emission, [0.0; 3]);
+    assert_eq!(s.surfaces[0].emission, Rgb::ZERO);
     assert!(s.camera.is_none());
     assert_eq!(s.film, wavrad_core::scene::Film::default());
 }
@@ -164,10 +164,10 @@ fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
     let (front, back) = (&s.surfaces[0], &s.surfaces[1]);
     assert!(close(front.patch.normal(), DVec3::Z));
     assert!(close(back.patch.normal(), -DVec3::Z));
-    assert_eq!(front.brdf.lambertian(), Some([0.2, 0.4, 0.6]));
-    assert_eq!(back.brdf.lambertian(), Some([0.2, 0.4, 0.6]));
-    assert_eq!(front.emission, [5.0; 3]);
-    assert_eq!(back.emission, [0.0; 3]);
+    assert_eq!(front.brdf.lambertian(), Some(Rgb([0.2, 0.4, 0.6])));
+    assert_eq!(back.brdf.lambertian(), Some(Rgb([0.2, 0.4, 0.6])));
+    assert_eq!(front.emission, Rgb::splat(5.0));
+    assert_eq!(back.emission, Rgb::ZERO);
     assert_eq!(front.name, "lamp");
 
     // Two nested BSDFs: front and back differ.
@@ -177,8 +177,8 @@ fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
             <bsdf type="diffuse"><rgb name="reflectance" value="0.9"/></bsdf>
         </bsdf></shape>"#,
     );
-    assert_eq!(s.surfaces[0].brdf.lambertian(), Some([0.1; 3]));
-    assert_eq!(s.surfaces[1].brdf.lambertian(), Some([0.9; 3]));
+    assert_eq!(s.surfaces[0].brdf.lambertian(), Some(Rgb::splat(0.1)));
+    assert_eq!(s.surfaces[1].brdf.lambertian(), Some(Rgb::splat(0.9)));
 }
 
 #[test]
@@ -208,10 +208,10 @@ fn references_and_substitution() {
     assert!(s
         .surfaces
         .iter()
-        .all(|x| x.brdf.lambertian() == Some([0.25; 3])));
+        .all(|x| x.brdf.lambertian() == Some(Rgb::splat(0.25))));
     let o = vec![("refl".to_string(), "0.75".to_string())];
     let s = load_scene_str(xml, Path::new("."), "t.xml", &o).unwrap();
-    assert_eq!(s.surfaces[0].brdf.lambertian(), Some([0.75; 3]));
+    assert_eq!(s.surfaces[0].brdf.lambertian(), Some(Rgb::splat(0.75)));
 }
 
 #[test]
@@ -240,7 +240,7 @@ fn includes_resolve_beside_the_including_file() {
     .unwrap();
     let s = load_scene(&dir.path().join("main.xml")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.surfaces.len(), 7);
-    assert_eq!(s.surfaces[6].brdf.lambertian(), Some([0.5, 0.0, 0.0]));
+    assert_eq!(s.surfaces[6].brdf.lambertian(), Some(Rgb([0.5, 0.0, 0.0])));
 }
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) {
@@ -417,8 +417,8 @@ fn glossy_bsdfs_and_their_defaults() {
             variant: WardVariant::WardDuer,
             alpha_u: 0.05,
             alpha_v: 0.3,
-            specular_reflectance: [0.1, 0.2, 0.3],
-            diffuse_reflectance: [0.4; 3],
+            specular_reflectance: Rgb([0.1, 0.2, 0.3]),
+            diffuse_reflectance: Rgb::splat(0.4),
         })
     );
     // `alpha` sets both directions.
@@ -440,7 +440,7 @@ fn glossy_bsdfs_and_their_defaults() {
             distribution: Microfacet::new(MicrofacetType::Ggx, 0.1, 0.4),
             eta: au.eta,
             k: au.k,
-            specular_reflectance: [1.0; 3],
+            specular_reflectance: Rgb::splat(1.0),
         })
     );
     let Brdf::RoughConductor(c) = bsdf_of(
@@ -452,7 +452,7 @@ fn glossy_bsdfs_and_their_defaults() {
     };
     assert_eq!(
         (c.eta, c.k, c.specular_reflectance),
-        ([0.2, 0.9, 1.1], [3.0; 3], [0.9; 3])
+        (Rgb([0.2, 0.9, 1.1]), Rgb::splat(3.0), Rgb::splat(0.9))
     );
 
     // Plastic with named indices.
@@ -471,8 +471,8 @@ fn glossy_bsdfs_and_their_defaults() {
             alpha: 0.3,
             int_ior: 1.5046,
             ext_ior: 1.3330,
-            specular_reflectance: [1.0; 3],
-            diffuse_reflectance: [0.2, 0.6, 0.3],
+            specular_reflectance: Rgb::splat(1.0),
+            diffuse_reflectance: Rgb([0.2, 0.6, 0.3]),
             nonlinear: true,
         }
     );

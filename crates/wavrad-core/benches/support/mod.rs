@@ -213,8 +213,8 @@ pub fn cornell_box_with_sphere(subdivisions: u32) -> Scene {
         scene.surfaces.push(Surface {
             name: "sphere".into(),
             patch,
-            brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]),
-            emission: [0.0; 3],
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(wavrad_core::scene::Rgb::splat(0.5)),
+            emission: wavrad_core::scene::Rgb::ZERO,
         });
     }
     scene

@@ -118,23 +118,22 @@ impl<'a> IncidentLight<'a> {
     /// R(c, a, b) per channel for receiver element `b`.
     pub fn towards(&self, b: &Patch) -> Rgb {
         let (a, receivers) = (&self.a, b.gauss_points(self.q.points));
-        let mut sum = [0.0; 3];
+        let mut sum = Rgb::ZERO;
         for xp in &self.points {
             for xpp in &receivers {
                 let wo = a.frame.to_local((xpp.position - xp.position).normalize());
                 if wo.z <= 0.0 {
                     continue;
                 }
-                let mut f = [0.0; 3];
+                let mut f = Rgb::ZERO;
                 for (wi, g) in &xp.incident {
-                    let fi = a.brdf.eval(wo, *wi);
-                    (0..3).for_each(|ch| f[ch] += g * fi[ch]);
+                    f += a.brdf.eval(wo, *wi) * *g;
                 }
-                (0..3).for_each(|ch| sum[ch] += xp.scale * xpp.weight * f[ch]);
+                sum += f * (xp.scale * xpp.weight);
             }
         }
         let norm = a.element.patch.area() * b.area();
-        sum.map(|s| s / norm)
+        sum / norm
     }
 }
 
@@ -199,7 +198,7 @@ mod tests {
         let ([floor, light, wall], scene) = floor_light_wall();
         let tracer = SceneTracer::new(&scene);
         let ctx = default_context(&scene, &tracer);
-        let brdf = Brdf::diffuse([0.5, 0.25, 0.125]);
+        let brdf = Brdf::diffuse(Rgb([0.5, 0.25, 0.125]));
         let (a, c) = floor_and_light(&floor, &light, &brdf);
         let r = coefficient(&ctx, c, a, &wall.flipped());
         let f = ctx.throughput(a.element, c) / floor.area();
@@ -224,8 +223,8 @@ mod tests {
             variant: crate::scene::brdf::WardVariant::Balanced,
             alpha_u: 0.1,
             alpha_v: 0.35,
-            specular_reflectance: [0.15; 3],
-            diffuse_reflectance: [0.6, 0.5, 0.4],
+            specular_reflectance: Rgb::splat(0.15),
+            diffuse_reflectance: Rgb([0.6, 0.5, 0.4]),
         });
         let (a, c) = floor_and_light(&floor, &light, &brdf);
         let incident = IncidentLight::new(&ctx, c, a);

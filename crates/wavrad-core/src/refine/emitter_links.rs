@@ -111,7 +111,7 @@ mod tests {
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::default_context as context;
     use crate::progress::Silent;
-    use crate::scene::{Scene, Surface};
+    use crate::scene::{Rgb, Scene, Surface};
 
     /// A light close over a corner of the floor lights it unevenly: its
     /// link to the whole floor is carried down to level-2 elements where
@@ -185,7 +185,7 @@ mod tests {
             dark.surfaces
                 .into_iter()
                 .map(|s| Surface {
-                    emission: [0.0; 3],
+                    emission: Rgb::ZERO,
                     ..s
                 })
                 .collect(),

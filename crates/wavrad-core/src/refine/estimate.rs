@@ -27,17 +27,13 @@ pub struct LightEstimate {
     importance: Option<Importance>,
 }
 
-fn largest(rgb: &Rgb) -> f64 {
-    rgb.iter().fold(0.0f64, |m, &x| m.max(x))
-}
-
 impl LightEstimate {
     /// Before any solve: only emitters carry light.
     pub fn emission(scene: &Scene, importance: Option<Importance>) -> LightEstimate {
         let emission: Vec<f64> = scene
             .surfaces
             .iter()
-            .map(|s| largest(&s.emission))
+            .map(|s| s.emission.max_channel())
             .collect();
         LightEstimate {
             reference: emission
@@ -61,7 +57,7 @@ impl LightEstimate {
         directional: impl IntoIterator<Item = ((u32, u32), &'a PairTree, &'a [Rgb])>,
         importance: Option<Importance>,
     ) -> LightEstimate {
-        let values = |v: &[Rgb]| v.iter().map(largest).collect::<Vec<f64>>();
+        let values = |v: &[Rgb]| v.iter().map(|l| l.max_channel()).collect::<Vec<f64>>();
         LightEstimate {
             trees,
             radiance: radiance.iter().map(|r| values(r)).collect(),
@@ -85,7 +81,7 @@ impl LightEstimate {
             radiance.push(vec![0.0]);
         }
         trees[shooter as usize] = tree;
-        radiance[shooter as usize] = sent.iter().map(largest).collect();
+        radiance[shooter as usize] = sent.iter().map(|l| l.max_channel()).collect();
         LightEstimate {
             trees,
             radiance,

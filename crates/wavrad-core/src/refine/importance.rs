@@ -20,7 +20,7 @@ use crate::kernel::KernelContext;
 use crate::refine::two_point_projection::Link;
 use crate::sampling::hash2;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
-use crate::scene::{Camera, Film, Surface};
+use crate::scene::{Camera, Film, Rgb, Surface};
 use glam::{DVec2, DVec3};
 
 /// Importance density per element of a fixed grid on every surface,
@@ -104,10 +104,10 @@ impl Importance {
 fn albedo(surface: &Surface) -> f64 {
     let glossy = surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION);
     if let Some(rho) = surface.brdf.lambertian().filter(|_| !glossy) {
-        return rho.iter().fold(0.0f64, |m, &x| m.max(x));
+        return rho.max_channel();
     }
     let n = 32u32;
-    let mut sum = [0.0; 3];
+    let mut sum = Rgb::ZERO;
     for j in 0..n {
         for i in 0..n {
             let u = DVec2::new(
@@ -116,11 +116,11 @@ fn albedo(surface: &Surface) -> f64 {
             );
             let lobe = hash2(0x1a2b, u64::from(j * n + i)).x;
             if let Some(s) = surface.brdf.sample(DVec3::Z, u, lobe) {
-                (0..3).for_each(|ch| sum[ch] += s.weight[ch]);
+                sum += s.weight;
             }
         }
     }
-    sum.iter().fold(0.0f64, |m, &x| m.max(x)) / f64::from(n * n)
+    sum.max_channel() / f64::from(n * n)
 }
 
 /// Range of grid cells inside `id`, or the one cell containing it.

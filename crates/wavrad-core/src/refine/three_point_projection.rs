@@ -123,7 +123,7 @@ impl<'a> TripleRefiner<'a> {
     }
 
     fn push(&mut self, c: &Part, a: &Part, b: &Part, coefficient: Rgb, detail: f64) {
-        if coefficient.iter().any(|&x| x > 0.0) {
+        if coefficient.max_channel() > 0.0 {
             self.links.push(ThreePointLink {
                 r: self.r,
                 c: c.element.id,
@@ -191,16 +191,13 @@ impl<'a> TripleRefiner<'a> {
             // Hierarchical decomposition: the coefficient from the children
             // (R integrates over c and averages over a and b).
             let weight = if split == 0 { 1.0 } else { 0.25 };
-            kept.get_or_insert_with(|| {
-                [0, 1, 2].map(|ch| weight * coefficients.iter().map(|k| k[ch]).sum::<f64>())
-            });
+            kept.get_or_insert_with(|| coefficients.into_iter().sum::<Rgb>() * weight);
         }
         self.push(&c, &a, &b, kept.unwrap_or(known), detail);
     }
 
     /// The oracle on the children of `parts[split]` with coefficients `k`.
     fn test(&self, parts: &[Part; 3], split: usize, children: &[Part; 4], k: &[Rgb; 4]) -> Verdict {
-        let largest = |k: &Rgb| k.iter().fold(0.0f64, |m, &x| m.max(x));
         self.judge.verdict(
             || {
                 // The paper's: the kernel in its parametrisation,
@@ -210,7 +207,7 @@ impl<'a> TripleRefiner<'a> {
                 } else {
                     parts[0].patch.area()
                 };
-                let means = k.map(|k| largest(&k) / area_c);
+                let means = k.map(|k| k.max_channel() / area_c);
                 let other_levels: u32 = (0..3)
                     .filter(|&i| i != split)
                     .map(|i| parts[i].element.id.level)
@@ -221,7 +218,7 @@ impl<'a> TripleRefiner<'a> {
             |e| {
                 // R integrates over c: a child of c carries a quarter of the light.
                 let scale = if split == 0 { 4.0 } else { 1.0 };
-                let detail = average_detail(k.map(|k| scale * largest(&k)));
+                let detail = average_detail(k.map(|k| scale * k.max_channel()));
                 (detail, [detail * self.weight(e, parts)])
             },
         )

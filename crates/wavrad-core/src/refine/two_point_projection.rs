@@ -117,11 +117,7 @@ impl<'a> PairRefiner<'a> {
     ) -> Self {
         let scene = ctx.scene;
         let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
-        let rho = |s: &Surface| {
-            s.brdf
-                .lambertian()
-                .map_or(0.0, |r| r.iter().fold(0.0f64, |m, &x| m.max(x)))
-        };
+        let rho = |s: &Surface| s.brdf.lambertian().map_or(0.0, |r| r.max_channel());
         PairRefiner {
             ctx: *ctx,
             straddling: Default::default(),
@@ -480,7 +476,7 @@ mod tests {
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
     use crate::refine::refine_further;
-    use crate::scene::Surface;
+    use crate::scene::{Rgb, Surface};
     use glam::DVec3;
 
     /// Two directly facing squares: the kernel over the four children of one
@@ -496,8 +492,8 @@ mod tests {
                 edge_s: if flip { DVec3::Y } else { DVec3::X },
                 edge_t: if flip { DVec3::X } else { DVec3::Y },
             },
-            brdf: crate::scene::brdf::Brdf::diffuse([0.8; 3]),
-            emission: [0.0; 3],
+            brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
+            emission: Rgb::ZERO,
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);
         let tracer = SceneTracer::new(&scene);
@@ -554,8 +550,8 @@ mod tests {
                 edge_s: if up { DVec3::X } else { DVec3::Y },
                 edge_t: if up { DVec3::Y } else { DVec3::X },
             },
-            brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
-            emission: [emission; 3],
+            brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+            emission: Rgb::splat(emission),
         };
         Scene::from_surfaces(vec![square(0.0, true, 0.0), square(0.5, false, 4.0)])
     }
@@ -574,7 +570,7 @@ mod tests {
                 .surfaces
                 .iter()
                 .map(|s| Surface {
-                    emission: [0.0; 3],
+                    emission: Rgb::ZERO,
                     ..s.clone()
                 })
                 .collect(),
@@ -625,7 +621,7 @@ mod tests {
             Surface {
                 brdf: crate::testing::rolled_aluminium(),
                 // Sets the estimate's reference radiance.
-                emission: [10.0; 3],
+                emission: Rgb::splat(10.0),
                 ..crate::testing::grey(floor)
             },
             crate::testing::grey(ceiling),
@@ -634,9 +630,9 @@ mod tests {
         tree.insert(ElementId::ROOT, ElementId::ROOT.child(0));
         // Node 0 is the pair of whole surfaces; 1..=4 its b children.
         let mean = towards_quadrants.iter().sum::<f64>() / 4.0;
-        let mut values = vec![[mean; 3]];
+        let mut values = vec![Rgb::splat(mean)];
         for &l in &towards_quadrants {
-            values.push([l; 3]);
+            values.push(Rgb::splat(l));
         }
         let trees = [floor, ceiling]
             .iter()
@@ -645,7 +641,7 @@ mod tests {
         let estimate = LightEstimate::from_solution(
             &scene,
             trees,
-            &[vec![[0.0; 3]], vec![[0.0; 3]]],
+            &[vec![Rgb::ZERO], vec![Rgb::ZERO]],
             [((0, 1), &tree, &values[..])],
             None,
         );

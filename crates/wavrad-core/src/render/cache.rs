@@ -169,10 +169,10 @@ impl GatherCache {
                 (1.0 - fx) * fy,
                 fx * fy,
             ];
-            let (mut sum, mut total) = ([0.0; 3], 0.0);
+            let (mut sum, mut total) = (Rgb::ZERO, 0.0);
             for (l, w) in corners.iter().zip(weights) {
                 if let Some(l) = l {
-                    (0..3).for_each(|ch| sum[ch] += w * l[ch]);
+                    sum += *l * w;
                     total += w;
                 }
             }
@@ -223,7 +223,7 @@ fn smooth_indirect(
                 INDIRECT_RADIUS.min(j).min(side - 1 - j),
             );
             let here = centre(i, j);
-            let (mut sum, mut count) = ([0.0; 3], 0.0);
+            let (mut sum, mut count) = (Rgb::ZERO, 0.0);
             for y in j - rj..=j + rj {
                 for x in i - ri..=i + ri {
                     let Some(g) = gathered[y * side + x] else {
@@ -231,12 +231,12 @@ fn smooth_indirect(
                     };
                     let near = INDIRECT_REACH * own.indirect.reach.min(g.indirect.reach);
                     if (centre(x, y) - here).length() <= near {
-                        (0..3).for_each(|ch| sum[ch] += g.indirect.radiance[ch]);
+                        sum += g.indirect.radiance;
                         count += 1.0;
                     }
                 }
             }
-            Some([0, 1, 2].map(|ch| own.direct[ch] + sum[ch] / count))
+            Some(own.direct + sum / count)
         })
         .collect()
 }
@@ -257,7 +257,7 @@ mod tests {
     #[test]
     fn cached_floor_radiance_is_the_closed_form_direct_light() {
         let mut scene = crate::testing::light_over_a_corner(0.5);
-        scene.surfaces[1].brdf = crate::scene::brdf::Brdf::diffuse([0.0; 3]);
+        scene.surfaces[1].brdf = crate::scene::brdf::Brdf::diffuse(Rgb::ZERO);
         // Off the diagonal, so that the light is not symmetric in u and v.
         scene.surfaces[1].patch = Patch::Parallelogram {
             origin: glam::DVec3::new(0.6, 0.1, 0.5),
@@ -273,7 +273,7 @@ mod tests {
         };
         let (floor, light) = (&scene.surfaces[0].patch, &scene.surfaces[1].patch);
         for (brdf, rho) in [
-            (crate::scene::brdf::Brdf::diffuse([0.5; 3]), 0.5),
+            (crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), 0.5),
             (crate::testing::rolled_aluminium(), 0.1),
         ] {
             let cache = cache_with(brdf);
@@ -303,9 +303,9 @@ mod tests {
         let patch = crate::testing::unit_floor();
         let texel = |direct: f64, indirect: f64, reach: f64| {
             Some(FinalGather {
-                direct: [direct; 3],
+                direct: Rgb::splat(direct),
                 indirect: crate::render::gather::Indirect {
-                    radiance: [indirect; 3],
+                    radiance: Rgb::splat(indirect),
                     reach,
                 },
             })

@@ -44,10 +44,10 @@ impl EnclosureRadiance {
     /// `p` has no structure towards that face.
     pub fn radiance(&self, scene: &Scene, p: u32, y: DVec3, d: DVec3) -> Rgb {
         let Some((k, z)) = exit(&self.faces, y, d) else {
-            return [0.0; 3];
+            return Rgb::ZERO;
         };
         let Some((tree, values)) = self.structures.get(&(p, k)) else {
-            return [0.0; 3];
+            return Rgb::ZERO;
         };
         let source = &scene.surfaces[p as usize].patch;
         let face = &self.faces[k as usize];
@@ -121,17 +121,17 @@ impl EnclosureRadiance {
         );
         let mut gathered: BTreeMap<(u32, u32), Vec<Rgb>> = trees
             .iter()
-            .map(|(&key, tree)| (key, vec![[0.0; 3]; tree.nodes.len()]))
+            .map(|(&key, tree)| (key, vec![Rgb::ZERO; tree.nodes.len()]))
             .collect();
         for l in &links {
             let key = (l.p, l.q - n);
             let source = radiance_from(solution, l.r, l.c, l.p, l.a);
             let e = exposure.of(ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b));
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
-            let add = [0, 1, 2].map(|ch| scale * l.coefficient[ch] * source[ch]);
+            let add = l.coefficient * scale * source;
             let g = gathered.get_mut(&key).expect("a tree per linked pair");
             for (node, _) in trees[&key].overlaps(l.a, l.b) {
-                (0..3).for_each(|ch| g[node as usize][ch] += add[ch]);
+                g[node as usize] += add;
             }
         }
         let structures = trees
@@ -144,7 +144,7 @@ impl EnclosureRadiance {
                         exposure.of(ElementRef::new(p, node.a), ElementRef::new(n + k, node.b))
                     })
                     .collect();
-                let values = push_pull(&tree, &gathered[&(p, k)], [0.0; 3], Some(&weights));
+                let values = push_pull(&tree, &gathered[&(p, k)], Rgb::ZERO, Some(&weights));
                 ((p, k), (tree, values))
             })
             .collect();

@@ -274,7 +274,7 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         grid,
         seen,
     );
-    [0, 1, 2].map(|ch| base[ch] + reflected[ch])
+    base + reflected
 }
 
 /// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
@@ -305,7 +305,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     let rays = (gathering.rays(&local), GATHER_GRID);
     let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, rays);
     let weight = gathering.weight();
-    [0, 1, 2].map(|ch| reconstructed[ch] + weight * (gathered[ch] - reconstructed[ch]))
+    reconstructed + (gathered - reconstructed) * weight
 }
 
 /// [`Estimator::Solution`] with [`GlossyView::Eye`] at `hit`: the element
@@ -326,10 +326,10 @@ fn read_with_eye<S: Borrow<Solution> + Sync>(
     {
         return own;
     }
-    let glossy = (eye.surfaces[s].as_ref()).map_or([0.0; 3], |(tree, l)| {
+    let glossy = (eye.surfaces[s].as_ref()).map_or(Rgb::ZERO, |(tree, l)| {
         radiance_at(tree, l, hit.uv, towards_eye)
     });
-    [0, 1, 2].map(|ch| own[ch] + glossy[ch])
+    own + glossy
 }
 
 /// [`Estimator::Solution`] with [`GlossyView::Directional`] at `hit`: the

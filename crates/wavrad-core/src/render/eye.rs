@@ -90,7 +90,7 @@ impl EyeRadiance {
         for &(_, p, _) in &triples {
             if surfaces[p as usize].is_none() {
                 let tree = ElementTree::build(&scene.surfaces[p as usize].patch, &ids[p as usize]);
-                gathered[p as usize] = vec![[0.0; 3]; tree.nodes.len()];
+                gathered[p as usize] = vec![Rgb::ZERO; tree.nodes.len()];
                 surfaces[p as usize] = Some((tree, Vec::new()));
             }
         }
@@ -114,14 +114,13 @@ impl EyeRadiance {
             let source = radiance_from(solution, l.r, l.c, l.p, l.a);
             let e = exposed(l.p, l.a);
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
-            let g = &mut gathered[l.p as usize][node as usize];
-            (0..3).for_each(|ch| g[ch] += scale * l.coefficient[ch] * source[ch]);
+            gathered[l.p as usize][node as usize] += l.coefficient * scale * source;
         }
         for (p, entry) in surfaces.iter_mut().enumerate() {
             if let Some((tree, radiance)) = entry {
                 let weights: Vec<f64> =
                     tree.nodes.iter().map(|n| exposed(p as u32, n.id)).collect();
-                *radiance = push_pull(tree, &gathered[p], [0.0; 3], Some(&weights));
+                *radiance = push_pull(tree, &gathered[p], Rgb::ZERO, Some(&weights));
             }
         }
         EyeRadiance { surfaces }
@@ -183,7 +182,7 @@ pub fn radiance_from(solution: &Solution, r: u32, c: ElementId, p: u32, a: Eleme
         .tree
         .overlaps(c, a)
     {
-        (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
+        l += values[n as usize] * w;
     }
     l
 }

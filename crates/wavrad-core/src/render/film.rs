@@ -2,7 +2,7 @@
 //! `box` and `gaussian` rfilters), so images compare pixel for pixel.
 
 use crate::sampling::pixel_offsets;
-use crate::scene::{Film, PixelFilter};
+use crate::scene::{Film, PixelFilter, Rgb};
 use rayon::prelude::*;
 
 /// A linear RGB image, row-major from the top-left pixel.
@@ -102,7 +102,7 @@ const WINDOW_BYTES: usize = 1 << 25;
 pub fn develop(
     film: &Film,
     samples: impl Fn(usize, usize) -> u32 + Sync,
-    radiance: impl Fn(f64, f64, usize, usize) -> [f64; 3] + Sync,
+    radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
 ) -> Image {
     develop_in_window(film, samples, radiance, WINDOW_BYTES)
 }
@@ -110,7 +110,7 @@ pub fn develop(
 fn develop_in_window(
     film: &Film,
     samples: impl Fn(usize, usize) -> u32 + Sync,
-    radiance: impl Fn(f64, f64, usize, usize) -> [f64; 3] + Sync,
+    radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
     window_bytes: usize,
 ) -> Image {
     let (w, h) = (film.width as usize, film.height as usize);
@@ -242,8 +242,9 @@ mod tests {
             height: 40,
             filter: PixelFilter::Gaussian { stddev: 0.5 },
         };
-        let f =
-            |x: f64, y: f64, _k: usize, _n: usize| [x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0];
+        let f = |x: f64, y: f64, _k: usize, _n: usize| {
+            Rgb([x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0])
+        };
         let img = develop_in_window(&film, |_, _| 64, f, 8 * 300 * 100 * 7); // bands of 3 rows
         assert_eq!(img, develop(&film, |_, _| 64, f));
         // Pixel (150, 20) recomputed directly from its neighbourhood.
@@ -270,7 +271,11 @@ mod tests {
             height: 5,
             filter: PixelFilter::Gaussian { stddev: 0.5 },
         };
-        let img = develop(&film, |x, _| 1 + x as u32, |_, _, _, _| [1.0, 2.0, 3.0]);
+        let img = develop(
+            &film,
+            |x, _| 1 + x as u32,
+            |_, _, _, _| Rgb([1.0, 2.0, 3.0]),
+        );
         assert_eq!(img.rgb.len(), 7 * 5 * 3);
         for px in img.rgb.chunks(3) {
             assert!((px[0] - 1.0).abs() < 1e-6 && (px[2] - 3.0).abs() < 1e-6);

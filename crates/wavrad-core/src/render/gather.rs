@@ -50,7 +50,7 @@ pub fn direct_radiance(
         samples,
     } = *point;
     let rho = lambertian_albedo(scene, surface);
-    let mut out = [0.0; 3];
+    let mut out = Rgb::ZERO;
     for &e in emitters {
         if e == surface {
             continue;
@@ -78,9 +78,7 @@ pub fn direct_radiance(
         }
         if total > 0 {
             let v = f64::from(seen) / f64::from(total);
-            for ch in 0..3 {
-                out[ch] += rho[ch] * light.emission[ch] * ff * v;
-            }
+            out += rho * light.emission * ff * v;
         }
     }
     out
@@ -154,12 +152,11 @@ pub fn indirect_radiance(
         }
         d
     };
-    let mut sum = [0.0; 3];
+    let mut sum = Rgb::ZERO;
     // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
     let mut add = |q: u32, wi: DVec3, y: DVec3| {
         let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
-        let l = outgoing(q, y);
-        (0..3).for_each(|ch| sum[ch] += weight * l[ch]);
+        sum += outgoing(q, y) * weight;
     };
     for &q in bright {
         if q == surface {
@@ -207,7 +204,7 @@ pub fn indirect_radiance(
         add(hit.surface, dir, hit.position);
     }
     Indirect {
-        radiance: [0, 1, 2].map(|ch| rho[ch] * sum[ch]),
+        radiance: rho * sum,
         reach: f64::from(rays) / inverse_distances,
     }
 }
@@ -282,9 +279,9 @@ pub fn glossy_radiance(
     let frame = s.frame();
     let wo_local = frame.to_local(wo);
     if wo_local.z <= 0.0 {
-        return [0.0; 3];
+        return Rgb::ZERO;
     }
-    let mut out = [0.0; 3];
+    let mut out = Rgb::ZERO;
     let samples = grid * grid;
     let n = f64::from(samples.max(1));
     // Light sampling.
@@ -298,7 +295,7 @@ pub fn glossy_radiance(
             let f = brdf.eval(wo_local, wi_local);
             let p_brdf = brdf.pdf(wo_local, wi_local);
             let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
-            (0..3).for_each(|ch| out[ch] += w * f[ch] * light.emission[ch]);
+            out += f * w * light.emission;
         }
     }
     // BRDF sampling: emitters (weighted against light sampling) and the rest
@@ -324,10 +321,8 @@ pub fn glossy_radiance(
         } else {
             1.0
         };
-        for ch in 0..3 {
-            let reflected = (l[ch] - q.emission[ch]).max(0.0);
-            out[ch] += sample.weight[ch] * (emitted_weight * q.emission[ch] + reflected) / n;
-        }
+        let reflected = (l - q.emission).map(|x| x.max(0.0));
+        out += sample.weight * (q.emission * emitted_weight + reflected) / n;
     }
     out
 }
@@ -339,7 +334,7 @@ fn lambertian_albedo(scene: &Scene, surface: u32) -> Rgb {
     scene.surfaces[surface as usize]
         .brdf
         .lambertian()
-        .unwrap_or([0.0; 3])
+        .unwrap_or(Rgb::ZERO)
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis (Duff et al. 2017).
@@ -381,8 +376,8 @@ mod tests {
             .map(|patch| Surface {
                 name: "wall".into(),
                 patch,
-                brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
-                emission: [0.0; 3],
+                brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+                emission: Rgb::ZERO,
             })
             .collect();
         let scene = Scene::from_surfaces(walls);
@@ -400,7 +395,7 @@ mod tests {
             mirrors: &[],
             grid: 1,
         };
-        let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| [2.0; 3]);
+        let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| Rgb::splat(2.0));
         assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
     }
 
@@ -427,7 +422,7 @@ mod tests {
         // at (0.986, 0.5, 0): the bump sits where the floor reflects it.
         let centre = DVec3::new(0.95, 0.5, 0.0);
         let bump = |y: DVec3| (-(y - centre).length_squared() / 0.005).exp();
-        let outgoing = |q: u32, y: DVec3| [if q == 0 { bump(y) } else { 0.0 }; 3];
+        let outgoing = |q: u32, y: DVec3| Rgb::splat(if q == 0 { bump(y) } else { 0.0 });
         let mirrors = MirrorImage::of_scene(&scene, &[0], &[1]);
         assert_eq!(mirrors.len(), 1);
         // Mean and standard error over `runs` seeds.
@@ -531,7 +526,7 @@ mod tests {
                 normal: DVec3::Z,
                 samples,
             };
-            let ceiling = |q: u32, _| [if q == 1 { 1.0 } else { 0.0 }; 3];
+            let ceiling = |q: u32, _| Rgb::splat(if q == 1 { 1.0 } else { 0.0 });
             let brdf = (&floor.brdf, wo);
             glossy_radiance(&scene, &tracer, &[], &point, brdf, 2, ceiling)[0]
         };
@@ -578,14 +573,14 @@ mod tests {
             Surface {
                 name: "floor".into(),
                 patch: floor,
-                brdf: crate::scene::brdf::Brdf::diffuse([0.5; 3]),
-                emission: [0.0; 3],
+                brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+                emission: Rgb::ZERO,
             },
             Surface {
                 name: "light".into(),
                 patch: light,
-                brdf: crate::scene::brdf::Brdf::diffuse([0.0; 3]),
-                emission: [1.0; 3],
+                brdf: crate::scene::brdf::Brdf::diffuse(Rgb::ZERO),
+                emission: Rgb::splat(1.0),
             },
         ]);
         let tracer = SceneTracer::new(&scene);

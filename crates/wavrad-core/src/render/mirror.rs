@@ -142,6 +142,7 @@ mod tests {
     use super::*;
     use crate::sampling::hash2;
     use crate::scene::brdf::{Brdf, Ward};
+    use crate::scene::Rgb;
     use crate::testing::{grey, mirror_floor_and_light};
 
     #[test]
@@ -174,7 +175,7 @@ mod tests {
         });
         assert!(!is_sharp(&scene.surfaces[0]));
         assert!(MirrorImage::of_scene(&scene, &[0], &[1]).is_empty());
-        scene.surfaces[0].brdf = Brdf::diffuse([0.5; 3]);
+        scene.surfaces[0].brdf = Brdf::diffuse(Rgb::splat(0.5));
         assert!(!is_sharp(&scene.surfaces[0]));
     }
 

@@ -244,7 +244,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let mut image = develop(film, samples, |x, y, k, n| {
             match self.camera_hit(camera, film, (x, y), (k, n)) {
                 Some(hit) => estimator.radiance(self, &hit, settings),
-                None => [0.0; 3],
+                None => Rgb::ZERO,
             }
         });
         // The control variate is unbiased but, with few gathering rays in a
@@ -279,7 +279,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let uv = patch.clamp_param(patch.param_of(y));
         let (tree, radiance) = (&solution.trees[p as usize], &solution.radiance[p as usize]);
         let own = radiance_at(tree, radiance, uv, Reconstruction::Smooth);
-        [0, 1, 2].map(|ch| own[ch] + glossy[ch])
+        own + glossy
     }
 
     /// What final gathers read from the solution, made on first use.

@@ -63,7 +63,7 @@ pub(super) struct FinalGather {
 
 impl FinalGather {
     pub(super) fn total(&self) -> Rgb {
-        [0, 1, 2].map(|ch| self.direct[ch] + self.indirect.radiance[ch])
+        self.direct + self.indirect.radiance
     }
 }
 
@@ -97,12 +97,11 @@ impl SolutionReader {
         let mut beyond_first = vec![None; surfaces.len()];
         if let (false, Some(first)) = (per_point.is_empty(), solution.first_bounce()) {
             for s in per_point.into_iter().filter(|&s| !first[s].is_empty()) {
-                let less = |(b, f): (&Rgb, &Rgb)| [0, 1, 2].map(|ch| b[ch] - f[ch]);
                 beyond_first[s] = Some(
                     solution.radiance[s]
                         .iter()
                         .zip(&first[s])
-                        .map(less)
+                        .map(|(&b, &f)| b - f)
                         .collect(),
                 );
             }
@@ -167,13 +166,11 @@ impl SolutionReader {
         let seed = point.samples.seed();
         let indirect = gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
             let l = self.radiance_leaving(solution, (q, y), to, (seed, GLOSSY_GRID));
-            let e = scene.surfaces[q as usize].emission;
-            [0, 1, 2].map(|ch| (l[ch] - e[ch]).max(0.0))
+            (l - scene.surfaces[q as usize].emission).map(|x| x.max(0.0))
         });
         let direct = gather::direct_radiance(scene, tracer, &self.emitters, point, shadow_grid);
-        let emission = scene.surfaces[point.surface as usize].emission;
         FinalGather {
-            direct: [0, 1, 2].map(|ch| emission[ch] + direct[ch]),
+            direct: scene.surfaces[point.surface as usize].emission + direct,
             indirect,
         }
     }
@@ -214,7 +211,7 @@ impl SolutionReader {
             grid,
             |h, z| self.outgoing_radiance(solution, (h, z, seed ^ u64::from(h) << 40), q, y),
         );
-        [0, 1, 2].map(|ch| source.emission[ch] + reflected[ch])
+        source.emission + reflected
     }
 
     /// Radiance the solution says leaves point `y` of surface `q` towards
@@ -237,7 +234,7 @@ impl SolutionReader {
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&solution.radiance[i]);
             let glossy = directional_radiance(solution, q, y, s, x);
-            return [0, 1, 2].map(|ch| own[ch] + glossy[ch]);
+            return own + glossy;
         }
         let Some(beyond_first) = &self.beyond_first[i] else {
             return element(&solution.radiance[i]);
@@ -251,7 +248,7 @@ impl SolutionReader {
         };
         let first =
             gather::direct_radiance(&solution.scene, &solution.tracer, &self.emitters, &at, 1);
-        [0, 1, 2].map(|ch| solved[ch].max(0.0) + first[ch])
+        solved.map(|x| x.max(0.0)) + first
     }
 }
 
@@ -259,13 +256,12 @@ impl SolutionReader {
 /// (mean of the channels) times area, zero for emitters and glossy
 /// surfaces.
 fn reflected_power(solution: &Solution) -> Vec<f64> {
-    let lum = |l: Rgb| (l[0] + l[1] + l[2]) / 3.0;
     (solution.scene.surfaces.iter().enumerate())
         .map(|(s, surface)| {
             match !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
                 && !surface.is_emitter()
             {
-                true => lum(solution.radiance[s][0]) * surface.patch.area(),
+                true => solution.radiance[s][0].average() * surface.patch.area(),
                 false => 0.0,
             }
         })

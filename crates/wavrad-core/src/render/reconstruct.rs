@@ -37,12 +37,10 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
         Reconstruction::Haar => radiance[leaf as usize],
         Reconstruction::Smooth => {
             let root = &tree.nodes[0].patch;
-            let mut out = [0.0; 3];
+            let mut out = Rgb::ZERO;
             for (centre, w) in hat_stencil(uv, tree.nodes[leaf as usize].id.level) {
                 let (node, _) = tree.locate(root.clamp_param(centre));
-                for ch in 0..3 {
-                    out[ch] += w * radiance[node as usize][ch];
-                }
+                out += radiance[node as usize] * w;
             }
             out
         }
@@ -134,9 +132,9 @@ impl SmoothLookup {
 /// (1,1) at fractional position `f`.
 fn blend(values: [Rgb; 4], f: DVec2) -> Rgb {
     let w = hat_weights(f);
-    let mut out = [0.0; 3];
-    for (v, w) in values.iter().zip(w) {
-        (0..3).for_each(|ch| out[ch] += w * v[ch]);
+    let mut out = Rgb::ZERO;
+    for (v, w) in values.into_iter().zip(w) {
+        out += v * w;
     }
     out
 }
@@ -185,7 +183,7 @@ pub fn directional_radiance(solution: &Solution, q: u32, y: DVec3, s: u32, x: DV
     let surface = &solution.scene.surfaces[q as usize];
     let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
     let Some(&index) = solution.interactions.structure_of.get(&(q, s)) else {
-        return [0.0; 3];
+        return Rgb::ZERO;
     };
     let receiver = &solution.scene.surfaces[s as usize].patch;
     let uv_x = receiver.param_of(x);
@@ -198,10 +196,9 @@ pub fn directional_radiance(solution: &Solution, q: u32, y: DVec3, s: u32, x: DV
         tree.leaf_at(|l| path_y[l as usize], |l| path_x[l as usize]) as usize
     };
     let level = tree.nodes[leaf_towards(uv_x)].b.level;
-    let mut out = [0.0; 3];
+    let mut out = Rgb::ZERO;
     for (centre, w) in hat_stencil(uv_x, level) {
-        let l = values[leaf_towards(centre)];
-        (0..3).for_each(|ch| out[ch] += w * l[ch]);
+        out += values[leaf_towards(centre)] * w;
     }
     out
 }
@@ -224,7 +221,7 @@ mod tests {
         let radiance: Vec<Rgb> = tree
             .nodes
             .iter()
-            .map(|n| [n.patch.centroid().x; 3])
+            .map(|n| Rgb::splat(n.patch.centroid().x))
             .collect();
         for &(s, t) in &[(0.3, 0.4), (0.5, 0.5), (0.61, 0.2)] {
             let uv = DVec2::new(s, t);
@@ -253,7 +250,7 @@ mod tests {
         let radiance: Vec<Rgb> = tree
             .nodes
             .iter()
-            .map(|n| [ramp(n.patch.centroid()); 3])
+            .map(|n| Rgb::splat(ramp(n.patch.centroid())))
             .collect();
         let lookup = SmoothLookup::new(&tree);
         for &(s, t) in &[
@@ -274,7 +271,7 @@ mod tests {
         let steep: Vec<Rgb> = tree
             .nodes
             .iter()
-            .map(|n| [4.0 * n.patch.centroid().x - 0.2; 3])
+            .map(|n| Rgb::splat(4.0 * n.patch.centroid().x - 0.2))
             .collect();
         assert_eq!(lookup.radiance(&tree, &steep, DVec2::new(0.0, 0.5))[0], 0.0);
     }

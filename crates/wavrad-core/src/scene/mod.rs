@@ -7,12 +7,12 @@
 //! `twosided` material becomes two surfaces, one per side.
 
 pub mod brdf;
+mod color;
 
 use crate::scene::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
-/// Linear RGB triple (reflectance, radiance).
-pub type Rgb = [f64; 3];
+pub use color::Rgb;
 
 /// The planar shape of a surface, parametrised over the unit square (paper §2:
 /// "each u,v pair taking the value in a unit square will span the full area").
@@ -298,7 +298,7 @@ impl Scene {
 impl Surface {
     /// True when the surface emits light.
     pub fn is_emitter(&self) -> bool {
-        self.emission.iter().any(|&e| e > 0.0)
+        self.emission.max_channel() > 0.0
     }
 
     /// The shading frame of the BRDF: the front normal and, as tangent, the

@@ -86,7 +86,7 @@ pub fn form_factor(tree: &ElementTree, exposure: &[f64], node: usize, throughput
 /// transfer of form factor `form_factor` carrying `radiance`: ρ·F·L, one
 /// term of eq. 12.
 pub fn reflected(reflectance: Rgb, form_factor: f64, radiance: Rgb) -> Rgb {
-    [0, 1, 2].map(|ch| reflectance[ch] * form_factor * radiance[ch])
+    reflectance * form_factor * radiance
 }
 
 /// A two-point link in the direction of a diffuse receiver.
@@ -353,7 +353,7 @@ impl Interactions {
                 let values = &directional[*structure as usize];
                 let mut l = radiance[*surface as usize][*node as usize];
                 for &(n, w) in &self.covers[nodes.start as usize..nodes.end as usize] {
-                    (0..3).for_each(|ch| l[ch] += w * values[n as usize][ch]);
+                    l += values[n as usize] * w;
                 }
                 l
             }
@@ -389,13 +389,12 @@ impl Interactions {
         radiance: &[Vec<Rgb>],
         directional: &[Vec<Rgb>],
     ) -> Vec<Rgb> {
-        let mut gathered = vec![[0.0; 3]; self.directional[s].tree.nodes.len()];
+        let mut gathered = vec![Rgb::ZERO; self.directional[s].tree.nodes.len()];
         for t in &self.incoming_three_point[s] {
             let l = self.read(&t.source, radiance, directional);
-            let add = [0, 1, 2].map(|ch| t.coefficient[ch] * l[ch]);
+            let add = t.coefficient * l;
             for &(n, _) in &self.covers[t.receivers.start as usize..t.receivers.end as usize] {
-                let g = &mut gathered[n as usize];
-                (0..3).for_each(|ch| g[ch] += add[ch]);
+                gathered[n as usize] += add;
             }
         }
         gathered

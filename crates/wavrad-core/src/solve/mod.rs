@@ -290,7 +290,7 @@ impl Solution {
             .interactions
             .directional
             .iter()
-            .map(|d| vec![[0.0; 3]; d.tree.nodes.len()])
+            .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
             .collect();
         let bounce = scene
             .surfaces
@@ -305,7 +305,7 @@ impl Solution {
                     .interactions
                     .gather(p, rho, tree, &emission, &directional);
                 let exposure = Some(&self.interactions.exposure[p][..]);
-                push_pull::push_pull(tree, &gathered, [0.0; 3], exposure)
+                push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure)
             })
             .collect();
         Some(bounce)
@@ -431,7 +431,7 @@ impl System {
         let directional = interactions
             .directional
             .iter()
-            .map(|d| vec![[0.0; 3]; d.tree.nodes.len()])
+            .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
             .collect();
         times.hierarchy_s += clock.elapsed().as_secs_f64();
         System {
@@ -465,14 +465,10 @@ impl System {
         let brightest = scene
             .surfaces
             .iter()
-            .flat_map(|s| s.emission)
+            .map(|s| s.emission.max_channel())
             .fold(0.0f64, f64::max);
         let scale = if brightest > 0.0 { brightest } else { 1.0 };
-        let change = |new: Rgb, old: Rgb| {
-            (0..3)
-                .map(|ch| (new[ch] - old[ch]).abs())
-                .fold(0.0, f64::max)
-        };
+        let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel();
         let (mut iterations, mut residual) = (0u32, f64::INFINITY);
         progress.start("solving", u64::from(settings.max_iterations));
         while iterations < settings.max_iterations && residual > settings.tolerance {
@@ -490,7 +486,7 @@ impl System {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
-                    let updated = push_pull::push_pull(tree, &gathered, [0.0; 3], exposure);
+                    let updated = push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure);
                     residual = residual.max(change(updated[0], directional[s][0]) / scale);
                     directional[s] = updated;
                 }

@@ -20,7 +20,7 @@ pub fn push_pull(
     emission: Rgb,
     exposure: Option<&[f64]>,
 ) -> Vec<Rgb> {
-    let mut radiance = vec![[0.0; 3]; tree.node_count()];
+    let mut radiance = vec![Rgb::ZERO; tree.node_count()];
     let mut pass = Pass {
         tree,
         gathered,
@@ -28,7 +28,7 @@ pub fn push_pull(
         exposure,
         out: &mut radiance,
     };
-    pass.visit(0, [0.0; 3]);
+    pass.visit(0, Rgb::ZERO);
     radiance
 }
 
@@ -42,9 +42,9 @@ struct Pass<'a, T> {
 
 impl<T: Hierarchy> Pass<'_, T> {
     fn visit(&mut self, node: usize, above: Rgb) -> Rgb {
-        let down = add(above, self.gathered[node]);
+        let down = above + self.gathered[node];
         let value = match self.tree.first_child(node) {
-            None => add(self.emission, down),
+            None => self.emission + down,
             Some(first) => {
                 // Children have equal areas: weigh them by their exposed
                 // fractions, or equally when none is exposed.
@@ -54,12 +54,11 @@ impl<T: Hierarchy> Pass<'_, T> {
                     .filter(|w| w.iter().sum::<f64>() > 0.0)
                     .unwrap_or([1.0; 4]);
                 let total: f64 = weights.iter().sum();
-                let mut sum = [0.0; 3];
+                let mut sum = Rgb::ZERO;
                 for (k, w) in weights.into_iter().enumerate() {
-                    let child = self.visit(first + k, down);
-                    (0..3).for_each(|ch| sum[ch] += w * child[ch]);
+                    sum += self.visit(first + k, down) * w;
                 }
-                sum.map(|x| x / total)
+                sum / total
             }
         };
         self.out[node] = value;
@@ -80,7 +79,7 @@ impl Gathered {
     /// Nothing gathered yet at the `nodes` nodes of a tree.
     pub fn new(nodes: usize) -> Gathered {
         Gathered {
-            average: vec![[0.0; 3]; nodes],
+            average: vec![Rgb::ZERO; nodes],
             gradient: Vec::new(),
         }
     }
@@ -88,8 +87,7 @@ impl Gathered {
     /// Gather `value` at `node`, varying over its element as
     /// `value · (1 + relative_gradient·(x − centroid))`.
     pub fn add(&mut self, node: usize, value: Rgb, relative_gradient: DVec3) {
-        let a = &mut self.average[node];
-        (0..3).for_each(|ch| a[ch] += value[ch]);
+        self.average[node] += value;
         if relative_gradient != DVec3::ZERO {
             if self.gradient.is_empty() {
                 self.gradient = vec![[DVec3::ZERO; 3]; self.average.len()];
@@ -104,7 +102,7 @@ impl Gathered {
     /// leaf's centroid (a linear function's average over the leaf).
     pub fn into_averages(mut self, tree: &ElementTree) -> Vec<Rgb> {
         if !self.gradient.is_empty() {
-            self.push_linear(tree, 0, [DVec3::ZERO; 3], [0.0; 3]);
+            self.push_linear(tree, 0, [DVec3::ZERO; 3], Rgb::ZERO);
         }
         self.average
     }
@@ -115,23 +113,18 @@ impl Gathered {
         let centroid = tree.nodes[node].patch.centroid();
         match tree.first_child(node) {
             None => {
-                let a = &mut self.average[node];
-                (0..3).for_each(|ch| a[ch] += slope[ch].dot(centroid) - offset[ch]);
+                self.average[node] += Rgb(slope.map(|s| s.dot(centroid))) - offset;
             }
             Some(first) => {
                 let g = self.gradient[node];
                 let slope = [0, 1, 2].map(|ch| slope[ch] + g[ch]);
-                let offset = [0, 1, 2].map(|ch| offset[ch] + g[ch].dot(centroid));
+                let offset = offset + Rgb(g.map(|g| g.dot(centroid)));
                 for child in first..first + 4 {
                     self.push_linear(tree, child, slope, offset);
                 }
             }
         }
     }
-}
-
-fn add(a: Rgb, b: Rgb) -> Rgb {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 #[cfg(test)]
@@ -151,13 +144,13 @@ mod tests {
         };
         let ids: BTreeSet<_> = [ElementId::ROOT.child(2).child(1)].into_iter().collect();
         let tree = ElementTree::build(&root, &ids);
-        let mut gathered = vec![[0.0; 3]; tree.nodes.len()];
-        gathered[0] = [1.0, 2.0, 3.0]; // at the root: reaches every leaf
+        let mut gathered = vec![Rgb::ZERO; tree.nodes.len()];
+        gathered[0] = Rgb([1.0, 2.0, 3.0]); // at the root: reaches every leaf
         let deep = tree.index_of(ElementId::ROOT.child(2).child(1)).unwrap() as usize;
-        gathered[deep] = [16.0, 0.0, 0.0]; // 1/16 of the area
-        let l = push_pull(&tree, &gathered, [0.5, 0.5, 0.5], None);
-        assert_eq!(l[deep], [17.5, 2.5, 3.5]);
-        assert_eq!(l[0], [2.5, 2.5, 3.5]);
+        gathered[deep] = Rgb([16.0, 0.0, 0.0]); // 1/16 of the area
+        let l = push_pull(&tree, &gathered, Rgb::splat(0.5), None);
+        assert_eq!(l[deep], Rgb([17.5, 2.5, 3.5]));
+        assert_eq!(l[0], Rgb([2.5, 2.5, 3.5]));
     }
 
     #[test]
@@ -171,12 +164,12 @@ mod tests {
         let tree = ElementTree::build(&root, &[deep].into_iter().collect());
         let mut gathered = Gathered::new(tree.nodes.len());
         let g = DVec3::new(0.4, -0.2, 0.0);
-        gathered.add(0, [1.0, 2.0, 0.0], g);
+        gathered.add(0, Rgb([1.0, 2.0, 0.0]), g);
         let child = tree.index_of(ElementId::ROOT.child(3)).unwrap() as usize;
-        gathered.add(child, [0.0, 0.0, 4.0], -g);
+        gathered.add(child, Rgb([0.0, 0.0, 4.0]), -g);
         let averages = gathered.into_averages(&tree);
-        assert_eq!(averages[0], [1.0, 2.0, 0.0]); // the constant stays put
-        let l = push_pull(&tree, &averages, [0.0; 3], None);
+        assert_eq!(averages[0], Rgb([1.0, 2.0, 0.0])); // the constant stays put
+        let l = push_pull(&tree, &averages, Rgb::ZERO, None);
         // Each leaf holds the linear functions over it at its centroid.
         let leaf = tree.index_of(deep).unwrap() as usize;
         let x = DVec3::new(0.625, 0.625, 0.0);

@@ -273,7 +273,7 @@ impl SurfaceState {
         let rho = ctx.scene.surfaces[r as usize]
             .brdf
             .lambertian()
-            .unwrap_or([0.0; 3]);
+            .unwrap_or(Rgb::ZERO);
         let ends = |l: &Link| if l.p == r { (l.a, l.c) } else { (l.c, l.a) };
         self.grow(ctx, r, links.iter().map(|l| ends(l).0));
         let mut gathered = Gathered::new(self.tree.nodes.len());
@@ -289,12 +289,10 @@ impl SurfaceState {
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
-        let received = push_pull::push_pull(&self.tree, &averages, [0.0; 3], Some(&self.exposure));
+        let received = push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure));
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
-            for ch in 0..3 {
-                l[ch] += d[ch];
-                u[ch] += d[ch];
-            }
+            *l += d;
+            *u += d;
         }
     }
 }
@@ -317,10 +315,6 @@ struct Shooting<'a> {
     times: PhaseTimes,
 }
 
-fn largest(rgb: &Rgb) -> f64 {
-    rgb.iter().fold(0.0f64, |m, &x| m.max(x))
-}
-
 impl<'a> Shooting<'a> {
     fn new(ctx: KernelContext<'a>, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
         let scene = ctx.scene;
@@ -330,7 +324,7 @@ impl<'a> Shooting<'a> {
             surface
                 .brdf
                 .lambertian()
-                .is_some_and(|rho| largest(&rho) > 0.0)
+                .is_some_and(|rho| rho.max_channel() > 0.0)
         };
         let mut targets = vec![Vec::new(); scene.surfaces.len()];
         for (i, &(p, r)) in pairs.iter().enumerate() {
@@ -353,7 +347,7 @@ impl<'a> Shooting<'a> {
             emitted: scene
                 .surfaces
                 .iter()
-                .map(|s| s.patch.area() * largest(&s.emission))
+                .map(|s| s.patch.area() * s.emission.max_channel())
                 .sum(),
             steps: 0,
             times,
@@ -366,7 +360,7 @@ impl<'a> Shooting<'a> {
         let mut best = (0, 0.0);
         let mut total = 0.0;
         for (s, (state, surface)) in self.states.iter().zip(&self.ctx.scene.surfaces).enumerate() {
-            let power = surface.patch.area() * state.exposure[0] * largest(&state.unshot[0]);
+            let power = surface.patch.area() * state.exposure[0] * state.unshot[0].max_channel();
             total += power;
             if power > best.1 {
                 best = (s, power);
@@ -433,7 +427,7 @@ impl<'a> Shooting<'a> {
             .flat_map(|&(_, i)| self.links[i].iter().flatten())
             .map(|l| if l.p as usize == s { l.a } else { l.c });
         let state = &mut self.states[s];
-        state.unshot = vec![[0.0; 3]; state.tree.nodes.len()];
+        state.unshot = vec![Rgb::ZERO; state.tree.nodes.len()];
         state.grow(ctx, s as u32, own_ends.collect::<Vec<_>>());
         self.steps += 1;
         self.times.solve_s += clock.elapsed().as_secs_f64();
@@ -472,8 +466,8 @@ mod tests {
         Surface {
             name: "wall".into(),
             patch,
-            brdf: Brdf::diffuse([rho; 3]),
-            emission: [emission; 3],
+            brdf: Brdf::diffuse(Rgb::splat(rho)),
+            emission: Rgb::splat(emission),
         }
     }
 
@@ -497,7 +491,7 @@ mod tests {
             .enumerate()
             .map(|(i, patch)| wall(patch, [0.7, 0.5, 0.6, 0.4, 0.5][i], 0.0))
             .collect();
-        surfaces[1].emission = [2.0; 3];
+        surfaces[1].emission = Rgb::splat(2.0);
         surfaces.push(wall(
             Patch::Parallelogram {
                 origin: DVec3::new(0.3, 0.2, 0.3),
@@ -562,7 +556,7 @@ mod tests {
         assert_eq!(solution.stats.exchanging_pairs, 3);
         assert_eq!(solution.stats.kernel_pairs, 2);
         assert!(solution.interactions.incoming[2].is_empty());
-        assert_eq!(solution.radiance[3][0], [0.0; 3]);
+        assert_eq!(solution.radiance[3][0], Rgb::ZERO);
         let gathered = solve(&scene, &settings(Oracle::Power, 4), &Silent).unwrap();
         assert_eq!(gathered.stats.kernel_pairs, 3);
         let (a, b) = (solution.radiance[0][0][0], gathered.radiance[0][0][0]);

@@ -55,7 +55,7 @@ impl Default for Material {
     /// Mitsuba's default for shapes without a BSDF: one-sided diffuse 0.5.
     fn default() -> Self {
         Material {
-            front: Brdf::diffuse([0.5; 3]),
+            front: Brdf::diffuse(Rgb::splat(0.5)),
             back: None,
         }
     }
@@ -78,7 +78,7 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
     let mut obj = Object::parse(bsdf.element, ids)?;
     match obj.plugin {
         "diffuse" => {
-            let reflectance = obj.color("reflectance")?.unwrap_or([0.5; 3]);
+            let reflectance = obj.color("reflectance")?.unwrap_or(Rgb::splat(0.5));
             check_unit(&obj, "reflectance", reflectance)?;
             one_sided(&obj, Brdf::diffuse(reflectance))
         }
@@ -145,10 +145,10 @@ fn one_sided(obj: &Object, brdf: Brdf) -> Result<Material> {
 
 /// Reject a reflectance with a component outside [0, 1].
 fn check_unit(obj: &Object, name: &str, value: Rgb) -> Result<()> {
-    match value.iter().find(|c| !(0.0..=1.0).contains(*c)) {
+    match value.0.iter().find(|c| !(0.0..=1.0).contains(*c)) {
         None => Ok(()),
         Some(c) => Err(obj.location_of(name).error(format!(
-            "{name} {value:?} of {} has a component ({c}) outside [0, 1]",
+            "{name} {value} of {} has a component ({c}) outside [0, 1]",
             obj.describe()
         ))),
     }
@@ -166,7 +166,7 @@ fn color_alias(
     Ok(match (obj.color(name)?, obj.color(alias)?) {
         (Some(v), _) => (v, name),
         (None, Some(v)) => (v, alias),
-        (None, None) => ([default; 3], name),
+        (None, None) => (Rgb::splat(default), name),
     })
 }
 
@@ -326,14 +326,16 @@ fn parse_roughconductor(obj: &mut Object) -> Result<RoughConductor> {
         }
     };
     for (name, v) in [("eta", ior.eta), ("k", ior.k)] {
-        if let Some(c) = v.iter().find(|c| **c < 0.0) {
+        if let Some(c) = v.0.iter().find(|c| **c < 0.0) {
             return Err(obj.location_of(name).error(format!(
-                "{name} {v:?} of {} has a negative component ({c})",
+                "{name} {v} of {} has a negative component ({c})",
                 obj.describe()
             )));
         }
     }
-    let specular_reflectance = obj.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+    let specular_reflectance = obj
+        .color("specular_reflectance")?
+        .unwrap_or(Rgb::splat(1.0));
     check_unit(obj, "specular_reflectance", specular_reflectance)?;
     Ok(RoughConductor {
         distribution,
@@ -382,8 +384,10 @@ fn parse_roughplastic(obj: &mut Object) -> Result<RoughPlasticParams> {
             obj.describe()
         )));
     }
-    let specular_reflectance = obj.color("specular_reflectance")?.unwrap_or([1.0; 3]);
-    let diffuse_reflectance = obj.color("diffuse_reflectance")?.unwrap_or([0.5; 3]);
+    let specular_reflectance = obj
+        .color("specular_reflectance")?
+        .unwrap_or(Rgb::splat(1.0));
+    let diffuse_reflectance = obj.color("diffuse_reflectance")?.unwrap_or(Rgb::splat(0.5));
     check_unit(obj, "specular_reflectance", specular_reflectance)?;
     check_unit(obj, "diffuse_reflectance", diffuse_reflectance)?;
     Ok(RoughPlasticParams {

@@ -26,10 +26,10 @@ pub(crate) fn parse_area_emitter(emitter: Nested, ids: &Ids) -> Result<Rgb> {
     if obj.plugin != "area" {
         return Err(unsupported(&obj));
     }
-    let radiance = obj.color("radiance")?.unwrap_or([1.0; 3]);
-    if let Some(c) = radiance.iter().find(|c| **c < 0.0) {
+    let radiance = obj.color("radiance")?.unwrap_or(Rgb::splat(1.0));
+    if let Some(c) = radiance.0.iter().find(|c| **c < 0.0) {
         return Err(obj.location_of("radiance").error(format!(
-            "radiance {radiance:?} of emitter \"area\" has a negative component ({c})"
+            "radiance {radiance} of emitter \"area\" has a negative component ({c})"
         )));
     }
     obj.ignore(&["sampling_weight"]);

@@ -303,8 +303,8 @@ impl<'a> Object<'a> {
         };
         match value {
             Value::Rgb(c) => Ok(Some(c)),
-            Value::Float(v) | Value::Spectrum(v) => Ok(Some([v; 3])),
-            Value::Integer(v) => Ok(Some([v as f64; 3])),
+            Value::Float(v) | Value::Spectrum(v) => Ok(Some(Rgb::splat(v))),
+            Value::Integer(v) => Ok(Some(Rgb::splat(v as f64))),
             other => Err(self.mismatch(name, "an <rgb>, <float> or <spectrum>", &other, &at)),
         }
     }
@@ -412,8 +412,8 @@ fn parse_value(e: &Element) -> Result<Value> {
             e.check_attrs(&["name", "value"])?;
             let v = parse_numbers(value(e)?, e)?;
             match v.as_slice() {
-                [x] => Value::Rgb([*x; 3]),
-                [r, g, b] => Value::Rgb([*r, *g, *b]),
+                [x] => Value::Rgb(Rgb::splat(*x)),
+                [r, g, b] => Value::Rgb(Rgb([*r, *g, *b])),
                 _ => {
                     return Err(e.at.error(format!(
                         "{} needs 1 or 3 values, got {}",
@@ -540,8 +540,8 @@ mod tests {
         assert_eq!(o.float("f").unwrap(), Some(1.5));
         assert_eq!(o.float("i").unwrap(), Some(-3.0));
         assert_eq!(o.boolean("b").unwrap(), Some(true));
-        assert_eq!(o.color("c").unwrap(), Some([0.1, 0.2, 0.3]));
-        assert_eq!(o.color("s").unwrap(), Some([0.25; 3]));
+        assert_eq!(o.color("c").unwrap(), Some(Rgb([0.1, 0.2, 0.3])));
+        assert_eq!(o.color("s").unwrap(), Some(Rgb::splat(0.25)));
         assert_eq!(o.float("missing").unwrap(), None);
         assert!(o.integer("f").is_err());
         o.ignore(&["p"]);

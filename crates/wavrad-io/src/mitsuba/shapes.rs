@@ -30,7 +30,7 @@
 use std::path::Path;
 
 use glam::{DMat4, DVec3};
-use wavrad_core::scene::{Patch, Surface};
+use wavrad_core::scene::{Patch, Rgb, Surface};
 
 use super::bsdfs::{parse_bsdf, Material};
 use super::document::resolve_path;
@@ -94,7 +94,7 @@ pub(crate) fn build_shape(
         }
     }
     let material: Material = material.unwrap_or_default();
-    let emission = emission.unwrap_or([0.0; 3]);
+    let emission = emission.unwrap_or(Rgb::ZERO);
 
     // Geometry in world space.
     let mut patches: Vec<Patch> = match filename {
@@ -162,7 +162,7 @@ pub(crate) fn build_shape(
                 name: name.clone(),
                 patch: patch.flipped(),
                 brdf: back.clone(),
-                emission: [0.0; 3],
+                emission: Rgb::ZERO,
             });
         }
     }

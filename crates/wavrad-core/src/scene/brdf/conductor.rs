@@ -43,29 +43,28 @@ impl Default for RoughConductor {
     fn default() -> RoughConductor {
         RoughConductor {
             distribution: Microfacet::isotropic(super::MicrofacetType::Beckmann, 0.1),
-            eta: [0.0; 3],
-            k: [1.0; 3],
-            specular_reflectance: [1.0; 3],
+            eta: Rgb::ZERO,
+            k: Rgb::splat(1.0),
+            specular_reflectance: Rgb::splat(1.0),
         }
     }
 }
 
 impl RoughConductor {
     fn fresnel(&self, cos_theta: f64) -> Rgb {
-        let f = fresnel_conductor_rgb(cos_theta, self.eta, self.k);
-        std::array::from_fn(|c| f[c] * self.specular_reflectance[c])
+        fresnel_conductor_rgb(cos_theta, self.eta, self.k) * self.specular_reflectance
     }
 }
 
 impl BrdfModel for RoughConductor {
     fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return [0.0; 3];
+            return Rgb::ZERO;
         }
         let h = (wi + wo).normalize();
         let d = self.distribution.eval(h);
         if d == 0.0 {
-            return [0.0; 3];
+            return Rgb::ZERO;
         }
         let g = self.distribution.g(wo, wi, h);
         let value = d * g / (4.0 * wo.z * wi.z);
@@ -128,22 +127,22 @@ mod tests {
         let d = &c.distribution;
         let expect = d.eval(h) * d.g(wo, wi, h) / (4.0 * wi.z * wo.z);
         let f = c.eval(wo, wi);
-        assert!(f.iter().all(|v| (v - expect).abs() < 1e-12 * expect));
+        assert!(f.0.iter().all(|v| (v - expect).abs() < 1e-12 * expect));
     }
 
     #[test]
     fn sample_weight_is_f_cos_over_pdf() {
         let c = RoughConductor {
             distribution: Microfacet::new(MicrofacetType::Ggx, 0.3, 0.15),
-            eta: [0.2, 0.9, 1.1],
-            k: [3.9, 2.4, 2.1],
-            specular_reflectance: [1.0; 3],
+            eta: Rgb([0.2, 0.9, 1.1]),
+            k: Rgb([3.9, 2.4, 2.1]),
+            specular_reflectance: Rgb::splat(1.0),
         };
         let wo = DVec3::new(0.5, 0.2, 0.7).normalize();
         let s = c.sample(wo, DVec2::new(0.3, 0.8), 0.0).unwrap();
         let f = c.eval(wo, s.direction);
         assert!((s.pdf - c.pdf(wo, s.direction)).abs() < 1e-12 * s.pdf);
-        for (w, f) in s.weight.iter().zip(f) {
+        for (w, f) in s.weight.0.into_iter().zip(f.0) {
             let expect = f * s.direction.z / s.pdf;
             assert!((w - expect).abs() < 1e-12 * expect);
         }

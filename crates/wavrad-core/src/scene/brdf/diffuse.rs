@@ -19,7 +19,7 @@ pub struct Diffuse {
 impl BrdfModel for Diffuse {
     fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return [0.0; 3];
+            return Rgb::ZERO;
         }
         self.reflectance.map(|r| r * FRAC_1_PI)
     }

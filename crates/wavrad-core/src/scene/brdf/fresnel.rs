@@ -68,7 +68,9 @@ pub fn fresnel_conductor(cos_theta_i: f64, eta: f64, k: f64) -> f64 {
 
 /// [`fresnel_conductor`] per RGB channel.
 pub fn fresnel_conductor_rgb(cos_theta_i: f64, eta: Rgb, k: Rgb) -> Rgb {
-    std::array::from_fn(|c| fresnel_conductor(cos_theta_i, eta[c], k[c]))
+    Rgb(std::array::from_fn(|c| {
+        fresnel_conductor(cos_theta_i, eta[c], k[c])
+    }))
 }
 
 /// A complex index of refraction η + ik per RGB channel.
@@ -86,14 +88,17 @@ pub struct ComplexIor {
 pub fn conductor_ior(name: &str) -> Option<ComplexIor> {
     if name == "none" {
         return Some(ComplexIor {
-            eta: [0.0; 3],
-            k: [1.0; 3],
+            eta: Rgb::ZERO,
+            k: Rgb::splat(1.0),
         });
     }
     CONDUCTORS
         .iter()
         .find(|(n, _, _)| *n == name)
-        .map(|&(_, eta, k)| ComplexIor { eta, k })
+        .map(|&(_, eta, k)| ComplexIor {
+            eta: eta.into(),
+            k: k.into(),
+        })
 }
 
 /// The real index of a named dielectric (Mitsuba's `ior.h`; names are
@@ -138,7 +143,7 @@ pub const DIELECTRICS: &[(&str, f64)] = &[
 /// Mitsuba 3.9.1's RGB variants use them for `material="name"` (every
 /// material in its `data/ior` folder; `_palik` names are Palik's tables).
 #[rustfmt::skip]
-pub const CONDUCTORS: &[(&str, Rgb, Rgb)] = &[
+pub const CONDUCTORS: &[(&str, [f64; 3], [f64; 3])] = &[
     ("a-C", [2.94404578, 2.22713637, 1.9681617], [0.887464881, 0.799298525, 0.815289974]),
     ("Ag", [0.155276194, 0.116727956, 0.138387635], [4.82835436, 3.12222242, 2.14690113]),
     ("Al", [1.65750086, 0.880404711, 0.521244466], [9.22381115, 6.26950216, 4.83700418]),
@@ -244,7 +249,7 @@ mod tests {
 
     #[test]
     fn named_indices() {
-        assert_eq!(conductor_ior("none").unwrap().k, [1.0; 3]);
+        assert_eq!(conductor_ior("none").unwrap().k, Rgb::splat(1.0));
         assert!(conductor_ior("Au").unwrap().eta[0] < 0.2);
         assert!(conductor_ior("gold").is_none());
         assert_eq!(dielectric_ior("BK7"), Some(1.5046));

@@ -173,7 +173,7 @@ impl Brdf {
     pub fn lambertian(&self) -> Option<Rgb> {
         match self {
             Brdf::Diffuse(d) => Some(d.reflectance),
-            Brdf::Ward(w) if w.diffuse_reflectance.iter().any(|&r| r > 0.0) => {
+            Brdf::Ward(w) if w.diffuse_reflectance.max_channel() > 0.0 => {
                 Some(w.diffuse_reflectance)
             }
             _ => None,
@@ -184,9 +184,9 @@ impl Brdf {
     /// three-point kernel (the paper's eq. 13) projects.
     pub fn without_lambertian(&self) -> Brdf {
         match self {
-            Brdf::Diffuse(_) => Brdf::diffuse([0.0; 3]),
+            Brdf::Diffuse(_) => Brdf::diffuse(Rgb::ZERO),
             Brdf::Ward(w) => Brdf::Ward(Ward {
-                diffuse_reflectance: [0.0; 3],
+                diffuse_reflectance: Rgb::ZERO,
                 ..*w
             }),
             other => other.clone(),
@@ -237,12 +237,12 @@ mod tests {
         // which keeps the diffuse lobe even when it is black.
         let anisotropic = Microfacet::new(MicrofacetType::Ggx, 0.1, 0.3);
         let cases = [
-            ("diffuse", Brdf::diffuse([0.5; 3]), 0x8002),
+            ("diffuse", Brdf::diffuse(Rgb::splat(0.5)), 0x8002),
             ("ward", Brdf::Ward(Ward::default()), 0x800a),
             (
                 "ward, black diffuse lobe",
                 Brdf::Ward(Ward {
-                    diffuse_reflectance: [0.0; 3],
+                    diffuse_reflectance: Rgb::ZERO,
                     ..Ward::default()
                 }),
                 0x800a,

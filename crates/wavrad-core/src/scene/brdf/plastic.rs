@@ -72,8 +72,8 @@ impl Default for RoughPlasticParams {
             alpha: 0.1,
             int_ior: 1.49,
             ext_ior: 1.000277,
-            specular_reflectance: [1.0; 3],
-            diffuse_reflectance: [0.5; 3],
+            specular_reflectance: Rgb::splat(1.0),
+            diffuse_reflectance: Rgb::splat(0.5),
             nonlinear: false,
         }
     }
@@ -106,10 +106,9 @@ impl RoughPlastic {
         debug_assert!(params.int_ior != params.ext_ior);
         let eta = params.int_ior / params.ext_ior;
         let distribution = Microfacet::isotropic(params.distribution, params.alpha);
-        let mean = |c: Rgb| (c[0] + c[1] + c[2]) / 3.0;
         let (d_mean, s_mean) = (
-            mean(params.diffuse_reflectance),
-            mean(params.specular_reflectance),
+            params.diffuse_reflectance.average(),
+            params.specular_reflectance.average(),
         );
         let specular_sampling_weight = if d_mean + s_mean > 0.0 {
             s_mean / (d_mean + s_mean)
@@ -182,7 +181,7 @@ impl RoughPlastic {
 impl BrdfModel for RoughPlastic {
     fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return [0.0; 3];
+            return Rgb::ZERO;
         }
         let p = &self.params;
         // Coating: microfacet reflection
@@ -194,15 +193,15 @@ impl BrdfModel for RoughPlastic {
         // Base: diffuse light transmitted in and out of the coating
         let t = self.external_transmittance(wo.z) * self.external_transmittance(wi.z);
         let base = FRAC_1_PI * t / (self.eta * self.eta);
-        std::array::from_fn(|c| {
-            let rho = p.diffuse_reflectance[c];
+        let diffuse = p.diffuse_reflectance.map(|rho| {
             let fdr = if p.nonlinear {
                 rho * self.internal_reflectance
             } else {
                 self.internal_reflectance
             };
-            p.specular_reflectance[c] * spec + rho / (1.0 - fdr) * base
-        })
+            rho / (1.0 - fdr) * base
+        });
+        p.specular_reflectance * spec + diffuse
     }
 
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
@@ -260,6 +259,6 @@ mod tests {
     fn defaults_are_mitsubas() {
         let p = RoughPlastic::default();
         assert!((p.eta() - 1.49 / 1.000277).abs() < 1e-12);
-        assert_eq!(p.params().diffuse_reflectance, [0.5; 3]);
+        assert_eq!(p.params().diffuse_reflectance, Rgb::splat(0.5));
     }
 }

@@ -89,23 +89,18 @@ impl Default for Ward {
             variant: WardVariant::Balanced,
             alpha_u: 0.1,
             alpha_v: 0.1,
-            specular_reflectance: [0.2; 3],
-            diffuse_reflectance: [0.5; 3],
+            specular_reflectance: Rgb::splat(0.2),
+            diffuse_reflectance: Rgb::splat(0.5),
         }
     }
-}
-
-/// Rec. 709 luminance (Mitsuba 0.6's `Spectrum::getLuminance` in RGB mode).
-pub(crate) fn luminance(c: Rgb) -> f64 {
-    0.212671 * c[0] + 0.715160 * c[1] + 0.072169 * c[2]
 }
 
 impl Ward {
     /// Probability of sampling the glossy lobe: ρ̄_s / (ρ̄_s + ρ̄_d).
     pub fn specular_sampling_weight(&self) -> f64 {
         let (s, d) = (
-            luminance(self.specular_reflectance),
-            luminance(self.diffuse_reflectance),
+            self.specular_reflectance.luminance(),
+            self.diffuse_reflectance.luminance(),
         );
         if s + d > 0.0 {
             s / (s + d)
@@ -146,12 +141,10 @@ impl Ward {
 impl BrdfModel for Ward {
     fn eval(&self, wo: DVec3, wi: DVec3) -> Rgb {
         if wi.z <= 0.0 || wo.z <= 0.0 {
-            return [0.0; 3];
+            return Rgb::ZERO;
         }
         let spec = self.glossy(wo, wi);
-        std::array::from_fn(|c| {
-            self.specular_reflectance[c] * spec + self.diffuse_reflectance[c] * FRAC_1_PI
-        })
+        self.specular_reflectance * spec + self.diffuse_reflectance * FRAC_1_PI
     }
 
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
@@ -212,8 +205,8 @@ mod tests {
             variant,
             alpha_u: 0.2,
             alpha_v: 0.4,
-            specular_reflectance: [1.0; 3],
-            diffuse_reflectance: [0.0; 3],
+            specular_reflectance: Rgb::splat(1.0),
+            diffuse_reflectance: Rgb::ZERO,
         };
         let k = 1.0 / (PI * 0.2 * 0.4);
         assert!((w(WardVariant::Ward).eval(n, n)[0] - k / 4.0).abs() < 1e-12);
@@ -224,7 +217,7 @@ mod tests {
     #[test]
     fn one_sided_and_sampling_weight() {
         let w = Ward::default();
-        assert_eq!(w.eval(DVec3::Z, DVec3::new(0.0, 0.6, -0.8)), [0.0; 3]);
+        assert_eq!(w.eval(DVec3::Z, DVec3::new(0.0, 0.6, -0.8)), Rgb::ZERO);
         assert_eq!(w.pdf(DVec3::Z, DVec3::new(0.0, 0.6, -0.8)), 0.0);
         assert!((w.specular_sampling_weight() - 0.2 / 0.7).abs() < 1e-12);
         assert!(w
