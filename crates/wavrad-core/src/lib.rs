@@ -12,7 +12,7 @@
 //! rendering any view ([`render`]).
 //!
 //! ```
-//! use wavrad_core::scene::{Patch, Scene, Surface};
+//! use wavrad_core::scene::{Patch, Rgb, Scene, Surface};
 //! use wavrad_core::solve::{solve, SolveSettings};
 //! use wavrad_core::progress::Silent;
 //! use glam::DVec3;
@@ -21,7 +21,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0) })
 //!     .collect();
 //! let solution = solve(&Scene::from_surfaces(surfaces), &SolveSettings::default(), &Silent).unwrap();
 //! // The furnace: radiance is Le / (1 − ρ) = 2 everywhere.

@@ -29,7 +29,7 @@
 //!
 //! ```
 //! use std::ops::ControlFlow;
-//! use wavrad_core::scene::{Scene, Surface};
+//! use wavrad_core::scene::{Rgb, Scene, Surface};
 //! use wavrad_core::solve::{shoot::solve_shooting, SolveSettings};
 //! use wavrad_core::progress::Silent;
 //! use glam::DVec3;
@@ -38,7 +38,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse([0.5; 3]), emission: [1.0; 3] })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0) })
 //!     .collect();
 //! let mut settings = SolveSettings::default();
 //! settings.refine.max_level = 3;

@@ -32,7 +32,7 @@
 //! </scene>"#;
 //! let scene = wavrad_io::load_scene_str(xml, Path::new("."), "doc.xml", &[]).unwrap();
 //! assert_eq!(scene.surfaces.len(), 2); // front and back
-//! assert_eq!(scene.surfaces[0].brdf.lambertian(), Some([0.8; 3]));
+//! assert_eq!(scene.surfaces[0].brdf.lambertian(), Some(wavrad_core::scene::Rgb::splat(0.8)));
 //! ```
 
 mod bsdfs;
