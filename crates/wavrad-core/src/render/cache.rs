@@ -27,7 +27,7 @@
 //! ceiling's strip beside the light, which hangs 1 cm below it), does worse.
 
 use super::gather::GatherPoint;
-use super::reader::{FinalGather, SolutionReader};
+use super::reader::{FinalGather, GatherBudget, SolutionReader};
 use super::{RenderSettings, GATHER_GRID, GATHER_RAYS};
 use crate::kernel::exposure::is_buried;
 use crate::sampling::Samples;
@@ -128,7 +128,8 @@ impl GatherCache {
                     normal,
                     samples: Samples::pixel((s as u64) << 40 ^ t as u64, 0),
                 };
-                Some(reader.final_gather_parts(solution, &point, (rays, shadow_grid)))
+                let budget = GatherBudget { rays, shadow_grid };
+                Some(reader.final_gather_parts(solution, &point, budget))
             })
             .collect();
         let mut values = values.into_iter();

@@ -14,6 +14,7 @@
 use super::cache::GatherCache;
 use super::eye::EyeRadiance;
 use super::gather::{self, GatherPoint};
+use super::reader::{GatherBudget, SurfacePoint};
 use super::reconstruct::{radiance_at, Reconstruction};
 use super::{RenderSettings, Renderer, GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -261,9 +262,12 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         if let Some(l) = cached.and_then(|c| c.radiance(q, at())) {
             return l;
         }
-        let to = (hit.point.surface, hit.point.position);
-        let seed = hit.point.samples.seed();
-        reader.radiance_leaving(solution, (q, z), to, (seed, GLOSSY_GRID))
+        let from = SurfacePoint {
+            surface: q,
+            position: z,
+        };
+        let (to, seed) = (SurfacePoint::from(&hit.point), hit.point.samples.seed());
+        reader.radiance_leaving(solution, from, to, seed, GLOSSY_GRID)
     };
     let reflected = gather::glossy_radiance(
         &solution.scene,
@@ -302,8 +306,11 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
         samples: hit.point.samples.final_gather(block),
         ..hit.point
     };
-    let rays = (gathering.rays(&local), GATHER_GRID);
-    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, rays);
+    let budget = GatherBudget {
+        rays: gathering.rays(&local),
+        shadow_grid: GATHER_GRID,
+    };
+    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, budget);
     let weight = gathering.weight();
     reconstructed + (gathered - reconstructed) * weight
 }

@@ -61,6 +61,32 @@ pub(super) struct FinalGather {
     pub(super) indirect: gather::Indirect,
 }
 
+/// A point of a surface: either end of a gather ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct SurfacePoint {
+    /// Surface the point is on.
+    pub(super) surface: u32,
+    /// The point.
+    pub(super) position: DVec3,
+}
+
+impl From<&GatherPoint> for SurfacePoint {
+    fn from(point: &GatherPoint) -> SurfacePoint {
+        SurfacePoint {
+            surface: point.surface,
+            position: point.position,
+        }
+    }
+}
+
+/// The rays a final gather casts: `rays` cosine rays' worth of indirect
+/// samples, and `shadow_grid` × `shadow_grid` shadow rays to each emitter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct GatherBudget {
+    pub(super) rays: u32,
+    pub(super) shadow_grid: u32,
+}
+
 impl FinalGather {
     pub(super) fn total(&self) -> Rgb {
         self.direct + self.indirect.radiance
@@ -130,10 +156,10 @@ impl SolutionReader {
     }
 
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
-    /// the light straight from the emitters (`shadow_grid` × `shadow_grid`
-    /// shadow rays to each) and `rays` cosine rays' worth of the rest of
-    /// the solution, with about as many samples of the bright surfaces
-    /// together, and of each mirror image ([`gather::indirect_radiance`]).
+    /// the light straight from the emitters (the `budget`'s shadow rays to
+    /// each) and its cosine rays' worth of the rest of the solution, with
+    /// about as many samples of the bright surfaces together, and of each
+    /// mirror image ([`gather::indirect_radiance`]).
     /// The bright surfaces share their samples: each glossy face of a box
     /// counts as one, and area samples each cost a shadow ray and a glossy
     /// evaluation.
@@ -141,9 +167,9 @@ impl SolutionReader {
         &self,
         solution: &Solution,
         point: &GatherPoint,
-        rays: (u32, u32),
+        budget: GatherBudget,
     ) -> Rgb {
-        self.final_gather_parts(solution, point, rays).total()
+        self.final_gather_parts(solution, point, budget).total()
     }
 
     /// [`SolutionReader::final_gather`] in its two parts.
@@ -151,7 +177,7 @@ impl SolutionReader {
         &self,
         solution: &Solution,
         point: &GatherPoint,
-        (rays, shadow_grid): (u32, u32),
+        GatherBudget { rays, shadow_grid }: GatherBudget,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
         let sources = gather::GatherSources {
@@ -162,10 +188,14 @@ impl SolutionReader {
                 .round() as u32)
                 .max(GATHER_GRID),
         };
-        let to = (point.surface, point.position);
+        let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
         let indirect = gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
-            let l = self.radiance_leaving(solution, (q, y), to, (seed, GLOSSY_GRID));
+            let from = SurfacePoint {
+                surface: q,
+                position: y,
+            };
+            let l = self.radiance_leaving(solution, from, to, seed, GLOSSY_GRID);
             (l - scene.surfaces[q as usize].emission).map(|x| x.max(0.0))
         });
         let direct = gather::direct_radiance(scene, tracer, &self.emitters, point, shadow_grid);
@@ -175,26 +205,29 @@ impl SolutionReader {
         }
     }
 
-    /// Radiance leaving point `y` of surface `q` towards point `x` of surface
-    /// `s`, as a gather ray from `x` sees it: the solution's for a diffuse
-    /// `q`; for a glossy one, the light its BRDF reflects there evaluated per
-    /// point (emitters exactly, the rest from the solution, `grid` × `grid`
-    /// samples of each; [`gather::glossy_radiance`]), because a highlight's
+    /// Radiance leaving point `from` towards point `to`, as a gather ray
+    /// from `to` sees it: the solution's on a diffuse surface; on a glossy
+    /// one, the light its BRDF reflects there evaluated per point (emitters
+    /// exactly, the rest from the solution, `grid` × `grid` samples of
+    /// each; [`gather::glossy_radiance`]), because a highlight's
     /// sharp edge, and the light near a contact line, are finer than the
-    /// pair tree's elements.
+    /// pair tree's elements. `seed`, the gather's, is decorrelated per
+    /// point `from`.
     pub(super) fn radiance_leaving(
         &self,
         solution: &Solution,
-        (q, y): (u32, DVec3),
-        (s, x): (u32, DVec3),
-        (seed, grid): (u64, u32),
+        from: SurfacePoint,
+        to: SurfacePoint,
+        seed: u64,
+        grid: u32,
     ) -> Rgb {
+        let (q, y) = (from.surface, from.position);
         let source = &solution.scene.surfaces[q as usize];
         // Decorrelated per point y: every ray of one gather has its own.
         let bits = y.x.to_bits() ^ y.y.to_bits().rotate_left(21) ^ y.z.to_bits().rotate_left(42);
         let seed = seed.rotate_left(17) ^ u64::from(q) ^ bits;
         if !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
-            return self.outgoing_radiance(solution, (q, y, seed), s, x);
+            return self.outgoing_radiance(solution, from, to, seed);
         }
         let at = GatherPoint {
             surface: q,
@@ -207,24 +240,31 @@ impl SolutionReader {
             &solution.tracer,
             &self.emitters,
             &at,
-            (&source.brdf, (x - y).normalize()),
+            (&source.brdf, (to.position - y).normalize()),
             grid,
-            |h, z| self.outgoing_radiance(solution, (h, z, seed ^ u64::from(h) << 40), q, y),
+            |h, z| {
+                let hit = SurfacePoint {
+                    surface: h,
+                    position: z,
+                };
+                self.outgoing_radiance(solution, hit, from, seed ^ u64::from(h) << 40)
+            },
         );
         source.emission + reflected
     }
 
-    /// Radiance the solution says leaves point `y` of surface `q` towards
-    /// point `x` of surface `s`: the radiance of `q`'s element at `y`, plus
-    /// for a glossy `q` its directional radiance towards `x`
-    /// ([`directional_radiance`]).
+    /// Radiance the solution says leaves point `from` towards point `to`:
+    /// the radiance of the element at `from`, plus on a glossy surface its
+    /// directional radiance towards `to` ([`directional_radiance`]); `seed`
+    /// draws the shadow rays of a first bounce evaluated per point.
     fn outgoing_radiance(
         &self,
         solution: &Solution,
-        (q, y, seed): (u32, DVec3, u64),
-        s: u32,
-        x: DVec3,
+        from: SurfacePoint,
+        to: SurfacePoint,
+        seed: u64,
     ) -> Rgb {
+        let (q, y) = (from.surface, from.position);
         let surface = &solution.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let i = q as usize;
@@ -233,7 +273,7 @@ impl SolutionReader {
         };
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&solution.radiance[i]);
-            let glossy = directional_radiance(solution, q, y, s, x);
+            let glossy = directional_radiance(solution, q, y, to.surface, to.position);
             return own + glossy;
         }
         let Some(beyond_first) = &self.beyond_first[i] else {
