@@ -111,10 +111,12 @@ class Solution:
         ``two_point_interactions``, ``three_point_nodes``,
         ``three_point_interactions``, ``nodes_per_level``, ``iterations``,
         ``residual``, ``converged``, ``times`` (seconds per phase),
-        ``peak_memory_bytes``, the settings used (``oracle``, ``threshold``,
+        ``peak_memory_bytes``, ``settings`` (every setting of the solve by
+        the name ``solve`` takes it: ``oracle``, ``threshold``,
         ``max_level``, ...), and how it was solved: ``solver``
-        (``"gather"`` or ``"shoot"``), ``refine_passes`` (projections of the
-        weighted oracles' refine-solve loop), ``shooting_steps`` and
+        (``"gather"`` or ``"shoot"``), ``projections`` (made by the
+        weighted oracles' refine-solve loop, at most ``refine_passes``),
+        ``shooting_steps`` and
         ``unshot_fraction`` (0 when gathering), ``kernel_pairs`` (surface
         pairs whose kernels were projected) and ``exchanging_pairs``."""
 
@@ -167,8 +169,9 @@ def solve(
     projected up front, then Gauss-Seidel gathering) or ``"shoot"``
     (progressive shooting from the emitters, kernels projected only where
     light flows, finished by Gauss-Seidel sweeps; diffuse scenes and the
-    kernel and power oracles only). ``stats`` reports both as ``"oracle"``
-    and ``"solver"``, with ``"refine_passes"``, ``"shooting_steps"``,
+    kernel and power oracles only). ``stats`` reports them as
+    ``stats["settings"]["oracle"]`` and ``"solver"``, with
+    ``"projections"``, ``"shooting_steps"``,
     ``"unshot_fraction"`` and ``"kernel_pairs"`` out of
     ``"exchanging_pairs"``.
 
