@@ -207,6 +207,7 @@ fn run(cli: Cli) -> Result<(), String> {
             Ok(())
         }
         Command::Solve { solve: args } => {
+            check_outputs(None, args.stats.as_deref())?;
             let solution = load_and_solve(&args, &progress)?;
             report(&solution, None);
             write_stats(&args, &solution, None)
@@ -216,7 +217,7 @@ fn run(cli: Cli) -> Result<(), String> {
             output,
             settings,
         } => {
-            check_output_extension(&output)?;
+            check_outputs(Some(&output), args.stats.as_deref())?;
             // Options that do not go together fail before the solve.
             let scene_free = wavrad_core::scene::Scene::from_surfaces(Vec::new());
             RenderSettings::from_values(&scene_free, &settings.values)
@@ -295,6 +296,36 @@ fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Resu
         .map_err(|e| e.to_string())?;
     let path = dir.join(format!("step-{:04}.exr", step.index));
     wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
+}
+
+/// Fail before any work where an output could not be written: the image's
+/// format, either file's directory, or statistics that would overwrite the
+/// image.
+fn check_outputs(image: Option<&Path>, stats: Option<&Path>) -> Result<(), String> {
+    if let Some(image) = image {
+        check_output_extension(image)?;
+    }
+    for path in image.iter().chain(stats.iter()) {
+        wavrad_io::check_writable(path).map_err(|e| e.to_string())?;
+    }
+    if let (Some(image), Some(stats)) = (image, stats) {
+        let canonical = |p: &Path| {
+            let dir = match p.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d,
+                _ => Path::new("."),
+            };
+            dir.canonicalize()
+                .ok()
+                .map(|d| d.join(p.file_name().unwrap_or_default()))
+        };
+        if canonical(image) == canonical(stats) {
+            return Err(format!(
+                "{}: --stats and --output name the same file",
+                stats.display()
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn check_output_extension(output: &Path) -> Result<(), String> {

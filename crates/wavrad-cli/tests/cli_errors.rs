@@ -162,3 +162,59 @@ fn render_writes_image_and_stats() {
     }
     assert!(json["times"]["render_s"].as_f64().unwrap() > 0.0);
 }
+
+#[test]
+fn outputs_that_cannot_be_written_fail_before_the_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(dir.path(), "s.xml", SMALL);
+    let out = dir.path().join("out.exr");
+    let missing = dir.path().join("no-such-dir");
+    let solved = |o: &std::process::Output| stderr(o).contains("two-point nodes");
+    // An image into a directory that does not exist.
+    let image = missing.join("out.exr");
+    let o = wavrad(&["render", &scene, "-o", image.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("no-such-dir") && !solved(&o),
+        "{}",
+        stderr(&o)
+    );
+    // Statistics there, from render and from solve: nothing is written.
+    let stats = missing.join("stats.json");
+    for command in ["render", "solve"] {
+        let mut args = vec![command, &scene, "--stats", stats.to_str().unwrap()];
+        if command == "render" {
+            args.extend(["-o", out.to_str().unwrap()]);
+        }
+        let o = wavrad(&args);
+        assert_eq!(o.status.code(), Some(1), "{command}");
+        assert!(
+            stderr(&o).contains("stats.json") && !solved(&o),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!out.exists());
+    }
+    // Statistics that would overwrite the image.
+    let o = wavrad(&[
+        "render",
+        &scene,
+        "-o",
+        out.to_str().unwrap(),
+        "--stats",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("the same file") && !solved(&o),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists());
+    // No temporary file is left behind by the checks.
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["s.xml"]);
+}

@@ -141,6 +141,27 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
+/// Check, before long work, that [`write_atomic`] could write `path`: it is
+/// not a directory and a file can be made beside it (nothing is left behind).
+pub fn check_writable(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory"),
+        ));
+    }
+    let dir: PathBuf = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    tempfile::Builder::new()
+        .prefix(".wavrad-")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map(drop)
+        .map_err(|e| Error::io(path, e))
+}
+
 fn write_atomically(
     path: &Path,
     encode: impl FnOnce(&mut fs::File) -> std::result::Result<(), String>,

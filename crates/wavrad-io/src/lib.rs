@@ -34,5 +34,5 @@ pub mod mesh;
 pub mod mitsuba;
 
 pub use error::{Error, Result};
-pub use image::{read_exr_rgb, relative_rmse, write_atomic, write_image};
+pub use image::{check_writable, read_exr_rgb, relative_rmse, write_atomic, write_image};
 pub use mitsuba::{load_scene, load_scene_str, load_scene_with};
