@@ -3,20 +3,7 @@
 
 mod support;
 
-use support::{stderr, wavrad, write};
-
-const SMALL: &str = r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="60"/>
-        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
-    </sensor>
-    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
-    <shape type="rectangle">
-        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
-    </shape>
-</scene>
-"#;
+use support::{small_scene, stderr, wavrad, write};
 
 #[test]
 fn unsupported_plugin_names_file_line_and_plugin_and_writes_nothing() {
@@ -49,7 +36,7 @@ fn missing_scene_file_is_named() {
 #[test]
 fn unknown_output_format_fails_before_solving() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "s.xml", SMALL);
+    let scene = write(dir.path(), "s.xml", &small_scene(""));
     let out = dir.path().join("out.tiff");
     let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
@@ -64,7 +51,7 @@ fn unknown_output_format_fails_before_solving() {
 #[test]
 fn invalid_settings_and_defines_are_reported() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "s.xml", SMALL);
+    let scene = write(dir.path(), "s.xml", &small_scene(""));
     // A value outside a setting's documented range is a usage error (exit
     // 2) that names the setting and the range, before the scene is read.
     let o = wavrad(&["solve", &scene, "--threshold=-1"]);
@@ -103,8 +90,9 @@ fn invalid_settings_and_defines_are_reported() {
 #[test]
 fn scene_without_sensor_cannot_render_but_can_solve() {
     let dir = tempfile::tempdir().unwrap();
-    let text = SMALL.replace(
-        &SMALL[SMALL.find("<sensor").unwrap()..SMALL.find("</sensor>").unwrap() + 9],
+    let small = small_scene("");
+    let text = small.replace(
+        &small[small.find("<sensor").unwrap()..small.find("</sensor>").unwrap() + 9],
         "",
     );
     let scene = write(dir.path(), "nosensor.xml", &text);
@@ -125,7 +113,7 @@ fn scene_without_sensor_cannot_render_but_can_solve() {
 #[test]
 fn render_writes_image_and_stats() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "s.xml", SMALL);
+    let scene = write(dir.path(), "s.xml", &small_scene(""));
     let out = dir.path().join("out.exr");
     let stats = dir.path().join("stats.json");
     for mode in ["haar", "smooth", "gather"] {
@@ -166,7 +154,7 @@ fn render_writes_image_and_stats() {
 #[test]
 fn outputs_that_cannot_be_written_fail_before_the_solve() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "s.xml", SMALL);
+    let scene = write(dir.path(), "s.xml", &small_scene(""));
     let out = dir.path().join("out.exr");
     let missing = dir.path().join("no-such-dir");
     let solved = |o: &std::process::Output| stderr(o).contains("two-point nodes");

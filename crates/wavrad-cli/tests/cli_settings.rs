@@ -4,23 +4,10 @@
 
 mod support;
 
-use support::{wavrad, write};
+use support::{small_scene, wavrad, write};
 use wavrad_core::render::RenderSettings;
 use wavrad_core::setting::{Described, Domain};
 use wavrad_core::solve::SolveSettings;
-
-const SMALL: &str = r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="60"/>
-        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
-    </sensor>
-    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
-    <shape type="rectangle">
-        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
-    </shape>
-</scene>
-"#;
 
 #[test]
 fn help_lists_every_described_setting_under_its_group_with_its_default() {
@@ -54,7 +41,7 @@ fn help_lists_every_described_setting_under_its_group_with_its_default() {
 #[test]
 fn stats_report_the_settings_by_their_described_names() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(dir.path(), "s.xml", SMALL);
+    let scene = write(dir.path(), "s.xml", &small_scene(""));
     let (out, stats) = (dir.path().join("out.exr"), dir.path().join("stats.json"));
     let o = wavrad(&[
         "render",

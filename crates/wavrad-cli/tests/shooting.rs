@@ -3,27 +3,7 @@
 
 mod support;
 
-use support::{stderr, wavrad, write};
-
-/// An emitter over a floor, seen by a small sensor; `floor_bsdf` goes into
-/// the floor's shape.
-fn scene(floor_bsdf: &str) -> String {
-    format!(
-        r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="60"/>
-        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
-    </sensor>
-    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
-    <shape type="rectangle">
-        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
-        {floor_bsdf}
-    </shape>
-</scene>
-"#
-    )
-}
+use support::{small_scene as scene, stderr, wavrad, write};
 
 #[test]
 fn progressive_shooting_writes_one_image_per_step() {
