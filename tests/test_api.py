@@ -12,7 +12,8 @@ import pytest
 
 import wavrad
 
-SCENES = Path(__file__).resolve().parent.parent / "scenes"
+ROOT = Path(__file__).resolve().parent.parent
+SCENES = ROOT / "scenes"
 CORNELL_BOX = SCENES / "cornell-box" / "scene.xml"
 CORNELL_BOX_REFERENCE = SCENES / "cornell-box" / "reference.exr"
 THRESHOLD, MAX_LEVEL = 1e-2, 3
@@ -239,3 +240,11 @@ def test_default_settings_match_the_path_traced_reference(reference: np.ndarray)
     image = solution.render()
     assert image.shape == reference.shape
     assert wavrad.relative_rmse(image, reference) < 0.03
+
+
+def test_version_is_the_cargo_workspace_version() -> None:
+    cargo = (ROOT / "Cargo.toml").read_text()
+    workspace = cargo[cargo.index("[workspace.package]") :]
+    version = re.search(r'^version = "([^"]+)"', workspace, re.M)
+    assert version is not None
+    assert wavrad.__version__ == version.group(1)

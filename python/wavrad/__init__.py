@@ -15,6 +15,7 @@ from wavrad._native import (
     Solution,
     SolveError,
     WavradError,
+    __version__,
     load_scene,
     read_exr,
     relative_rmse,
@@ -23,6 +24,7 @@ from wavrad._native import (
 )
 
 __all__ = [
+    "__version__",
     "Scene",
     "SceneError",
     "Solution",

@@ -9,6 +9,7 @@ import numpy.typing as npt
 from typing_extensions import TypeAlias
 
 __all__ = [
+    "__version__",
     "Scene",
     "SceneError",
     "Solution",
@@ -20,6 +21,9 @@ __all__ = [
     "solve",
     "write_image",
 ]
+
+__version__: str
+"""The version of wavrad (the Cargo workspace's)."""
 
 _Path: TypeAlias = str | PathLike[str]
 _Image: TypeAlias = npt.NDArray[np.float32]

@@ -341,6 +341,7 @@ fn write_image(
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("WavradError", py.get_type::<WavradError>())?;
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SolveError", py.get_type::<SolveError>())?;
