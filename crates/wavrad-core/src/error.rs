@@ -14,9 +14,9 @@ pub enum Error {
     /// the square of the surface count; past the limit a solve would run for
     /// hours, so it is refused up front.
     #[error(
-        "the scene has {surfaces} surfaces (two-sided ones count twice); without clustering \
-         wavrad links every pair, so it accepts at most {limit}: merge small triangles into \
-         larger planar patches"
+        "the scene has {surfaces} surfaces (two-sided ones count twice); the shooting solver \
+         links every pair of surfaces, so it accepts at most {limit}: use the gathering \
+         solver, which clusters them"
     )]
     TooManySurfaces {
         /// Surfaces in the scene.

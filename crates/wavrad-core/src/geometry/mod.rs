@@ -1,7 +1,8 @@
-//! The geometry the method works on: a surface's dyadic elements and their
-//! hierarchy, the Haar basis over them (paper eqs. 5–8), the pair
+//! The geometry the method works on: clusters of surfaces, a surface's dyadic
+//! elements and their hierarchy, the Haar basis over them (paper eqs. 5–8), the pair
 //! hierarchies that hold directional radiance (Figure 2), and ray queries.
 
+pub mod cluster;
 pub mod element;
 pub mod haar;
 pub mod hierarchy;

@@ -3,6 +3,7 @@
 //! the oracle accepts them, with the light estimates the weighted oracles
 //! weigh by.
 
+pub mod cluster_links;
 pub mod emitter_links;
 pub mod estimate;
 pub mod importance;

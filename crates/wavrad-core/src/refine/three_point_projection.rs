@@ -12,7 +12,7 @@
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
-use crate::kernel::{faces_away, KernelContext};
+use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
@@ -231,28 +231,32 @@ impl<'a> TripleRefiner<'a> {
     }
 }
 
-/// Every (r, p, q) of whole surfaces that needs three-point links: p glossy,
-/// r able to light p, q able to receive from p (r may be q).
-pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
-    let n = scene.surfaces.len() as u32;
-    let sees = |x: u32, y: u32| {
-        x != y
-            && !faces_away(
-                &scene.surfaces[x as usize].patch,
-                &scene.surfaces[y as usize].patch,
-            )
+/// The surface triples (r, p, q) of three-point links: a glossy p with two
+/// surfaces r ≠ p (the source) and q ≠ p (the receiver) that each make one
+/// of `pairs` with it (the surface pairs that can exchange light, p < r),
+/// in order.
+pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32, u32)> {
+    let mut near = vec![Vec::new(); scene.surfaces.len()];
+    for &(p, r) in pairs {
+        near[p as usize].push(r);
+        near[r as usize].push(p);
+    }
+    near.iter_mut().for_each(|n| {
+        n.sort_unstable();
+        n.dedup();
+    });
+    let glossy = |p: usize| {
+        scene.surfaces[p]
+            .brdf
+            .flags()
+            .contains(BrdfFlags::GLOSSY_REFLECTION)
     };
-    (0..n)
-        .filter(|&p| {
-            scene.surfaces[p as usize]
-                .brdf
-                .flags()
-                .contains(BrdfFlags::GLOSSY_REFLECTION)
-        })
+    (0..scene.surfaces.len())
+        .filter(|&p| glossy(p))
         .flat_map(|p| {
-            (0..n)
-                .filter(move |&r| sees(r, p))
-                .flat_map(move |r| (0..n).filter(move |&q| sees(p, q)).map(move |q| (r, p, q)))
+            let near = &near[p];
+            near.iter()
+                .flat_map(move |&r| near.iter().map(move |&q| (r, p as u32, q)))
         })
         .collect()
 }

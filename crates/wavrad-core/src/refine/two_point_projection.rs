@@ -332,12 +332,23 @@ impl<'a> PairRefiner<'a> {
     /// Compute_2point_Kernel for the pair (a, c) whose throughput is known
     /// (and whose shaft is `clear`, when known: so are its parts').
     fn refine(&mut self, a: Part, c: Part, throughput: f64, clear: bool) {
+        // Virtual resolution splits the larger element. Once the larger is
+        // at the maximum level the smaller stays as it is: splitting it
+        // would not resolve the kernel's variation over the larger (a
+        // triangle of a fine mesh facing a wall would otherwise be split
+        // to the maximum level of its own, far below the wall's).
         let max = self.settings.max_level;
+        let a_larger = a.patch.area() >= c.patch.area();
         let split_a = match (a.element.id.level < max, c.element.id.level < max) {
-            (false, false) => return self.push(&a, &c, throughput, 0.0, None),
-            (true, false) => true,
-            (false, true) => false,
-            (true, true) => a.patch.area() >= c.patch.area(),
+            (true, true) => a_larger,
+            (true, false) if !a_larger => return self.push(&a, &c, throughput, 0.0, None),
+            (false, true) if a_larger => return self.push(&a, &c, throughput, 0.0, None),
+            (a_splits, _) => {
+                if !a_splits && c.element.id.level >= max {
+                    return self.push(&a, &c, throughput, 0.0, None);
+                }
+                a_splits
+            }
         };
         let (split, other) = if split_a { (&a, &c) } else { (&c, &a) };
         // Children coefficients by quadrature.
@@ -400,26 +411,35 @@ impl<'a> PairRefiner<'a> {
     }
 }
 
-/// All two-point links of a scene (compute_kernel of §4.2 for pairs with a
-/// diffuse surface), refined in parallel over surface pairs; the result does not
-/// depend on the number of threads. With an `estimate` the weighted oracles
-/// decide (see [`crate::refine::oracle::Oracle`]), else the paper's.
+/// The two-point links refined from the element pairs `starts`
+/// (compute_kernel of §4.2 for pairs with a diffuse surface: the pairs that
+/// linking from the root, [`crate::refine::cluster_links`], handed to the
+/// projection), in parallel over pairs; the result does not depend on the
+/// number of threads. With an `estimate` the weighted oracles decide (see
+/// [`crate::refine::oracle::Oracle`]), else the paper's.
 pub fn refine_links(
     ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
+    starts: &[[ElementRef; 2]],
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    let pairs = linked_pairs(ctx.scene);
-    project_all("kernels", &pairs, progress, |&pair| {
+    let lambertian = |s: u32| ctx.scene.surfaces[s as usize].brdf.lambertian().is_some();
+    let starts: Vec<[ElementRef; 2]> = starts
+        .iter()
+        .filter(|[a, c]| lambertian(a.surface) || lambertian(c.surface))
+        .copied()
+        .collect();
+    project_all("kernels", &starts, progress, |&pair| {
         refine_pair(ctx, settings, estimate, pair)
     })
 }
 
-/// The surface pairs (p < r) that get two-point links: those not facing
-/// away from each other, at least one of which has a Lambertian lobe
-/// ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a glossy receiver's
-/// reflection goes through three-point links), in order.
+/// The surface pairs (p < r) that get two-point links when every pair is
+/// linked from the surfaces' roots: those not facing away from each other,
+/// at least one of which has a Lambertian lobe
+/// ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a glossy
+/// receiver's reflection goes through three-point links), in order.
 pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
     let n = scene.surfaces.len() as u32;
     (0..n)
@@ -432,19 +452,16 @@ pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
         .collect()
 }
 
-/// The two-point links of one surface pair (p, r), projected from the whole
-/// surfaces down (as [`refine_links`] does for every pair).
+/// The two-point links between elements `a` and `c` of two surfaces,
+/// projected from those elements down.
 pub fn refine_pair(
     ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
-    (p, r): (u32, u32),
+    [a, c]: [ElementRef; 2],
 ) -> Vec<Link> {
-    let mut refiner = PairRefiner::new(ctx, settings, estimate, (p, r));
-    let (a, c) = (
-        Part::of(ctx.scene, ElementRef::root(p)),
-        Part::of(ctx.scene, ElementRef::root(r)),
-    );
+    let mut refiner = PairRefiner::new(ctx, settings, estimate, (a.surface, c.surface));
+    let (a, c) = (Part::of(ctx.scene, a), Part::of(ctx.scene, c));
     let s = refiner.samples(&a, &c, false);
     refiner.refine(a, c, s.total(), s.clear);
     refiner.links

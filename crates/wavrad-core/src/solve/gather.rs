@@ -29,6 +29,7 @@ use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
+use crate::solve::cluster_gather::{ClusterTransfers, FarField};
 use crate::solve::push_pull::Gathered;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -137,6 +138,9 @@ pub struct Interactions {
     /// Exposed fraction of every node (a, b) of every directional
     /// structure: directional radiance is averaged over exposed pairs.
     pub pair_exposure: Vec<Vec<f64>>,
+    /// The links made above the elements, between clusters of surfaces
+    /// and elements ([`crate::solve::cluster_gather`]).
+    pub clusters: ClusterTransfers,
 }
 
 impl Source {
@@ -228,6 +232,7 @@ impl Interactions {
             covers: Vec::new(),
             exposure,
             pair_exposure: Vec::new(),
+            clusters: ClusterTransfers::default(),
         };
         out.pair_exposure = out
             .directional
@@ -363,14 +368,15 @@ impl Interactions {
     /// Radiance reflected at each node of diffuse surface `p` (whose tree
     /// is `tree`) from the current solution: `ρ · Σ F · L_{c→a}` (eq. 12,
     /// before push–pull), each term spread over its receiver with the
-    /// transfer's gradient.
+    /// transfer's gradient, and what its cluster links bring from `far`
+    /// ([`ClusterTransfers::far_field`] of the same solution).
     pub fn gather(
         &self,
         p: usize,
         reflectance: Rgb,
         tree: &ElementTree,
-        radiance: &[Vec<Rgb>],
-        directional: &[Vec<Rgb>],
+        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        far: &FarField,
     ) -> Vec<Rgb> {
         let mut gathered = Gathered::new(tree.nodes.len());
         for t in &self.incoming[p] {
@@ -378,6 +384,8 @@ impl Interactions {
             let value = reflected(reflectance, t.form_factor, l);
             gathered.add(t.receiver as usize, value, t.gradient.as_dvec3());
         }
+        self.clusters
+            .gather_into(p as u32, reflectance, far, &mut gathered);
         gathered.into_averages(tree)
     }
 

@@ -4,18 +4,21 @@
 //! settle. [`shoot`] solves diffuse scenes by progressive shooting instead,
 //! projecting kernels only where light flows (the paper's §6).
 
+pub mod cluster_gather;
 pub mod gather;
 pub mod push_pull;
 pub mod settings;
 pub mod shoot;
 pub mod stats;
 
+use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::pair_tree::PairTree;
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::{KernelContext, Quadrature};
 use crate::progress::Progress;
+use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings, End};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
@@ -28,14 +31,11 @@ use crate::refine::two_point_projection::{refine_links, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
+use cluster_gather::ClusterTransfers;
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::time::Instant;
-
-/// Most surfaces a scene may have: all pairs are linked (no clustering yet),
-/// and 4096 surfaces already make 8.4 million surface pairs.
-pub const MAX_SURFACES: usize = 4096;
 
 /// Settings of a solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,6 +77,11 @@ pub struct SolveSettings {
     /// Most projections of the refine–solve loop of the weighted oracles
     /// (the first counts; 1 keeps the links projected with the emission).
     pub max_refine_passes: u32,
+    /// Largest (r_x + r_y)/d of a cluster link: clusters of surfaces and
+    /// elements that are this small against their distance exchange light
+    /// as wholes ([`crate::refine::cluster_links`]); 0 links every pair of
+    /// surfaces as the paper does.
+    pub cluster_ratio: f64,
 }
 
 /// How the radiance system is solved.
@@ -97,6 +102,9 @@ pub struct Solution {
     pub scene: Scene,
     /// Ray queries over its surfaces (shared with rendering).
     pub tracer: SceneTracer,
+    /// The surface pairs (p < r) linked element to element, which can
+    /// exchange light (the rest exchange it through cluster links).
+    pub pairs: Vec<(u32, u32)>,
     /// One element hierarchy per surface.
     pub trees: Vec<ElementTree>,
     /// Average radiance of every node of every tree, `radiance[surface][node]`:
@@ -159,8 +167,17 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .oracle
         .is_weighted()
         .then(|| LightEstimate::emission(scene, importance(&[])));
-    let mut links = refine_links(&ctx, settings.refine, estimate.as_ref(), progress);
-    let triples = surface_triples(scene);
+    let clusters = ClusterTree::build(scene);
+    let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
+    let pairs = linking.surface_pairs();
+    let mut links = refine_links(
+        &ctx,
+        settings.refine,
+        estimate.as_ref(),
+        &linking.element_pairs,
+        progress,
+    );
+    let triples = surface_triples(scene, &pairs);
     let mut three_point = refine_three_point_links(
         &ctx,
         settings.three_point_refine(),
@@ -184,9 +201,14 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             } else {
                 links.to_vec()
             };
-            let trees = element_trees(scene, &resolved, three_point);
+            let trees = element_trees(scene, &resolved, three_point, &linking.cluster_links);
             times.kernels_s += clock.elapsed().as_secs_f64();
-            let mut system = System::assemble(&ctx, &triples, trees, &resolved, three_point, times);
+            let links = Links {
+                two_point: &resolved,
+                three_point,
+                clusters: (&clusters, &linking.cluster_links),
+            };
+            let mut system = System::assemble(&ctx, &triples, trees, links, times);
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
@@ -229,11 +251,22 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
-    let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
+    if std::env::var("WAVRAD_DEBUG").is_ok() {
+        let mut v: Vec<(usize, u32, String)> = system.trees.iter().enumerate().map(|(i, t)| (t.nodes.len(), i as u32, scene.surfaces[i].name.clone())).collect();
+        v.sort();
+        eprintln!("biggest trees: {:?}", &v[v.len().saturating_sub(12)..]);
+        let mut per: Vec<usize> = vec![0; scene.surfaces.len()];
+        for l in &resolved { per[l.p as usize] += 1; per[l.r as usize] += 1; }
+        let mut w: Vec<(usize, usize)> = per.iter().copied().enumerate().map(|(i, n)| (n, i)).collect();
+        w.sort();
+        eprintln!("most links: {:?}", &w[w.len().saturating_sub(12)..]);
+        eprintln!("links before resolve {} after {}", links.len(), resolved.len());
+    }
     let stats = Stats {
         projections: passes,
-        exchanging_pairs,
-        kernel_pairs: exchanging_pairs,
+        exchanging_pairs: pairs.len(),
+        kernel_pairs: pairs.len(),
+        cluster_links: linking.cluster_links.len(),
         times,
         ..Stats::new(
             scene,
@@ -248,6 +281,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
     Ok(Solution {
         scene: scene.clone(),
         tracer,
+        pairs,
         trees: system.trees,
         radiance: system.radiance,
         interactions: system.interactions,
@@ -292,6 +326,7 @@ impl Solution {
             .iter()
             .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
             .collect();
+        let far = self.interactions.clusters.far_field(&emission);
         let bounce = scene
             .surfaces
             .par_iter()
@@ -301,9 +336,9 @@ impl Solution {
                     return Vec::new();
                 };
                 let tree = &self.trees[p];
-                let gathered = self
-                    .interactions
-                    .gather(p, rho, tree, &emission, &directional);
+                let gathered =
+                    self.interactions
+                        .gather(p, rho, tree, (&emission, &directional), &far);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure)
             })
@@ -312,18 +347,20 @@ impl Solution {
     }
 }
 
-/// A scene the solvers accept: some surfaces, not too many.
+/// A scene the solvers accept: some surfaces.
 fn check_size(scene: &Scene) -> Result<()> {
     if scene.surfaces.is_empty() {
         return Err(Error::EmptyScene);
     }
-    if scene.surfaces.len() > MAX_SURFACES {
-        return Err(Error::TooManySurfaces {
-            surfaces: scene.surfaces.len(),
-            limit: MAX_SURFACES,
-        });
-    }
     Ok(())
+}
+
+/// Every link of one projection, as the system is assembled from them.
+#[derive(Clone, Copy)]
+struct Links<'a> {
+    two_point: &'a [Link],
+    three_point: &'a [ThreePointLink],
+    clusters: (&'a ClusterTree, &'a [ClusterLink]),
 }
 
 /// The linear system of one set of links and its solution.
@@ -335,13 +372,20 @@ struct System {
 }
 
 /// The element hierarchy of every surface: the smallest trees holding every
-/// element of `links` and every source element of `three_point`.
+/// element of `links`, every source element of `three_point` and every
+/// element end of `cluster_links`.
 fn element_trees(
     scene: &Scene,
     links: &[Link],
     three_point: &[ThreePointLink],
+    cluster_links: &[ClusterLink],
 ) -> Vec<ElementTree> {
     let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
+    for end in cluster_links.iter().flat_map(|l| l.ends) {
+        if let End::Element(e) = end {
+            ids[e.surface as usize].insert(e.id);
+        }
+    }
     for l in links {
         ids[l.p as usize].insert(l.a);
         ids[l.r as usize].insert(l.c);
@@ -365,10 +409,14 @@ impl System {
         ctx: &KernelContext,
         triples: &[(u32, u32, u32)],
         trees: Vec<ElementTree>,
-        links: &[Link],
-        three_point: &[ThreePointLink],
+        links: Links,
         times: &mut PhaseTimes,
     ) -> System {
+        let Links {
+            two_point: links,
+            three_point,
+            clusters: (clusters, cluster_links),
+        } = links;
         let clock = Instant::now();
         let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
         // A glossy surface lit by nothing may still emit towards what it sees.
@@ -410,7 +458,7 @@ impl System {
                         .map(|l| [ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b)]),
                 ),
         );
-        let interactions = Interactions::new(
+        let mut interactions = Interactions::new(
             ctx.scene,
             &trees,
             exposure,
@@ -419,6 +467,8 @@ impl System {
             &pairs,
             directional,
         );
+        interactions.clusters =
+            ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, cluster_links);
         let radiance = ctx
             .scene
             .surfaces
@@ -473,9 +523,11 @@ impl System {
         progress.start("solving", u64::from(settings.max_iterations));
         while iterations < settings.max_iterations && residual > settings.tolerance {
             residual = 0.0;
+            let far = interactions.clusters.far_field(radiance);
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 if let Some(rho) = surface.brdf.lambertian() {
-                    let gathered = interactions.gather(p, rho, &trees[p], radiance, directional);
+                    let read = (&radiance[..], &directional[..]);
+                    let gathered = interactions.gather(p, rho, &trees[p], read, &far);
                     let exposure = Some(&interactions.exposure[p][..]);
                     let updated =
                         push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);
@@ -516,6 +568,14 @@ impl SolveSettings {
             settings.three_point_threshold = WEIGHTED_THRESHOLD;
         }
         settings
+    }
+
+    /// The settings of linking from the root cluster.
+    pub fn clusters(&self) -> ClusterSettings {
+        ClusterSettings {
+            ratio: self.cluster_ratio,
+            max_level: self.refine.max_level,
+        }
     }
 
     /// The refinement settings of three-point links.
@@ -583,6 +643,12 @@ impl SolveSettings {
                 "quadrature orders must be at least 1".into(),
             ));
         }
+        if !(0.0..=0.9).contains(&self.cluster_ratio) {
+            return Err(Error::InvalidSetting(format!(
+                "cluster ratio must be in [0, 0.9], got {}",
+                self.cluster_ratio
+            )));
+        }
         if self.max_refine_passes == 0 {
             return Err(Error::InvalidSetting(
                 "refine passes must be at least 1".into(),
@@ -615,6 +681,7 @@ impl Default for SolveSettings {
             max_iterations: 200,
             oracle: Oracle::Kernel,
             max_refine_passes: 4,
+            cluster_ratio: 0.25,
         }
     }
 }

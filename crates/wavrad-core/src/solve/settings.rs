@@ -81,6 +81,15 @@ impl Described for SolveSettings {
                    ray queries.",
         },
         Setting {
+            name: "cluster_ratio",
+            group: Group::Solve,
+            domain: Domain::Real { min: 0.0, max: 0.9 },
+            default: "0.25",
+            help: "Largest (size of both ends)/distance of a link between clusters of surfaces: \
+                   groups of surfaces this small against their distance exchange light as \
+                   wholes (0: every pair of surfaces is linked, as in the paper).",
+        },
+        Setting {
             name: "refine_passes",
             group: Group::Solve,
             domain: Domain::Count { min: 1, max: 64 },
@@ -119,6 +128,7 @@ impl Described for SolveSettings {
             "three_point_threshold" => Value::Real(self.three_point_threshold),
             "three_point_max_level" => Value::Count(self.three_point_max_level),
             "three_point_receiver_levels" => Value::Count(self.three_point_receiver_levels),
+            "cluster_ratio" => Value::Real(self.cluster_ratio),
             "refine_passes" => Value::Count(self.max_refine_passes),
             "tolerance" => Value::Real(self.tolerance),
             "max_iterations" => Value::Count(self.max_iterations),
@@ -138,6 +148,7 @@ impl Described for SolveSettings {
             ("three_point_receiver_levels", Value::Count(j)) => {
                 self.three_point_receiver_levels = j
             }
+            ("cluster_ratio", Value::Real(r)) => self.cluster_ratio = r,
             ("refine_passes", Value::Count(n)) => self.max_refine_passes = n,
             ("tolerance", Value::Real(t)) => self.tolerance = t,
             ("max_iterations", Value::Count(n)) => self.max_iterations = n,

@@ -56,8 +56,9 @@
 
 use super::gather::{form_factor, receiver_gradient, reflected, Interactions};
 use super::push_pull::Gathered;
-use super::{push_pull, Solution, SolveSettings, System};
-use crate::geometry::hierarchy::{ElementId, ElementTree};
+use super::{push_pull, Links, Solution, SolveSettings, System};
+use crate::geometry::cluster::ClusterTree;
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::exposed_fractions;
 use crate::kernel::KernelContext;
@@ -75,6 +76,15 @@ use rayon::prelude::*;
 use std::collections::BTreeSet;
 use std::ops::ControlFlow;
 use std::time::Instant;
+
+/// Most surfaces the shooting solver takes: it links surfaces pairwise (no
+/// clustering), and 4096 surfaces already make 8.4 million pairs.
+pub const MAX_SHOOTING_SURFACES: usize = 4096;
+
+/// The root elements of a surface pair.
+fn roots((p, r): (u32, u32)) -> [ElementRef; 2] {
+    [ElementRef::root(p), ElementRef::root(r)]
+}
 
 /// What one shooting step did, as reported to the `on_step` callback of
 /// [`solve_shooting`].
@@ -123,6 +133,12 @@ pub fn solve_shooting(
 ) -> Result<Solution> {
     settings.validate()?;
     super::check_size(scene)?;
+    if scene.surfaces.len() > MAX_SHOOTING_SURFACES {
+        return Err(Error::TooManySurfaces {
+            surfaces: scene.surfaces.len(),
+            limit: MAX_SHOOTING_SURFACES,
+        });
+    }
     if let Some(s) = scene
         .surfaces
         .iter()
@@ -147,6 +163,7 @@ pub fn solve_shooting(
     let mut solution = Solution {
         scene: scene.clone(),
         tracer,
+        pairs: Vec::new(),
         trees: Vec::new(),
         radiance: Vec::new(),
         interactions: Interactions::default(),
@@ -197,9 +214,14 @@ pub fn solve_shooting(
     let links: Vec<Link> = shooting.links().copied().collect();
     let max_level = settings.refine.max_level;
     let (links, _) = resolve_emitter_links(&ctx, max_level, &links, progress);
-    let trees = super::element_trees(scene, &links, &[]);
+    let trees = super::element_trees(scene, &links, &[], &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
-    let mut system = System::assemble(&ctx, &[], trees, &links, &[], &mut shooting.times);
+    let links = Links {
+        two_point: &links,
+        three_point: &[],
+        clusters: (&ClusterTree::default(), &[]),
+    };
+    let mut system = System::assemble(&ctx, &[], trees, links, &mut shooting.times);
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
     solution.stats = shooting.stats(&system.trees, sweeps);
     solution.trees = system.trees;
@@ -395,7 +417,7 @@ impl<'a> Shooting<'a> {
         work.par_iter_mut().for_each(|(i, links)| {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
-                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), pair),
+                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), roots(pair)),
                 (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, &Silent).0,
                 (Some(old), None) => old,
             });

@@ -81,9 +81,12 @@ pub struct Stats {
     /// Unshot power left when shooting stopped, relative to the emitted
     /// power (0 when gathering).
     pub unshot_fraction: f64,
-    /// Surface pairs that can exchange light (not facing away, one of them
-    /// diffuse): the pairs gathering projects kernels for.
+    /// Surface pairs linked element to element that can exchange light
+    /// (not facing away): the pairs gathering projects kernels for.
     pub exchanging_pairs: usize,
+    /// Links between clusters of surfaces or elements, made above the
+    /// elements ([`crate::refine::cluster_links`]).
+    pub cluster_links: usize,
     /// Surface pairs whose kernels were projected: all exchanging pairs when
     /// gathering, only those light flowed through when shooting.
     pub kernel_pairs: usize,
@@ -143,6 +146,7 @@ impl Stats {
             shooting_steps: 0,
             unshot_fraction: 0.0,
             exchanging_pairs: 0,
+            cluster_links: 0,
             kernel_pairs: 0,
             iterations: sweeps.iterations,
             residual: sweeps.residual,

@@ -1,0 +1,214 @@
+//! Gathering through cluster links ([`crate::refine::cluster_links`]).
+//!
+//! An end sends towards the other end's centre c the intensity
+//! S = Σ_m A_m max(0, n_m·ω) L_m over its members m (a cluster's surfaces,
+//! read as their average radiance, or one element), ω the direction from
+//! its own centre to c: each member's own cosine, as Sillion 1995's
+//! anisotropic clusters and Smits et al. 1994's α-links evaluate them. A
+//! receiving member at x gathers ρ·V·max(0, n·u)·S / (π·d²), u and d the
+//! direction and distance from x to the source's centre and V the link's
+//! visibility: eq. 12 with the point-to-point form factor between the
+//! member and the source's members. A cluster's members gather at their
+//! roots (push–pull spreads it), an element at its node.
+//!
+//! Per sweep, [`ClusterTransfers::far_field`] evaluates every end's
+//! intensity once from the current radiance (a Jacobi step over cluster
+//! links; the surfaces' own links stay Gauss–Seidel), and each surface
+//! then gathers over the links of the clusters above it.
+
+use crate::geometry::cluster::ClusterTree;
+use crate::geometry::hierarchy::ElementTree;
+use crate::refine::cluster_links::{ClusterLink, End};
+use crate::scene::{Rgb, Scene};
+use crate::solve::push_pull::Gathered;
+use glam::DVec3;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// A member of a cluster link's end: where it is, which way it faces, how
+/// large it is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Member {
+    surface: u32,
+    node: u32,
+    point: DVec3,
+    normal: DVec3,
+    area: f64,
+}
+
+/// One end of a cluster link, ready for gathering.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Side {
+    /// A node of the cluster tree (its members' roots).
+    Cluster(u32),
+    /// One element.
+    Element(Member),
+}
+
+/// A cluster link ready for gathering.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Transfer {
+    sides: [Side; 2],
+    centers: [DVec3; 2],
+    visibility: f64,
+}
+
+/// The cluster links of a solution, arranged for gathering.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ClusterTransfers {
+    /// The scene's cluster tree.
+    pub clusters: ClusterTree,
+    links: Vec<Transfer>,
+    /// Every surface's root as a member (centroid, normal, area).
+    roots: Vec<Member>,
+    /// (link, side) of the links at each cluster node.
+    at_cluster: Vec<Vec<(u32, u8)>>,
+    /// (link, side) of the links at an element of each surface.
+    at_surface: Vec<Vec<(u32, u8)>>,
+}
+
+/// Every end's intensity towards the other end, from one radiance state:
+/// `[towards side 1, towards side 0]` per link.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FarField {
+    sent: Vec<[Rgb; 2]>,
+}
+
+impl ClusterTransfers {
+    /// Arrange `links` of `scene`, whose surfaces have the element trees
+    /// `trees` (holding every element end) and the cluster tree `clusters`.
+    pub fn new(
+        scene: &Scene,
+        clusters: ClusterTree,
+        trees: &[ElementTree],
+        links: &[ClusterLink],
+    ) -> ClusterTransfers {
+        let roots: Vec<Member> = scene
+            .surfaces
+            .iter()
+            .enumerate()
+            .map(|(s, surface)| Member {
+                surface: s as u32,
+                node: 0,
+                point: surface.patch.centroid(),
+                normal: surface.patch.normal(),
+                area: surface.patch.area(),
+            })
+            .collect();
+        let mut at_cluster = vec![Vec::new(); clusters.nodes.len()];
+        let mut at_surface = vec![Vec::new(); scene.surfaces.len()];
+        let side = |end: End| match end {
+            End::Cluster(c) => (Side::Cluster(c), clusters.nodes[c as usize].center),
+            End::Element(e) => {
+                let tree = &trees[e.surface as usize];
+                let node = tree.index_of(e.id).expect("element ends are in their trees");
+                let patch = &tree.nodes[node as usize].patch;
+                let member = Member {
+                    node,
+                    point: patch.centroid(),
+                    area: patch.area(),
+                    ..roots[e.surface as usize]
+                };
+                (Side::Element(member), member.point)
+            }
+        };
+        let transfers = links
+            .iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let [(s0, c0), (s1, c1)] = l.ends.map(side);
+                for (k, s) in [s0, s1].iter().enumerate() {
+                    match s {
+                        Side::Cluster(c) => at_cluster[*c as usize].push((i as u32, k as u8)),
+                        Side::Element(m) => at_surface[m.surface as usize].push((i as u32, k as u8)),
+                    }
+                }
+                Transfer {
+                    sides: [s0, s1],
+                    centers: [c0, c1],
+                    visibility: l.visibility,
+                }
+            })
+            .collect();
+        ClusterTransfers {
+            clusters,
+            links: transfers,
+            roots,
+            at_cluster,
+            at_surface,
+        }
+    }
+
+    /// Number of cluster links.
+    pub fn len(&self) -> usize {
+        self.links.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.links.is_empty()
+    }
+
+    /// Each end's intensity S towards the other from `radiance` (every
+    /// surface's node averages).
+    pub fn far_field(&self, radiance: &[Vec<Rgb>]) -> FarField {
+        let sent = self
+            .links
+            .par_iter()
+            .map(|t| {
+                [0, 1].map(|k| {
+                    let towards = (t.centers[1 - k] - t.centers[k]).normalize_or_zero();
+                    let send = |m: &Member| {
+                        let cos = m.normal.dot(towards);
+                        if cos > 0.0 {
+                            radiance[m.surface as usize][m.node as usize] * (m.area * cos)
+                        } else {
+                            Rgb::ZERO
+                        }
+                    };
+                    match &t.sides[k] {
+                        Side::Element(m) => send(m),
+                        Side::Cluster(c) => self
+                            .clusters
+                            .members_of(*c)
+                            .iter()
+                            .map(|&s| send(&self.roots[s as usize]))
+                            .fold(Rgb::ZERO, |a, b| a + b),
+                    }
+                })
+            })
+            .collect();
+        FarField { sent }
+    }
+
+    /// Add to `gathered` (surface `p`'s tree) the light of reflectance
+    /// `reflectance` it gathers through cluster links from `far`.
+    pub fn gather_into(&self, p: u32, reflectance: Rgb, far: &FarField, gathered: &mut Gathered) {
+        let mut add = |member: &Member, (link, side): (u32, u8)| {
+            let t = &self.links[link as usize];
+            let to = t.centers[1 - side as usize] - member.point;
+            let d2 = to.length_squared();
+            let cos = member.normal.dot(to);
+            if cos <= 0.0 || d2 <= 0.0 {
+                return;
+            }
+            let factor = t.visibility * cos / (PI * d2 * d2.sqrt());
+            let value = reflectance * far.sent[link as usize][1 - side as usize] * factor;
+            gathered.add(member.node as usize, value, DVec3::ZERO);
+        };
+        if self.clusters.nodes.is_empty() {
+            return;
+        }
+        let root = &self.roots[p as usize];
+        for c in self.clusters.ancestors(p) {
+            for &at in &self.at_cluster[c as usize] {
+                add(root, at);
+            }
+        }
+        for &at in &self.at_surface[p as usize] {
+            if let Side::Element(m) = self.links[at.0 as usize].sides[at.1 as usize] {
+                add(&m, at);
+            }
+        }
+    }
+}
