@@ -73,6 +73,7 @@ def make(kind: str, triangles: int, out: Path) -> Path:
     shape = f"""
     <shape type="ply">
         <string name="filename" value="mesh.ply"/>
+        <boolean name="face_normals" value="true"/>
         <transform name="to_world">
             <scale value="0.45"/>
             <translate x="0" y="-0.5" z="0"/>

@@ -13,11 +13,11 @@ use wavrad_core::solve::{push_pull::push_pull, solve, Solution, SolveSettings};
 /// One sweep as `solve` does it (diffuse surfaces only: the Cornell box has
 /// no glossy one), updating `radiance` in place.
 fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
+    let far = s.interactions.clusters.far_field(radiance);
     for (p, surface) in s.scene.surfaces.iter().enumerate() {
         let rho = surface.brdf.lambertian().expect("diffuse scene");
-        let gathered = s
-            .interactions
-            .gather(p, rho, &s.trees[p], radiance, &s.directional);
+        let read = (&radiance[..], &s.directional[..]);
+        let gathered = s.interactions.gather(p, rho, &s.trees[p], read, &far);
         let exposure = Some(&s.interactions.exposure[p][..]);
         radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure);
     }
@@ -50,15 +50,15 @@ fn gauss_seidel(c: &mut Criterion) {
     group.throughput(Throughput::Elements(
         s.interactions.incoming[busiest].len() as u64
     ));
+    let far = s.interactions.clusters.far_field(&s.radiance);
+    let read = (&s.radiance[..], &s.directional[..]);
     group.bench_function("gather (busiest surface)", |b| {
         b.iter(|| {
             s.interactions
-                .gather(busiest, rho, tree, black_box(&s.radiance), &s.directional)
+                .gather(busiest, rho, tree, black_box(read), &far)
         })
     });
-    let gathered = s
-        .interactions
-        .gather(busiest, rho, tree, &s.radiance, &s.directional);
+    let gathered = s.interactions.gather(busiest, rho, tree, read, &far);
     group.throughput(Throughput::Elements(tree.nodes.len() as u64));
     group.bench_function("push_pull (busiest surface)", |b| {
         let exposure = Some(&s.interactions.exposure[busiest][..]);

@@ -81,6 +81,46 @@ fn closed_box_of_triangles_furnace() {
 }
 
 #[test]
+fn closed_box_of_many_small_surfaces_furnace_with_clusters() {
+    // Each face cut into 12 × 12 squares: distant groups of squares exchange
+    // light through cluster links, whose form factors (each member's own
+    // cosine and area, the distance to the other end's centre) must still
+    // sum to one for every square, as the element links' do.
+    let n = 12;
+    let surfaces: Vec<Surface> = walls(false)
+        .into_iter()
+        .flat_map(|face| {
+            let [o, a, _, b] = <[DVec3; 4]>::try_from(face.vertices()).unwrap();
+            let (s, t) = ((a - o) / n as f64, (b - o) / n as f64);
+            (0..n * n).map(move |k| Patch::Parallelogram {
+                origin: o + (k % n) as f64 * s + (k / n) as f64 * t,
+                edge_s: s,
+                edge_t: t,
+            })
+        })
+        .map(|patch| Surface {
+            name: "square".into(),
+            patch,
+            brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
+            emission: Rgb::splat(1.0),
+        })
+        .collect();
+    let scene = Scene::from_surfaces(surfaces);
+    let clustered = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    assert!(
+        clustered.stats.cluster_links > 1000,
+        "{}",
+        clustered.stats.cluster_links
+    );
+    let worst = clustered
+        .radiance
+        .iter()
+        .map(|r| (r[0].max_channel() - 2.0).abs() / 2.0)
+        .fold(0.0, f64::max);
+    assert!(worst < 0.005, "worst surface error {worst}");
+}
+
+#[test]
 fn weighted_oracles_conserve_energy_in_the_furnace() {
     // The refine–solve loop refines links where light flows; whatever it
     // keeps, each element's form factors must still sum to one.

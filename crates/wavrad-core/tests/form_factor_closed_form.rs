@@ -5,7 +5,7 @@ use glam::DVec3;
 use wavrad_core::geometry::tracing::SceneTracer;
 use wavrad_core::kernel::KernelContext;
 use wavrad_core::progress::Silent;
-use wavrad_core::refine::two_point_projection::refine_links;
+use wavrad_core::refine::two_point_projection::{refine_links, root_pairs};
 use wavrad_core::scene::{Patch, Scene};
 use wavrad_core::solve::SolveSettings;
 use wavrad_core::testing::grey;
@@ -20,7 +20,7 @@ fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
         tracer: &tracer,
         quadrature: settings.quadrature,
     };
-    let links = refine_links(&ctx, settings.refine, None, &Silent);
+    let links = refine_links(&ctx, settings.refine, None, &root_pairs(&scene), &Silent);
     let t: f64 = links.iter().map(|l| l.throughput).sum();
     (t / a.area(), t / c.area())
 }

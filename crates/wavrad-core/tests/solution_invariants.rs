@@ -9,6 +9,7 @@ use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::{
     Camera, Film, FovAxis, Patch, PixelFilter, Projection, Rgb, Scene, Surface,
 };
+use wavrad_core::solve::shoot::solve_shooting;
 use wavrad_core::solve::{solve, SolveSettings};
 
 fn square(z: f64, up: bool) -> Patch {
@@ -231,18 +232,21 @@ fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
     assert_eq!(i1, i2);
 }
 
-/// A mesh too fine for pairwise linking is refused at once, not solved for hours.
+/// The shooting solver links surfaces pairwise: a mesh too fine for that is
+/// refused at once, not solved for hours, with the way out in the message.
 #[test]
-fn too_many_surfaces_is_a_clear_error() {
+fn too_many_surfaces_for_shooting_is_a_clear_error() {
     let tiny = Surface {
         name: "t".into(),
         patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
         brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
     };
-    let scene = Scene::from_surfaces(vec![tiny; wavrad_core::solve::MAX_SURFACES + 1]);
-    let err = solve(&scene, &SolveSettings::default(), &Silent)
+    let limit = wavrad_core::solve::shoot::MAX_SHOOTING_SURFACES;
+    let scene = Scene::from_surfaces(vec![tiny; limit + 1]);
+    let err = solve_shooting(&scene, &SolveSettings::default(), &Silent, None)
         .err()
         .unwrap();
     assert!(err.to_string().contains("4097 surfaces"), "{err}");
+    assert!(err.to_string().contains("gathering solver"), "{err}");
 }

@@ -20,6 +20,8 @@ pub struct Cluster {
     /// Half the bounding box's diagonal: every member lies within this
     /// distance of `center`.
     pub radius: f64,
+    /// Area-weighted centroid of its members.
+    pub centroid: DVec3,
     /// Total area of its members.
     pub area: f64,
     /// Largest Lambertian reflectance (largest channel) of its members.
@@ -64,9 +66,10 @@ impl ClusterTree {
             let index = tree.nodes.len() as u32;
             let slice = &mut tree.members[range.start as usize..range.end as usize];
             let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-            let (mut area, mut reflectance) = (0.0, 0.0f64);
+            let (mut area, mut reflectance, mut moment) = (0.0, 0.0f64, DVec3::ZERO);
             for &s in slice.iter() {
                 let surface = &scene.surfaces[s as usize];
+                moment += surface.patch.area() * centroids[s as usize];
                 for v in surface.patch.vertices() {
                     lo = lo.min(v);
                     hi = hi.max(v);
@@ -83,6 +86,11 @@ impl ClusterTree {
             tree.nodes.push(Cluster {
                 center: 0.5 * (lo + hi),
                 radius: 0.5 * (hi - lo).length(),
+                centroid: if area > 0.0 {
+                    moment / area
+                } else {
+                    0.5 * (lo + hi)
+                },
                 area,
                 reflectance,
                 members: range.clone(),
@@ -134,7 +142,9 @@ impl ClusterTree {
         let (a0, a1) = (self.area_prefix[start], self.area_prefix[end]);
         let target = a0 + u.clamp(0.0, 1.0) * (a1 - a0);
         let prefix = &self.area_prefix[start + 1..end];
-        let k = prefix.partition_point(|&a| a <= target).min(end - start - 1);
+        let k = prefix
+            .partition_point(|&a| a <= target)
+            .min(end - start - 1);
         self.members[start + k]
     }
 
@@ -181,16 +191,26 @@ mod tests {
         assert_eq!(leaves.len(), 13);
         for (c, node) in tree.nodes.iter().enumerate() {
             let members = tree.members_of(c as u32);
-            let area: f64 = members.iter().map(|&s| scene.surfaces[s as usize].patch.area()).sum();
+            let area: f64 = members
+                .iter()
+                .map(|&s| scene.surfaces[s as usize].patch.area())
+                .sum();
             assert!((area - node.area).abs() < 1e-12);
+            assert!(node.centroid.distance(node.center) <= node.radius);
             for &s in members {
                 for v in scene.surfaces[s as usize].patch.vertices() {
                     assert!(v.distance(node.center) <= node.radius + 1e-12);
                 }
             }
             if let Some([a, b]) = node.children {
-                let (ra, rb) = (&tree.nodes[a as usize].members, &tree.nodes[b as usize].members);
-                assert_eq!((ra.start, ra.end, rb.end), (node.members.start, rb.start, node.members.end));
+                let (ra, rb) = (
+                    &tree.nodes[a as usize].members,
+                    &tree.nodes[b as usize].members,
+                );
+                assert_eq!(
+                    (ra.start, ra.end, rb.end),
+                    (node.members.start, rb.start, node.members.end)
+                );
                 assert_eq!(tree.nodes[a as usize].parent, Some(c as u32));
             }
         }

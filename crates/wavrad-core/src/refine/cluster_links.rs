@@ -202,7 +202,13 @@ impl Linker<'_> {
     fn pair(&self, x: End, y: End, out: &mut Linking) {
         if let (End::Element(a), End::Element(c)) = (x, y) {
             if a.surface != c.surface && !faces_away(&self.patch(a), &self.patch(c)) {
-                out.element_pairs.push([a, c]);
+                // In surface order, as the projection of every pair of
+                // surfaces from their roots takes them.
+                out.element_pairs.push(if a.surface < c.surface {
+                    [a, c]
+                } else {
+                    [c, a]
+                });
             }
             return;
         }
@@ -236,7 +242,11 @@ impl Linker<'_> {
         let parts: Vec<End> = match split {
             End::Cluster(c) => {
                 let children = self.clusters.nodes[c as usize].children;
-                children.into_iter().flatten().map(|k| self.end_of(k)).collect()
+                children
+                    .into_iter()
+                    .flatten()
+                    .map(|k| self.end_of(k))
+                    .collect()
             }
             End::Element(e) => (0..4).map(|k| End::Element(e.child(k))).collect(),
         };
@@ -306,6 +316,100 @@ fn end_seed(end: End) -> u64 {
         End::Cluster(c) => 0x9e37_79b9_7f4a_7c15 ^ u64::from(c),
         End::Element(e) => {
             (u64::from(e.surface) << 32) ^ e.id.path.rotate_left(7) ^ u64::from(e.id.level)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::tracing::SceneTracer;
+    use crate::kernel::Quadrature;
+    use crate::progress::Silent;
+    use crate::scene::Scene;
+    use crate::testing::grey;
+    use std::collections::BTreeMap;
+
+    /// A grid of `n` × `n` unit squares in the plane through `origin`
+    /// spanned by `s`, `t` (facing s × t).
+    fn grid(origin: DVec3, s: DVec3, t: DVec3, n: usize) -> impl Iterator<Item = Patch> {
+        (0..n * n).map(move |k| Patch::Parallelogram {
+            origin: origin + (k % n) as f64 * s + (k / n) as f64 * t,
+            edge_s: s,
+            edge_t: t,
+        })
+    }
+
+    #[test]
+    fn every_pair_of_surfaces_is_covered_once() {
+        // A floor of 8 × 8 squares, a facing ceiling of 8 × 8 and a
+        // large wall between them: pairs near each other go to the
+        // projection, distant groups to cluster links, and the wall's
+        // elements are split towards the clusters that face them. Whatever
+        // the mix, each pair of surfaces that face each other must be
+        // linked exactly once: the covered fraction of p × r sums to one.
+        let floor = grid(DVec3::ZERO, DVec3::X, DVec3::Y, 8);
+        let ceiling = grid(DVec3::new(0.0, 0.0, 12.0), DVec3::Y, DVec3::X, 8);
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(-1.0, -1.0, 0.5),
+            edge_s: DVec3::new(0.0, 10.0, 0.0),
+            edge_t: DVec3::new(0.0, 0.0, 11.0),
+        };
+        let patches: Vec<Patch> = floor.chain(ceiling).chain([wall]).collect();
+        let scene = Scene::from_surfaces(patches.into_iter().map(grey).collect());
+        let tracer = SceneTracer::new(&scene);
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: Quadrature::default(),
+        };
+        let clusters = ClusterTree::build(&scene);
+        let settings = ClusterSettings {
+            ratio: 0.25,
+            max_level: 5,
+        };
+        let linking = link_from_root(&ctx, &clusters, settings, &Silent);
+        assert!(!linking.cluster_links.is_empty());
+        assert!(linking.cluster_links.iter().any(|l| l
+            .ends
+            .iter()
+            .any(|e| matches!(e, End::Element(e) if e.id.level > 0))));
+
+        let area = |e: ElementRef| {
+            let root = &scene.surfaces[e.surface as usize].patch;
+            e.id.patch(root).area() / root.area()
+        };
+        // (p, r) → covered fraction, from both kinds of links.
+        let mut covered: BTreeMap<(u32, u32), f64> = BTreeMap::new();
+        let mut cover =
+            |p: u32, r: u32, f: f64| *covered.entry((p.min(r), p.max(r))).or_default() += f;
+        for [a, c] in &linking.element_pairs {
+            cover(a.surface, c.surface, area(*a) * area(*c));
+        }
+        let members = |end: End| -> Vec<(u32, f64)> {
+            match end {
+                End::Cluster(c) => clusters.members_of(c).iter().map(|&s| (s, 1.0)).collect(),
+                End::Element(e) => vec![(e.surface, area(e))],
+            }
+        };
+        for l in &linking.cluster_links {
+            for (p, fp) in members(l.ends[0]) {
+                for (r, fr) in members(l.ends[1]) {
+                    assert_ne!(p, r, "a cluster link within one surface");
+                    cover(p, r, fp * fr);
+                }
+            }
+        }
+        let n = scene.surfaces.len() as u32;
+        for p in 0..n {
+            for r in p + 1..n {
+                let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
+                let c = covered.get(&(p, r)).copied().unwrap_or(0.0);
+                assert!(c <= 1.0 + 1e-9, "surfaces {p} and {r} linked {c} times");
+                if !faces_away(&sp.patch, &sr.patch) {
+                    assert!((c - 1.0).abs() < 1e-9, "surfaces {p} and {r} covered {c}");
+                }
+            }
         }
     }
 }

@@ -158,7 +158,7 @@ mod tests {
     use crate::geometry::tracing::SceneTracer;
     use crate::kernel::default_context;
     use crate::progress::Silent;
-    use crate::refine::two_point_projection::{refine_links, RefineSettings};
+    use crate::refine::two_point_projection::{refine_links, root_pairs, RefineSettings};
     use crate::scene::{FovAxis, Projection, Scene};
     use crate::testing::{grey, inward_box};
 
@@ -215,7 +215,7 @@ mod tests {
             threshold: 1e-2,
             max_level: 3,
         };
-        let links = refine_links(&ctx, settings, None, &Silent);
+        let links = refine_links(&ctx, settings, None, &root_pairs(&scene), &Silent);
         let spread = Importance::new(&ctx, camera, &scene.film, &links);
         let ceiling = whole(&spread, 1);
         assert!(

@@ -333,22 +333,19 @@ impl<'a> PairRefiner<'a> {
     /// (and whose shaft is `clear`, when known: so are its parts').
     fn refine(&mut self, a: Part, c: Part, throughput: f64, clear: bool) {
         // Virtual resolution splits the larger element. Once the larger is
-        // at the maximum level the smaller stays as it is: splitting it
-        // would not resolve the kernel's variation over the larger (a
-        // triangle of a fine mesh facing a wall would otherwise be split
-        // to the maximum level of its own, far below the wall's).
+        // at the maximum level the smaller stays as it is unless it
+        // `touches` the larger's plane: elsewhere splitting it would not
+        // resolve the kernel's variation over the larger (a triangle of a
+        // fine mesh facing a wall would otherwise be split to the maximum
+        // level of its own, far below the wall's), but along a contact the
+        // kernel is singular over the smaller one too.
         let max = self.settings.max_level;
         let a_larger = a.patch.area() >= c.patch.area();
         let split_a = match (a.element.id.level < max, c.element.id.level < max) {
             (true, true) => a_larger,
-            (true, false) if !a_larger => return self.push(&a, &c, throughput, 0.0, None),
-            (false, true) if a_larger => return self.push(&a, &c, throughput, 0.0, None),
-            (a_splits, _) => {
-                if !a_splits && c.element.id.level >= max {
-                    return self.push(&a, &c, throughput, 0.0, None);
-                }
-                a_splits
-            }
+            (true, false) if a_larger || touches(&a, &c) => true,
+            (false, true) if !a_larger || touches(&c, &a) => false,
+            _ => return self.push(&a, &c, throughput, 0.0, None),
         };
         let (split, other) = if split_a { (&a, &c) } else { (&c, &a) };
         // Children coefficients by quadrature.
@@ -452,6 +449,15 @@ pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
         .collect()
 }
 
+/// [`linked_pairs`] as pairs of root elements: the starts of
+/// [`refine_links`] when every pair of surfaces is linked from its roots.
+pub fn root_pairs(scene: &Scene) -> Vec<[ElementRef; 2]> {
+    linked_pairs(scene)
+        .into_iter()
+        .map(|(p, r)| [ElementRef::root(p), ElementRef::root(r)])
+        .collect()
+}
+
 /// The two-point links between elements `a` and `c` of two surfaces,
 /// projected from those elements down.
 pub fn refine_pair(
@@ -465,6 +471,23 @@ pub fn refine_pair(
     let s = refiner.samples(&a, &c, false);
     refiner.refine(a, c, s.total(), s.clear);
     refiner.links
+}
+
+/// Whether element `small` lies within its own size of the plane of
+/// `large` (a face standing on a floor, near their common edge).
+fn touches(small: &Part, large: &Part) -> bool {
+    let centroid = small.patch.centroid();
+    let size = small
+        .patch
+        .vertices()
+        .into_iter()
+        .map(|v| v.distance(centroid))
+        .fold(0.0, f64::max);
+    let plane = large
+        .patch
+        .normal()
+        .dot(centroid - large.patch.vertices()[0]);
+    plane.abs() < 2.0 * size
 }
 
 impl Projection for RefineSettings {
@@ -519,7 +542,7 @@ mod tests {
             threshold: 1e-3,
             max_level: 4,
         };
-        let links = refine_links(&ctx, settings, None, &Silent);
+        let links = refine_links(&ctx, settings, None, &root_pairs(&scene), &Silent);
         assert!(links.len() > 16, "{} links", links.len());
         assert!(links.iter().all(|l| l.a.level + l.c.level >= 2));
         // The links partition the pair: they add up to Howell's closed form
@@ -594,7 +617,13 @@ mod tests {
         );
         // No light anywhere: nothing to refine.
         let none = LightEstimate::emission(&dark, None);
-        let coarse = refine_links(&context(&dark, &tracer), settings, Some(&none), &Silent);
+        let coarse = refine_links(
+            &context(&dark, &tracer),
+            settings,
+            Some(&none),
+            &root_pairs(&dark),
+            &Silent,
+        );
         assert_eq!(coarse.len(), 1);
         assert_eq!(
             (coarse[0].a, coarse[0].c),
@@ -602,7 +631,7 @@ mod tests {
         );
         // The emitter's light is refined over the floor.
         let lit = LightEstimate::emission(&scene, None);
-        let links = refine_links(&ctx, settings, Some(&lit), &Silent);
+        let links = refine_links(&ctx, settings, Some(&lit), &root_pairs(&scene), &Silent);
         assert!(links.len() > 4, "{} links", links.len());
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
@@ -679,7 +708,13 @@ mod tests {
             let (scene, estimate) = glossy_floor_lighting(quadrants);
             let tracer = SceneTracer::new(&scene);
             let ctx = context(&scene, &tracer);
-            let links = refine_links(&ctx, settings, Some(&estimate), &Silent);
+            let links = refine_links(
+                &ctx,
+                settings,
+                Some(&estimate),
+                &root_pairs(&scene),
+                &Silent,
+            );
             let (again, changed) =
                 refine_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));

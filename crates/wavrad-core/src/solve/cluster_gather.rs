@@ -1,20 +1,22 @@
 //! Gathering through cluster links ([`crate::refine::cluster_links`]).
 //!
-//! An end sends towards the other end's centre c the intensity
-//! S = Σ_m A_m max(0, n_m·ω) L_m over its members m (a cluster's surfaces,
-//! read as their average radiance, or one element), ω the direction from
-//! its own centre to c: each member's own cosine, as Sillion 1995's
-//! anisotropic clusters and Smits et al. 1994's α-links evaluate them. A
-//! receiving member at x gathers ρ·V·max(0, n·u)·S / (π·d²), u and d the
-//! direction and distance from x to the source's centre and V the link's
-//! visibility: eq. 12 with the point-to-point form factor between the
-//! member and the source's members. A cluster's members gather at their
-//! roots (push–pull spreads it), an element at its node.
+//! An end's members m (a cluster's surfaces, read as their average
+//! radiance, or one element) that face the other end send, in direction ω,
+//! the intensity I(ω) = Σ_m A_m (n_m·ω) L_m = N·ω, with N = Σ_m A_m L_m n_m
+//! a vector per channel: each member's own cosine, as Sillion 1995's
+//! anisotropic clusters and Smits et al. 1994's α-links evaluate them, and
+//! exact for every direction in which those members face forward. A
+//! receiving member at x gathers ρ·V·max(0, n·u)·I(−u) / (π·d²), u and d the
+//! direction and distance from x to the source's area-weighted centroid and
+//! V the link's visibility: eq. 12 with the point-to-point form factor
+//! between the member and each source member, to second order in the ends'
+//! size over their distance. A cluster's members gather at their roots
+//! (push–pull spreads it), an element at its node.
 //!
-//! Per sweep, [`ClusterTransfers::far_field`] evaluates every end's
-//! intensity once from the current radiance (a Jacobi step over cluster
-//! links; the surfaces' own links stay Gauss–Seidel), and each surface
-//! then gathers over the links of the clusters above it.
+//! Per sweep, [`ClusterTransfers::far_field`] evaluates every end's N once
+//! from the current radiance (a Jacobi step over cluster links; the
+//! surfaces' own links stay Gauss–Seidel), and each surface then gathers
+//! over the links of the clusters above it.
 
 use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::ElementTree;
@@ -67,11 +69,11 @@ pub struct ClusterTransfers {
     at_surface: Vec<Vec<(u32, u8)>>,
 }
 
-/// Every end's intensity towards the other end, from one radiance state:
-/// `[towards side 1, towards side 0]` per link.
+/// Every end's intensity vector N (one per channel) towards the other end,
+/// from one radiance state, per link and side.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FarField {
-    sent: Vec<[Rgb; 2]>,
+    sent: Vec<[[DVec3; 3]; 2]>,
 }
 
 impl ClusterTransfers {
@@ -98,10 +100,12 @@ impl ClusterTransfers {
         let mut at_cluster = vec![Vec::new(); clusters.nodes.len()];
         let mut at_surface = vec![Vec::new(); scene.surfaces.len()];
         let side = |end: End| match end {
-            End::Cluster(c) => (Side::Cluster(c), clusters.nodes[c as usize].center),
+            End::Cluster(c) => (Side::Cluster(c), clusters.nodes[c as usize].centroid),
             End::Element(e) => {
                 let tree = &trees[e.surface as usize];
-                let node = tree.index_of(e.id).expect("element ends are in their trees");
+                let node = tree
+                    .index_of(e.id)
+                    .expect("element ends are in their trees");
                 let patch = &tree.nodes[node as usize].patch;
                 let member = Member {
                     node,
@@ -120,7 +124,9 @@ impl ClusterTransfers {
                 for (k, s) in [s0, s1].iter().enumerate() {
                     match s {
                         Side::Cluster(c) => at_cluster[*c as usize].push((i as u32, k as u8)),
-                        Side::Element(m) => at_surface[m.surface as usize].push((i as u32, k as u8)),
+                        Side::Element(m) => {
+                            at_surface[m.surface as usize].push((i as u32, k as u8))
+                        }
                     }
                 }
                 Transfer {
@@ -149,21 +155,24 @@ impl ClusterTransfers {
         self.links.is_empty()
     }
 
-    /// Each end's intensity S towards the other from `radiance` (every
-    /// surface's node averages).
+    /// Each end's intensity vectors N towards the other from `radiance`
+    /// (every surface's node averages): over its members that face the
+    /// other end's centroid.
     pub fn far_field(&self, radiance: &[Vec<Rgb>]) -> FarField {
         let sent = self
             .links
             .par_iter()
             .map(|t| {
                 [0, 1].map(|k| {
-                    let towards = (t.centers[1 - k] - t.centers[k]).normalize_or_zero();
-                    let send = |m: &Member| {
-                        let cos = m.normal.dot(towards);
-                        if cos > 0.0 {
-                            radiance[m.surface as usize][m.node as usize] * (m.area * cos)
-                        } else {
-                            Rgb::ZERO
+                    let towards = t.centers[1 - k] - t.centers[k];
+                    let mut n = [DVec3::ZERO; 3];
+                    let mut send = |m: &Member| {
+                        if m.normal.dot(towards) > 0.0 {
+                            let l = radiance[m.surface as usize][m.node as usize];
+                            let v = m.normal * m.area;
+                            for (n, l) in n.iter_mut().zip(l.0) {
+                                *n += v * l;
+                            }
                         }
                     };
                     match &t.sides[k] {
@@ -172,9 +181,9 @@ impl ClusterTransfers {
                             .clusters
                             .members_of(*c)
                             .iter()
-                            .map(|&s| send(&self.roots[s as usize]))
-                            .fold(Rgb::ZERO, |a, b| a + b),
+                            .for_each(|&s| send(&self.roots[s as usize])),
                     }
+                    n
                 })
             })
             .collect();
@@ -192,8 +201,11 @@ impl ClusterTransfers {
             if cos <= 0.0 || d2 <= 0.0 {
                 return;
             }
-            let factor = t.visibility * cos / (PI * d2 * d2.sqrt());
-            let value = reflectance * far.sent[link as usize][1 - side as usize] * factor;
+            let [r, g, b] = far.sent[link as usize][1 - side as usize];
+            // I(−u)·|u|: the source's intensity towards the member.
+            let intensity = Rgb([r, g, b].map(|n| (-n.dot(to)).max(0.0)));
+            let factor = t.visibility * cos / (PI * d2 * d2);
+            let value = reflectance * intensity * factor;
             gathered.add(member.node as usize, value, DVec3::ZERO);
         };
         if self.clusters.nodes.is_empty() {

@@ -251,17 +251,6 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
-    if std::env::var("WAVRAD_DEBUG").is_ok() {
-        let mut v: Vec<(usize, u32, String)> = system.trees.iter().enumerate().map(|(i, t)| (t.nodes.len(), i as u32, scene.surfaces[i].name.clone())).collect();
-        v.sort();
-        eprintln!("biggest trees: {:?}", &v[v.len().saturating_sub(12)..]);
-        let mut per: Vec<usize> = vec![0; scene.surfaces.len()];
-        for l in &resolved { per[l.p as usize] += 1; per[l.r as usize] += 1; }
-        let mut w: Vec<(usize, usize)> = per.iter().copied().enumerate().map(|(i, n)| (n, i)).collect();
-        w.sort();
-        eprintln!("most links: {:?}", &w[w.len().saturating_sub(12)..]);
-        eprintln!("links before resolve {} after {}", links.len(), resolved.len());
-    }
     let stats = Stats {
         projections: passes,
         exchanging_pairs: pairs.len(),
