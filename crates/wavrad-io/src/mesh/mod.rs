@@ -1,6 +1,7 @@
-//! Triangle meshes from Wavefront OBJ and Stanford PLY files.
+//! Triangle meshes from Wavefront OBJ, Stanford PLY and Mitsuba's
+//! `serialized` files.
 //!
-//! Both readers return the triangles in file order, polygons fan-triangulated,
+//! The readers return the triangles in file order, polygons fan-triangulated,
 //! vertex order (winding) kept: the front side is the one the vertices turn
 //! counter-clockwise around, as in [`wavrad_core::scene::Patch::Triangle`].
 //! Normals, texture coordinates and every other attribute are ignored.
@@ -8,9 +9,11 @@
 
 mod obj;
 mod ply;
+mod serialized;
 
 pub use obj::read_obj;
 pub use ply::read_ply;
+pub use serialized::read_serialized;
 
 use glam::DVec3;
 
