@@ -70,7 +70,9 @@ def test_malformed_xml_names_file_and_line(tmp_path: Path) -> None:
 
 
 def test_unsupported_plugin_names_file_and_line(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, '<scene version="3.0.0">\n\n  <shape type="bsplinecurve"/>\n</scene>\n')
+    path = write_scene(
+        tmp_path, '<scene version="3.0.0">\n\n  <shape type="bsplinecurve"/>\n</scene>\n'
+    )
     message = f'{path}:3: unsupported shape plugin "bsplinecurve"'
     with pytest.raises(wavrad.SceneError, match=re.escape(message)):
         wavrad.load_scene(path)
@@ -78,13 +80,14 @@ def test_unsupported_plugin_names_file_and_line(tmp_path: Path) -> None:
 
 def test_loader_warnings_are_user_warnings(tmp_path: Path) -> None:
     # A quad and one triangle of zero area, which is skipped and counted.
-    (tmp_path / "mesh.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 5\n")
+    obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 5\n"
+    (tmp_path / "mesh.obj").write_text(obj)
     path = write_scene(
         tmp_path,
-        '<scene version="3.0.0">\n  <shape type="obj">\n    <string name="filename" value="mesh.obj"/>\n'
-        "  </shape>\n</scene>\n",
+        '<scene version="3.0.0">\n  <shape type="obj">\n'
+        '    <string name="filename" value="mesh.obj"/>\n  </shape>\n</scene>\n',
     )
-    message = f"{path}:3: shape \"obj\": skipped 1 of the 3 triangles"
+    message = f'{path}:3: shape "obj": skipped 1 of the 3 triangles'
     with pytest.warns(UserWarning, match=re.escape(message)):
         scene = wavrad.load_scene(path)
     assert scene.surface_count == 2

@@ -30,6 +30,10 @@ struct Shape<'a> {
     triangles: &'a [[u32; 3]],
 }
 
+/// Every vertex's normal in the files written here: not unit, not the
+/// winding's (readers keep normals as stored).
+const NORMAL: DVec3 = DVec3::new(0.0, 0.5, -2.0);
+
 /// A quad in the z = 0 plane: (0,0), (1,0), (1,1), (0,1), facing +z.
 const QUAD: [[f64; 3]; 4] = [
     [0.0, 0.0, 0.0],
@@ -61,7 +65,7 @@ fn shape_bytes(version: u16, shape: &Shape) -> Vec<u8> {
     };
     floats(&mut shape.positions.iter().flatten().copied());
     if shape.flags & HAS_NORMALS != 0 {
-        floats(&mut (0..vertices).flat_map(|_| [0.0, 0.0, 1.0]));
+        floats(&mut (0..vertices).flat_map(|_| NORMAL.to_array()));
     }
     if shape.flags & HAS_TEXCOORDS != 0 {
         floats(&mut (0..vertices).flat_map(|i| [i as f64 / 4.0, 0.5]));
@@ -146,9 +150,10 @@ fn single_precision_with_every_vertex_attribute() {
             "quad.serialized",
             &file_bytes(version, &[quad(flags)], false),
         );
-        let triangles = read_serialized(&path, 0).unwrap_or_else(|e| panic!("{e}"));
+        let mesh = read_serialized(&path, 0).unwrap_or_else(|e| panic!("{e}"));
         let expected = QUAD_TRIANGLES.map(|t| t.map(|i| DVec3::from(QUAD[i as usize])));
-        assert_eq!(triangles, expected, "version {version}");
+        assert_eq!(mesh.triangles, expected, "version {version}");
+        assert_eq!(mesh.normals, Some(vec![[NORMAL; 3]; 2]));
     }
 }
 
@@ -164,8 +169,9 @@ fn double_precision_keeps_every_bit() {
             triangles: &[[0, 1, 2]],
         };
         let path = write(dir.path(), "t.serialized", &file_bytes(4, &[shape], true));
-        let triangles = read_serialized(&path, 0).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(triangles, [positions.map(DVec3::from)]);
+        let mesh = read_serialized(&path, 0).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(mesh.triangles, [positions.map(DVec3::from)]);
+        assert_eq!(mesh.normals, None);
     }
 }
 
@@ -175,9 +181,11 @@ fn shape_index_is_found_through_the_dictionary() {
     for version in [3, 4] {
         let path = write(dir.path(), "parts.serialized", &three_shapes(version));
         for index in 0..3 {
-            let triangles = read_serialized(&path, index).unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(triangles.len(), 1);
-            assert!(triangles[0].iter().all(|v| v.z == f64::from(index + 1)));
+            let mesh = read_serialized(&path, index).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(mesh.triangles.len(), 1);
+            assert!(mesh.triangles[0]
+                .iter()
+                .all(|v| v.z == f64::from(index + 1)));
         }
         let e = read_serialized(&path, 3).unwrap_err().to_string();
         assert!(
@@ -298,6 +306,45 @@ fn the_shape_plugin_honours_shape_index_to_world_and_flip_normals() {
         .vertices()
         .iter()
         .all(|v| v.z == 2.0 && v.y >= 5.0));
+}
+
+#[test]
+fn the_front_is_the_side_of_mitsubas_shading_normal() {
+    // The quad's stored normals point to −z, against its winding. Mitsuba
+    // 3.9.1 emits this file's quad towards −z, towards +z with face_normals,
+    // and towards −z under a mirror in x with face normals or without.
+    let dir = tempfile::tempdir().unwrap();
+    let flags = SINGLE_PRECISION | HAS_NORMALS;
+    write(
+        dir.path(),
+        "quad.serialized",
+        &file_bytes(4, &[quad(flags)], false),
+    );
+    for (mirror, face_normals, front) in [
+        (false, false, -1.0),
+        (false, true, 1.0),
+        (true, false, -1.0),
+        (true, true, -1.0),
+    ] {
+        let shape = format!(
+            r#"<shape type="serialized">
+                <string name="filename" value="quad.serialized"/>
+                <boolean name="face_normals" value="{face_normals}"/>
+                <transform name="to_world"><scale x="{}"/></transform>
+            </shape>"#,
+            if mirror { -1 } else { 1 }
+        );
+        let scene = load(dir.path(), &shape)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .scene;
+        for surface in &scene.surfaces {
+            assert_eq!(
+                surface.patch.normal(),
+                DVec3::new(0.0, 0.0, front),
+                "mirror {mirror}, face_normals {face_normals}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -25,9 +25,9 @@
 //! a `u32`. Shape 0 starts at offset 0 and is read without the dictionary,
 //! as Mitsuba does, so single-shape files need none.
 //!
-//! Only positions and triangles are kept; normals, texture coordinates and
-//! colors are skipped, and so is the face-normals flag (the solver's
-//! triangles are flat). Counts are never trusted for allocation: the
+//! Positions, normals and triangles are kept; texture coordinates and
+//! colors are skipped, and so is the face-normals flag (as Mitsuba 3 does
+//! for these versions: only the scene's `face_normals` counts). Counts are never trusted for allocation: the
 //! stream is decompressed first, up to the size the counts imply, and a
 //! shape whose data ends early is an error.
 
@@ -37,7 +37,7 @@ use std::path::Path;
 use flate2::read::ZlibDecoder;
 use glam::DVec3;
 
-use super::Triangle;
+use super::Mesh;
 use crate::error::{Error, Result};
 
 /// The file format identifier every shape header starts with.
@@ -57,9 +57,9 @@ mod flags {
     pub const DOUBLE: u32 = 0x2000;
 }
 
-/// Read shape `shape_index` of a serialized file as triangles, in file
-/// order, wound as stored.
-pub fn read_serialized(path: &Path, shape_index: u32) -> Result<Vec<Triangle>> {
+/// Read shape `shape_index` of a serialized file: its triangles in file
+/// order, wound as stored, with their corners' normals when it has them.
+pub fn read_serialized(path: &Path, shape_index: u32) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_serialized(&bytes, shape_index).map_err(|message| Error::mesh(path, None, message))
 }
@@ -67,7 +67,7 @@ pub fn read_serialized(path: &Path, shape_index: u32) -> Result<Vec<Triangle>> {
 /// A problem with the file, for [`Error::Mesh`].
 type SerializedResult<T> = std::result::Result<T, String>;
 
-fn parse_serialized(bytes: &[u8], shape_index: u32) -> SerializedResult<Vec<Triangle>> {
+fn parse_serialized(bytes: &[u8], shape_index: u32) -> SerializedResult<Mesh> {
     let version = read_header(bytes, 0)?;
     let offset = if shape_index == 0 {
         0
@@ -137,7 +137,7 @@ fn shape_offset(bytes: &[u8], version: u16, index: u32) -> SerializedResult<usiz
 }
 
 /// Decode one shape's zlib stream.
-fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Vec<Triangle>> {
+fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
     let mut stream = ZlibDecoder::new(compressed);
     let corrupt = |e: std::io::Error| match e.kind() {
         std::io::ErrorKind::UnexpectedEof => "data ends inside the shape's header".to_string(),
@@ -186,37 +186,46 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Vec<Triangle>
         ));
     }
 
-    // Positions, then the triangles after the other vertex attributes.
-    let positions: Vec<DVec3> = data[..(vertices * 3 * float_size) as usize]
-        .chunks_exact(3 * float_size as usize)
-        .map(|xyz| {
-            let c = |k: usize| {
-                let b = &xyz[k * float_size as usize..(k + 1) * float_size as usize];
-                match b.len() {
-                    8 => f64::from_le_bytes(b.try_into().unwrap()),
-                    _ => f64::from(f32::from_le_bytes(b.try_into().unwrap())),
-                }
-            };
-            DVec3::new(c(0), c(1), c(2))
-        })
-        .collect();
+    // Positions and normals, then the triangles after the other attributes.
+    let vectors_size = (vertices * 3 * float_size) as usize;
+    let positions = vectors(&data[..vectors_size], float_size);
     if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
         return Err(format!("vertex {i} is not finite ({})", positions[i]));
     }
-    data[vertex_bytes as usize..]
-        .chunks_exact(12)
-        .enumerate()
-        .map(|(t, ijk)| {
-            let mut triangle = [DVec3::ZERO; 3];
-            for (corner, index) in triangle.iter_mut().zip(ijk.chunks_exact(4)) {
-                let i = u32::from_le_bytes(index.try_into().unwrap());
-                *corner = *positions.get(i as usize).ok_or_else(|| {
-                    format!(
-                        "triangle {t} refers to vertex {i}, but there are only {vertices} vertices"
-                    )
-                })?;
-            }
-            Ok(triangle)
+    let vertex_normals = (flags & flags::NORMALS != 0)
+        .then(|| vectors(&data[vectors_size..2 * vectors_size], float_size));
+    let mut triangles = Vec::with_capacity(triangles as usize);
+    let mut normals = vertex_normals
+        .as_ref()
+        .map(|_| Vec::with_capacity(triangles.capacity()));
+    for (t, ijk) in data[vertex_bytes as usize..].chunks_exact(12).enumerate() {
+        let ijk: [usize; 3] = std::array::from_fn(|k| {
+            u32::from_le_bytes(ijk[4 * k..4 * k + 4].try_into().unwrap()) as usize
+        });
+        if let Some(&i) = ijk.iter().find(|&&i| i >= positions.len()) {
+            return Err(format!(
+                "triangle {t} refers to vertex {i}, but there are only {vertices} vertices"
+            ));
+        }
+        triangles.push(ijk.map(|i| positions[i]));
+        if let (Some(normals), Some(vertex_normals)) = (&mut normals, &vertex_normals) {
+            normals.push(ijk.map(|i| vertex_normals[i]));
+        }
+    }
+    Ok(Mesh { triangles, normals })
+}
+
+/// Little-endian `f32` or `f64` triples (`float_size` 4 or 8) as vectors.
+fn vectors(bytes: &[u8], float_size: u64) -> Vec<DVec3> {
+    let float = |b: &[u8]| match b.len() {
+        8 => f64::from_le_bytes(b.try_into().unwrap()),
+        _ => f64::from(f32::from_le_bytes(b.try_into().unwrap())),
+    };
+    bytes
+        .chunks_exact(3 * float_size as usize)
+        .map(|xyz| {
+            let mut c = xyz.chunks_exact(float_size as usize).map(float);
+            DVec3::new(c.next().unwrap(), c.next().unwrap(), c.next().unwrap())
         })
         .collect()
 }

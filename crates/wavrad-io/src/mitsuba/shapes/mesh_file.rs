@@ -5,7 +5,7 @@
 //! |-------------------|-----------------|---------------|----------|
 //! | `filename`        | all             | `<string>`    | required |
 //! | `shape_index`     | serialized      | `<integer>`   | 0        |
-//! | `face_normals`    | all             | (ignored)     |          |
+//! | `face_normals`    | all             | `<boolean>`   | false    |
 //! | `flip_tex_coords` | obj, ply        | (ignored)     |          |
 //!
 //! ```xml
@@ -15,11 +15,15 @@
 //! </shape>
 //! ```
 //!
-//! Each triangle becomes one [`Patch::Triangle`], oriented by its winding
-//! after `to_world` (so a mirroring transform turns the mesh inside out, as
-//! in Mitsuba). Triangles of zero area (collinear or repeated vertices) are
-//! skipped, and a warning counts them; a mesh with no other triangle is an
-//! error. `face_normals` changes nothing: the solver's triangles are flat.
+//! Each triangle becomes one [`Patch::Triangle`] whose front is the side
+//! Mitsuba shades and emits on, that of its shading normal: where the file
+//! has vertex normals and `face_normals` is false, the side they point to
+//! (summed over the triangle's corners and transformed as normals, so a
+//! mirroring `to_world` keeps it); otherwise the side its vertices turn
+//! counter-clockwise around after `to_world` (so a mirroring transform turns
+//! the mesh inside out). Triangles of zero area (collinear or repeated
+//! vertices) are skipped, and a warning counts them; a mesh with no other
+//! triangle is an error.
 
 use std::path::Path;
 
@@ -48,6 +52,8 @@ enum Format {
 pub(super) struct MeshFile {
     format: Format,
     filename: String,
+    /// Whether the file's vertex normals are ignored.
+    face_normals: bool,
     /// Where `filename` is written.
     at: Location,
 }
@@ -70,10 +76,10 @@ impl MeshFile {
                 Format::Serialized { shape_index }
             }
         };
-        match format {
-            Format::Serialized { .. } => obj.ignore(&["face_normals"]),
-            _ => obj.ignore(&["face_normals", "flip_tex_coords"]),
+        if matches!(format, Format::Obj | Format::Ply) {
+            obj.ignore(&["flip_tex_coords"]);
         }
+        let face_normals = obj.boolean("face_normals")?.unwrap_or(false);
         let filename = obj.string("filename")?.ok_or_else(|| {
             obj.at()
                 .error(format!("{} needs a \"filename\" parameter", obj.describe()))
@@ -81,6 +87,7 @@ impl MeshFile {
         Ok(MeshFile {
             format,
             filename,
+            face_normals,
             at: obj.location_of("filename").clone(),
         })
     }
@@ -96,7 +103,7 @@ impl MeshFile {
         warnings: &mut Vec<Warning>,
     ) -> Result<Vec<Patch>> {
         let path = resolve_path(&self.filename, &self.at.dir, scene_dir);
-        let triangles = match self.format {
+        let mesh = match self.format {
             Format::Obj => mesh::read_obj(&path),
             Format::Ply => mesh::read_ply(&path),
             Format::Serialized { shape_index } => mesh::read_serialized(&path, shape_index),
@@ -105,11 +112,28 @@ impl MeshFile {
             self.at
                 .error(format!("cannot load mesh of {describe}: {e}"))
         })?;
-        let count = triangles.len();
-        let patches: Vec<Patch> = triangles
-            .into_iter()
-            .map(|t| Patch::Triangle(t).transformed(world_from_local))
-            .filter(|p| !p.is_degenerate())
+        let count = mesh.triangles.len();
+        let normals = mesh.normals.filter(|_| !self.face_normals);
+        // A triangle whose normals point against its winding is turned
+        // round, and so is every one when to_world mirrors (it reverses the
+        // winding but not the normals).
+        let mirrored = world_from_local.determinant() < 0.0;
+        let patches: Vec<Patch> = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| {
+                let p = Patch::Triangle(*t).transformed(world_from_local);
+                if p.is_degenerate() {
+                    return None;
+                }
+                let turn = normals.as_ref().is_some_and(|normals| {
+                    let [a, b, c] = *t;
+                    let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
+                    against != mirrored
+                });
+                Some(if turn { p.flipped() } else { p })
+            })
             .collect();
         if patches.is_empty() {
             return Err(self.at.error(format!(
