@@ -70,10 +70,27 @@ def test_malformed_xml_names_file_and_line(tmp_path: Path) -> None:
 
 
 def test_unsupported_plugin_names_file_and_line(tmp_path: Path) -> None:
-    path = write_scene(tmp_path, '<scene version="3.0.0">\n\n  <shape type="sphere"/>\n</scene>\n')
-    message = f'{path}:3: unsupported shape plugin "sphere"'
+    path = write_scene(
+        tmp_path, '<scene version="3.0.0">\n\n  <shape type="bsplinecurve"/>\n</scene>\n'
+    )
+    message = f'{path}:3: unsupported shape plugin "bsplinecurve"'
     with pytest.raises(wavrad.SceneError, match=re.escape(message)):
         wavrad.load_scene(path)
+
+
+def test_loader_warnings_are_user_warnings(tmp_path: Path) -> None:
+    # A quad and one triangle of zero area, which is skipped and counted.
+    obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3 4\nf 1 2 5\n"
+    (tmp_path / "mesh.obj").write_text(obj)
+    path = write_scene(
+        tmp_path,
+        '<scene version="3.0.0">\n  <shape type="obj">\n'
+        '    <string name="filename" value="mesh.obj"/>\n  </shape>\n</scene>\n',
+    )
+    message = f'{path}:3: shape "obj": skipped 1 of the 3 triangles'
+    with pytest.warns(UserWarning, match=re.escape(message)):
+        scene = wavrad.load_scene(path)
+    assert scene.surface_count == 2
 
 
 def test_exceptions_form_one_tree() -> None:

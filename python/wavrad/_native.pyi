@@ -127,7 +127,10 @@ class Solution:
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
     ``<default>`` values (converted with ``str()``), like Mitsuba's ``-D``.
-    Raises ``SceneError`` naming the file and line."""
+    Raises ``SceneError`` naming the file and line; what is loaded but not
+    as written (a mesh's triangles of zero area skipped, a sheared sphere
+    kept a sphere) is reported as a ``UserWarning`` naming the file and
+    line."""
 
 def solve(
     scene: Scene,

@@ -251,7 +251,11 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
                 .ok_or_else(|| format!("-D expects NAME=VALUE, got {d:?}"))
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let scene = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
+    let loaded = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
+    for warning in &loaded.warnings {
+        eprintln!("wavrad: warning: {warning}");
+    }
+    let scene = loaded.scene;
     let settings = SolveSettings::from_values(&args.settings.values)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());

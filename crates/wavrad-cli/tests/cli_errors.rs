@@ -11,13 +11,16 @@ fn unsupported_plugin_names_file_line_and_plugin_and_writes_nothing() {
     let scene = write(
         dir.path(),
         "bad.xml",
-        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\"/>\n</scene>\n",
+        "<scene version=\"3.0.0\">\n  <shape type=\"bsplinecurve\"/>\n</scene>\n",
     );
     let out = dir.path().join("out.png");
     let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     let msg = stderr(&o);
-    assert!(msg.contains("bad.xml:2") && msg.contains("sphere"), "{msg}");
+    assert!(
+        msg.contains("bad.xml:2") && msg.contains("bsplinecurve"),
+        "{msg}"
+    );
     assert!(!msg.contains("panicked"));
     assert!(!out.exists());
 }
@@ -108,6 +111,30 @@ fn scene_without_sensor_cannot_render_but_can_solve() {
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
     assert!(json["two_point_interactions"].as_u64().unwrap() > 0);
     assert_eq!(json["surfaces"], 2);
+}
+
+#[test]
+fn loader_warnings_reach_stderr_and_the_solve_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // A floor quad and one triangle of zero area, which is skipped.
+    write(
+        dir.path(),
+        "floor.obj",
+        "v -1 -1 -1\nv 1 -1 -1\nv 1 -1 1\nv -1 -1 1\nv 2 -1 -1\nf 1 4 3 2\nf 1 2 5\n",
+    );
+    let small = small_scene("");
+    let floor = &small[small.rfind("<shape").unwrap()..small.rfind("</shape>").unwrap() + 8];
+    let text = small.replace(
+        floor,
+        "<shape type=\"obj\">\n<string name=\"filename\" value=\"floor.obj\"/></shape>",
+    );
+    let scene = write(dir.path(), "s.xml", &text);
+    let o = wavrad(&["solve", &scene, "--max-level", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let line = 1 + text.lines().position(|l| l.contains("floor.obj")).unwrap();
+    let expected =
+        format!("wavrad: warning: {scene}:{line}: shape \"obj\": skipped 1 of the 3 triangles");
+    assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
 }
 
 #[test]

@@ -59,7 +59,9 @@ fn direct_error(renderer: &Renderer, scene: &wavrad_core::scene::Scene, referenc
 
 #[test]
 fn cornell_box_matches_mitsuba_path_tracer() {
-    let scene = wavrad_io::load_scene(&repo().join("scenes/cornell-box/scene.xml")).unwrap();
+    let scene = wavrad_io::load_scene(&repo().join("scenes/cornell-box/scene.xml"))
+        .unwrap()
+        .scene;
     let (w, h, reference) =
         wavrad_io::read_exr_rgb(&repo().join("scenes/cornell-box/reference.exr")).unwrap();
     assert_eq!((w, h), (scene.film.width, scene.film.height));
@@ -107,12 +109,13 @@ fn mitsuba_written_cornell_box_renders_like_the_bundled_one() {
         ("resx".to_string(), "24".to_string()),
         ("resy".to_string(), "24".to_string()),
     ];
-    let written = wavrad_io::load_scene_with(&fixture, &small).unwrap();
+    let written = wavrad_io::load_scene_with(&fixture, &small).unwrap().scene;
     let bundled = wavrad_io::load_scene_with(
         &repo().join("scenes/cornell-box/scene.xml"),
         &[("res".into(), "24".into())],
     )
-    .unwrap();
+    .unwrap()
+    .scene;
     assert_eq!(written.surfaces.len(), bundled.surfaces.len());
     let settings = SolveSettings::default();
     let render = RenderSettings {
@@ -137,7 +140,7 @@ fn mitsuba_written_cornell_box_renders_like_the_bundled_one() {
 #[test]
 fn glossy_cornell_box_matches_mitsuba_path_tracer() {
     let dir = repo().join("scenes/glossy-cornell-box");
-    let scene = wavrad_io::load_scene(&dir.join("scene.xml")).unwrap();
+    let scene = wavrad_io::load_scene(&dir.join("scene.xml")).unwrap().scene;
     let (w, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference.exr")).unwrap();
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
     assert!(solution.stats.converged);
@@ -174,7 +177,9 @@ fn glossy_cornell_box_matches_mitsuba_path_tracer() {
 fn figure3_scenes_carry_the_light_mitsuba_does() {
     let dir = repo().join("scenes/figure3");
     for (name, bound) in [("diffuse", 0.0065), ("specular", 0.022)] {
-        let scene = wavrad_io::load_scene(&dir.join(format!("{name}.xml"))).unwrap();
+        let scene = wavrad_io::load_scene(&dir.join(format!("{name}.xml")))
+            .unwrap()
+            .scene;
         let (_, _, reference) =
             wavrad_io::read_exr_rgb(&dir.join(format!("reference-{name}.exr"))).unwrap();
         let renderer = Renderer::new(solve(&scene, &SolveSettings::default(), &Silent).unwrap());
@@ -203,7 +208,9 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
 #[test]
 fn figure3_highlight_is_resolved_in_direct_mode() {
     let dir = repo().join("scenes/figure3");
-    let scene = wavrad_io::load_scene(&dir.join("specular.xml")).unwrap();
+    let scene = wavrad_io::load_scene(&dir.join("specular.xml"))
+        .unwrap()
+        .scene;
     let (_, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference-specular.exr")).unwrap();
     let mut settings = SolveSettings::for_oracle(wavrad_core::refine::oracle::Oracle::Importance);
     settings.refine.threshold = 2e-6;

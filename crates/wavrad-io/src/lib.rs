@@ -5,22 +5,24 @@
 //! into its [`Scene`](wavrad_core::scene::Scene) and its pixels into files.
 //!
 //! - [`load_scene`], [`load_scene_with`], [`load_scene_str`]: the Mitsuba 3
-//!   XML subset wavrad solves (see [`mitsuba`]);
-//! - [`mesh::read_obj`], [`mesh::read_ply`]: triangle meshes;
+//!   XML subset wavrad solves (see [`mitsuba`]), as a [`Loaded`] scene with
+//!   its [`Warning`]s;
+//! - [`mesh::read_obj`], [`mesh::read_ply`], [`mesh::read_serialized`]:
+//!   triangle meshes;
 //! - [`write_image`], [`read_exr_rgb`], [`relative_rmse`]: images and the
 //!   error metric against references.
 //!
 //! Every failure is an [`Error`] whose message names the file — and for
 //! scene files the line — and the offending name, e.g.
-//! `scenes/x.xml:12: unsupported shape plugin "sphere" (supported:
-//! rectangle, cube, obj, ply)`.
+//! `scenes/x.xml:12: unsupported shape plugin "bsplinecurve" (supported:
+//! rectangle, cube, disk, cylinder, sphere, obj, ply, serialized)`.
 //!
 //! ```
 //! use std::path::Path;
 //! let xml = r#"<scene version="3.0.0">
 //!     <shape type="cube"/>
 //! </scene>"#;
-//! let scene = wavrad_io::load_scene_str(xml, Path::new("."), "box.xml", &[]).unwrap();
+//! let scene = wavrad_io::load_scene_str(xml, Path::new("."), "box.xml", &[]).unwrap().scene;
 //! assert_eq!(scene.surfaces.len(), 6);
 //! let area: f64 = scene.surfaces.iter().map(|s| s.patch.area()).sum();
 //! assert!((area - 24.0).abs() < 1e-12);
@@ -35,4 +37,4 @@ pub mod mitsuba;
 
 pub use error::{Error, Result};
 pub use image::{check_writable, read_exr_rgb, relative_rmse, write_atomic, write_image};
-pub use mitsuba::{load_scene, load_scene_str, load_scene_with};
+pub use mitsuba::{load_scene, load_scene_str, load_scene_with, Loaded, Warning};

@@ -35,12 +35,45 @@ fn assert_error_in(dir: &Path, xml: &str, line: u32, needles: &[&str]) {
 #[test]
 fn unsupported_shape() {
     assert_error(
-        "<scene version=\"3.0.0\">\n  <shape type=\"sphere\">\n  </shape>\n</scene>",
+        "<scene version=\"3.0.0\">\n  <shape type=\"bsplinecurve\">\n  </shape>\n</scene>",
         2,
         &[
-            "unsupported shape plugin \"sphere\"",
-            "rectangle, cube, obj, ply",
+            "unsupported shape plugin \"bsplinecurve\"",
+            "rectangle, cube, disk, cylinder, sphere, obj, ply, serialized",
         ],
+    );
+}
+
+#[test]
+fn degenerate_analytic_shapes() {
+    assert_error(
+        "<scene version=\"3.0.0\">\n<shape type=\"cylinder\">\n<point name=\"p1\" x=\"0\" y=\"0\" z=\"0\"/>\n</shape></scene>",
+        3,
+        &["cylinder", "p0 = p1"],
+    );
+    for (plugin, parameter) in [
+        ("sphere", "<float name=\"radius\" value=\"0\"/>"),
+        (
+            "disk",
+            "<transform name=\"to_world\"><scale y=\"0\"/></transform>",
+        ),
+        ("cylinder", "<float name=\"radius\" value=\"0\"/>"),
+    ] {
+        assert_error(
+            &format!("<scene version=\"3.0.0\">\n<shape type=\"{plugin}\">\n{parameter}\n</shape></scene>"),
+            2,
+            &[plugin, "zero area after to_world"],
+        );
+    }
+    assert_error(
+        "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<float name=\"radius\" value=\"1e300\"/>\n<transform name=\"to_world\"><scale value=\"1e300\"/></transform>\n</shape></scene>",
+        2,
+        &["sphere", "too large"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<rgb name=\"center\" value=\"1\"/>\n</shape></scene>",
+        3,
+        &["center", "must be a <point>"],
     );
 }
 

@@ -1,5 +1,6 @@
 //! Loading valid Mitsuba scenes: geometry, materials, emitters, sensors.
 
+use std::f64::consts::PI;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -7,8 +8,12 @@ use glam::DVec3;
 use wavrad_core::scene::{FovAxis, Patch, PixelFilter, Projection, Rgb, Scene};
 use wavrad_io::{load_scene, load_scene_str, load_scene_with};
 
+/// Load `xml`, which must load without warnings.
 fn load(xml: &str) -> Scene {
-    load_scene_str(xml, Path::new("."), "test.xml", &[]).unwrap_or_else(|e| panic!("{e}"))
+    let loaded =
+        load_scene_str(xml, Path::new("."), "test.xml", &[]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(loaded.warnings, [], "unexpected warnings");
+    loaded.scene
 }
 
 fn scene(body: &str) -> Scene {
@@ -32,7 +37,7 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
         eprintln!("skipped: {} is absent", path.display());
         return;
     }
-    let s = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    let s = load_scene(&path).unwrap_or_else(|e| panic!("{e}")).scene;
     // 6 rectangles + 2 cubes × 6 faces, all one-sided.
     assert_eq!(s.surfaces.len(), 18);
     let lights: Vec<_> = s.surfaces.iter().filter(|x| x.is_emitter()).collect();
@@ -70,7 +75,7 @@ fn cornell_box_written_by_mitsuba_dict_to_xml() {
 
     // Overrides win over the file's defaults, and change the fov conversion.
     let o = [("spp", "16"), ("resx", "512")].map(|(a, b)| (a.to_string(), b.to_string()));
-    let s = load_scene_with(&path, &o).unwrap();
+    let s = load_scene_with(&path, &o).unwrap().scene;
     assert_eq!(s.hints.samples_per_pixel, Some(16));
     assert_eq!((s.film.width, s.film.height), (512, 256));
     let Projection::Perspective {
@@ -152,6 +157,128 @@ fn mirroring_transform_keeps_mitsubas_normal() {
     assert!(close(s.surfaces[0].patch.normal(), -DVec3::Z));
 }
 
+/// Total area of `s`'s surfaces.
+fn area(s: &Scene) -> f64 {
+    s.surfaces.iter().map(|x| x.patch.area()).sum()
+}
+
+/// Centre of a patch's vertices.
+fn centre(p: &Patch) -> DVec3 {
+    let v = p.vertices();
+    v.iter().sum::<DVec3>() / v.len() as f64
+}
+
+#[test]
+fn sphere_emits_outwards_with_its_exact_area() {
+    let c = DVec3::new(0.0, 1.0, 2.0);
+    let s = scene(
+        r#"<shape type="sphere" id="ball">
+            <point name="center" x="0" y="1" z="2"/>
+            <float name="radius" value="0.5"/>
+            <emitter type="area"><rgb name="radiance" value="4"/></emitter>
+        </shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 528);
+    assert!((area(&s) - PI).abs() < 1e-12, "4π r² = {}", area(&s));
+    for x in &s.surfaces {
+        assert!(x.is_emitter() && x.name == "ball");
+        let out = (centre(&x.patch) - c).normalize();
+        assert!(x.patch.normal().dot(out) > 0.98, "{:?}", x.patch);
+        assert!(((centre(&x.patch) - c).length() / 0.5 - 1.0).abs() < 0.01);
+    }
+    // to_world places the same sphere; flip_normals turns it inwards, and a
+    // twosided material doubles it.
+    let t = scene(
+        r#"<shape type="sphere">
+            <transform name="to_world"><scale value="0.5"/><translate x="0" y="1" z="2"/></transform>
+            <boolean name="flip_normals" value="true"/>
+            <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
+        </shape>"#,
+    );
+    assert_eq!(t.surfaces.len(), 2 * 528);
+    assert!((area(&t) - 2.0 * PI).abs() < 1e-12);
+    for (front, x) in t.surfaces.iter().step_by(2).zip(&s.surfaces) {
+        assert!(front.patch.normal().dot(x.patch.normal()) < -0.999999);
+    }
+}
+
+#[test]
+fn sheared_sphere_stays_a_sphere_with_a_warning() {
+    let loaded = load_scene_str(
+        r#"<scene version="3.0.0">
+            <shape type="sphere">
+                <transform name="to_world"><scale x="2" y="1" z="0.5"/></transform>
+            </shape>
+        </scene>"#,
+        Path::new("."),
+        "w.xml",
+        &[],
+    )
+    .unwrap();
+    let [warning] = &loaded.warnings[..] else {
+        panic!("{:?}", loaded.warnings)
+    };
+    assert_eq!(warning.line, 3);
+    assert!(warning.message.contains("sphere of radius 2"), "{warning}");
+    // Mitsuba's sphere: radius |to_world · (1,0,0)|.
+    assert!((area(&loaded.scene) - 16.0 * PI).abs() < 1e-10);
+}
+
+#[test]
+fn disk_keeps_mitsubas_normal_under_mirroring() {
+    let s = scene(
+        r#"<shape type="disk">
+            <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="-90"/></transform>
+            <emitter type="area"/>
+        </shape>
+        <shape type="disk">
+            <transform name="to_world"><scale x="-1"/></transform>
+        </shape>"#,
+    );
+    assert_eq!(s.surfaces.len(), 48);
+    let (rotated, mirrored) = s.surfaces.split_at(24);
+    assert!((area(&Scene::from_surfaces(rotated.to_vec())) - PI / 4.0).abs() < 1e-12);
+    assert!(rotated.iter().all(|x| close(x.patch.normal(), DVec3::Y)));
+    assert!(rotated.iter().all(|x| x.is_emitter()));
+    // Mitsuba transforms the normal as a normal: a mirror in x keeps +z.
+    assert!(mirrored.iter().all(|x| close(x.patch.normal(), DVec3::Z)));
+}
+
+#[test]
+fn cylinder_runs_from_p0_to_p1_open_and_outwards() {
+    let (p0, p1, r) = (DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 3.0, 0.0), 0.25);
+    let s = scene(
+        r#"<shape type="cylinder">
+            <point name="p0" x="1" y="0" z="0"/>
+            <point name="p1" value="1, 3, 0"/>
+            <float name="radius" value="0.25"/>
+        </shape>
+        <shape type="cylinder">
+            <boolean name="flip_normals" value="true"/>
+        </shape>"#,
+    );
+    let (open, flipped) = s.surfaces.split_at(24);
+    assert!((area(&Scene::from_surfaces(open.to_vec())) - 2.0 * PI * r * 3.0).abs() < 1e-12);
+    for x in open {
+        assert!(matches!(x.patch, Patch::Parallelogram { .. }));
+        let c = centre(&x.patch);
+        let radial = (c - p0) - (c - p0).project_onto(p1 - p0);
+        assert!(close(x.patch.normal(), radial.normalize()), "{:?}", x.patch);
+        assert!(x
+            .patch
+            .vertices()
+            .iter()
+            .all(|v| v.y.abs() < 1e-12 || (v.y - 3.0).abs() < 1e-12));
+    }
+    for x in flipped {
+        let c = centre(&x.patch);
+        assert!(
+            x.patch.normal().dot(c * DVec3::new(1.0, 1.0, 0.0)) < 0.0,
+            "inwards"
+        );
+    }
+}
+
 #[test]
 fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
     let s = scene(
@@ -210,7 +337,9 @@ fn references_and_substitution() {
         .iter()
         .all(|x| x.brdf.lambertian() == Some(Rgb::splat(0.25))));
     let o = vec![("refl".to_string(), "0.75".to_string())];
-    let s = load_scene_str(xml, Path::new("."), "t.xml", &o).unwrap();
+    let s = load_scene_str(xml, Path::new("."), "t.xml", &o)
+        .unwrap()
+        .scene;
     assert_eq!(s.surfaces[0].brdf.lambertian(), Some(Rgb::splat(0.75)));
 }
 
@@ -238,7 +367,9 @@ fn includes_resolve_beside_the_including_file() {
         r#"<scene version="3.0.0"><shape type="cube"/></scene>"#,
     )
     .unwrap();
-    let s = load_scene(&dir.path().join("main.xml")).unwrap_or_else(|e| panic!("{e}"));
+    let s = load_scene(&dir.path().join("main.xml"))
+        .unwrap_or_else(|e| panic!("{e}"))
+        .scene;
     assert_eq!(s.surfaces.len(), 7);
     assert_eq!(s.surfaces[6].brdf.lambertian(), Some(Rgb([0.5, 0.0, 0.0])));
 }
@@ -276,7 +407,18 @@ fn obj_and_ply_meshes() {
         <shape type="ply"><string name="filename" value="tri.ply"/><boolean name="face_normals" value="true"/></shape>
         <shape type="ply"><string name="filename" value="tri_bin.ply"/></shape>
     </scene>"#;
-    let s = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap_or_else(|e| panic!("{e}"));
+    // The skipped triangle is counted in a warning at the mesh's filename.
+    let [warning] = &loaded.warnings[..] else {
+        panic!("{:?}", loaded.warnings)
+    };
+    assert_eq!((warning.file.as_str(), warning.line), ("m.xml", 2));
+    assert!(
+        warning.to_string().contains("skipped 1 of the 3 triangles")
+            && warning.message.contains("quad.obj"),
+        "{warning}"
+    );
+    let s = loaded.scene;
     assert_eq!(s.surfaces.len(), 4);
     for quad in &s.surfaces[..2] {
         assert!(matches!(quad.patch, Patch::Triangle(_)));

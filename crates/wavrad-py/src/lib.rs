@@ -16,7 +16,7 @@ use numpy::{
     AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike1, PyArrayLike3, PyArrayLikeDyn,
     PyUntypedArrayMethods,
 };
-use pyo3::exceptions::PyTypeError;
+use pyo3::exceptions::{PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::ops::ControlFlow;
@@ -172,6 +172,7 @@ fn pixels(py: Python<'_>, width: u32, height: u32, rgb: Vec<f32>) -> Bound<'_, P
 }
 
 /// Load a Mitsuba 3 XML scene; keyword arguments override its `<default>`s.
+/// The loader's warnings become Python `UserWarning`s.
 #[pyfunction]
 #[pyo3(signature = (path, **defines))]
 fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>) -> Result<Scene> {
@@ -179,8 +180,13 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
     for (name, value) in defines.into_iter().flatten() {
         overrides.push((name.extract::<String>()?, value.str()?.to_string()));
     }
-    let scene = py.allow_threads(|| wavrad_io::load_scene_with(&path, &overrides))?;
-    Ok(Scene(scene))
+    let loaded = py.allow_threads(|| wavrad_io::load_scene_with(&path, &overrides))?;
+    let warnings = py.import("warnings")?;
+    for warning in &loaded.warnings {
+        let category = py.get_type::<PyUserWarning>();
+        warnings.call_method1("warn", (warning.to_string(), category, 2))?;
+    }
+    Ok(Scene(loaded.scene))
 }
 
 /// Solve `scene` with the settings given by name (those of

@@ -33,7 +33,9 @@ pub fn bundled(name: &str) -> Scene {
         .join("../../scenes")
         .join(name)
         .join("scene.xml");
-    wavrad_io::load_scene(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    wavrad_io::load_scene(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .scene
 }
 
 /// Index of the first surface called `name`.

@@ -1,36 +1,52 @@
-//! Triangle meshes from Wavefront OBJ and Stanford PLY files.
+//! Triangle meshes from Wavefront OBJ, Stanford PLY and Mitsuba's
+//! `serialized` files.
 //!
-//! Both readers return the triangles in file order, polygons fan-triangulated,
-//! vertex order (winding) kept: the front side is the one the vertices turn
-//! counter-clockwise around, as in [`wavrad_core::scene::Patch::Triangle`].
-//! Normals, texture coordinates and every other attribute are ignored.
-//! Degenerate triangles are kept; callers decide what to do with them.
+//! The readers return a [`Mesh`]: the triangles in file order, polygons
+//! fan-triangulated, vertex order (winding) kept: the front side is the one
+//! the vertices turn counter-clockwise around, as in
+//! [`wavrad_core::scene::Patch::Triangle`]; and the file's vertex normals at
+//! each triangle's corners when it gives them. Texture coordinates and every
+//! other attribute are ignored. Degenerate triangles are kept; callers
+//! decide what to do with them.
 
 mod obj;
 mod ply;
+mod serialized;
 
 pub use obj::read_obj;
 pub use ply::read_ply;
+pub use serialized::read_serialized;
 
 use glam::DVec3;
 
 /// Three vertices, counter-clockwise seen from the front.
 pub type Triangle = [DVec3; 3];
 
-/// Fan-triangulate one polygon given as indices into `positions`, appending
-/// to `out`. Fails with the offending index when one is out of range.
-fn push_fan(
-    positions: &[DVec3],
+/// A triangle mesh as a file gives it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    /// The triangles, in file order.
+    pub triangles: Vec<Triangle>,
+    /// The vertex normals at each triangle's corners, in the triangles'
+    /// order, as stored (not normalised); `None` when the file has none.
+    pub normals: Option<Vec<[DVec3; 3]>>,
+}
+
+/// Fan-triangulate one polygon given as indices into `values` (positions
+/// or normals), appending to `out`. Fails with the offending index when one
+/// is out of range.
+fn push_fan<T: Copy>(
+    values: &[T],
     polygon: &[usize],
-    out: &mut Vec<Triangle>,
+    out: &mut Vec<[T; 3]>,
 ) -> std::result::Result<(), usize> {
-    let vertex = |i: usize| positions.get(i).copied().ok_or(i);
+    let value = |i: usize| values.get(i).copied().ok_or(i);
     if polygon.len() < 3 {
         return Ok(());
     }
-    let first = vertex(polygon[0])?;
+    let first = value(polygon[0])?;
     for pair in polygon[1..].windows(2) {
-        out.push([first, vertex(pair[0])?, vertex(pair[1])?]);
+        out.push([first, value(pair[0])?, value(pair[1])?]);
     }
     Ok(())
 }

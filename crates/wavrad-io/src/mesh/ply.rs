@@ -1,9 +1,10 @@
 //! Stanford PLY (ascii, binary_little_endian, binary_big_endian): the
-//! `vertex` element's `x y z` and the `face` element's `vertex_indices` (or
-//! `vertex_index`) list; every other element and property is skipped.
+//! `vertex` element's `x y z` (and `nx ny nz` normals when it has all
+//! three) and the `face` element's `vertex_indices` (or `vertex_index`)
+//! list; every other element and property is skipped.
 //!
-//! Written by hand rather than with `ply-rs-bw`: we need only positions and
-//! faces, want errors with the header/ascii line, must never panic or
+//! Written by hand rather than with `ply-rs-bw`: we need only positions,
+//! normals and faces, want errors with the header/ascii line, must never panic or
 //! pre-allocate from an untrusted element count, and that crate requires a
 //! newer Rust (1.87) than the workspace's `rust-version`.
 
@@ -11,11 +12,12 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{push_fan, Triangle};
+use super::{push_fan, Mesh};
 use crate::error::{Error, Result};
 
-/// Read every face of a PLY file as triangles (polygons fan-triangulated).
-pub fn read_ply(path: &Path) -> Result<Vec<Triangle>> {
+/// Read every face of a PLY file as triangles (polygons fan-triangulated),
+/// with their corners' normals.
+pub fn read_ply(path: &Path) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_ply(&bytes).map_err(|(line, message)| Error::mesh(path, line, message))
 }
@@ -91,17 +93,18 @@ impl Scalar {
     }
 }
 
-/// What we keep of the file: positions and polygons.
+/// What we keep of the file: positions, normals and polygons.
 #[derive(Default)]
-struct Mesh {
+struct Elements {
     positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
     polygons: Vec<Vec<usize>>,
 }
 
-fn parse_ply(bytes: &[u8]) -> PlyResult<Vec<Triangle>> {
+fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
     let (format, elements, body_start, header_lines) = parse_header(bytes)?;
     let body = &bytes[body_start..];
-    let mut mesh = Mesh::default();
+    let mut mesh = Elements::default();
     match format {
         Format::Ascii => read_ascii(body, header_lines, &elements, &mut mesh)?,
         Format::BinaryLittleEndian | Format::BinaryBigEndian => {
@@ -109,6 +112,9 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Vec<Triangle>> {
         }
     }
     let mut triangles = Vec::new();
+    // A vertex element with nx, ny, nz gave every vertex a normal.
+    let with_normals = mesh.normals.len() == mesh.positions.len();
+    let mut normals = with_normals.then(Vec::new);
     for polygon in &mesh.polygons {
         push_fan(&mesh.positions, polygon, &mut triangles).map_err(|i| {
             (
@@ -119,8 +125,11 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Vec<Triangle>> {
                 ),
             )
         })?;
+        if let Some(normals) = &mut normals {
+            push_fan(&mesh.normals, polygon, normals).expect("indices checked with positions");
+        }
     }
-    Ok(triangles)
+    Ok(Mesh { triangles, normals })
 }
 
 /// Parse the header; returns the format, the elements, the byte offset of
@@ -210,10 +219,12 @@ fn parse_header(bytes: &[u8]) -> PlyResult<(Format, Vec<ElementDef>, usize, u32)
     Ok((format, elements, offset, line_no))
 }
 
-/// Where `x`, `y`, `z` and the index list sit in an element's properties.
+/// Where `x`, `y`, `z`, `nx`, `ny`, `nz` and the index list sit in an
+/// element's properties.
 #[derive(Default)]
 struct Layout {
     xyz: [Option<usize>; 3],
+    normal: [Option<usize>; 3],
     indices: Option<usize>,
 }
 
@@ -225,6 +236,9 @@ fn layout(element: &ElementDef) -> PlyResult<Layout> {
                 "x" => layout.xyz[0] = Some(i),
                 "y" => layout.xyz[1] = Some(i),
                 "z" => layout.xyz[2] = Some(i),
+                "nx" => layout.normal[0] = Some(i),
+                "ny" => layout.normal[1] = Some(i),
+                "nz" => layout.normal[2] = Some(i),
                 _ => {}
             },
             ("face", Property::List { name, item, .. })
@@ -257,16 +271,29 @@ fn store(
     layout: &Layout,
     scalars: &[f64],
     list: Vec<usize>,
-    mesh: &mut Mesh,
+    mesh: &mut Elements,
 ) -> std::result::Result<(), String> {
+    let vector = |at: [Option<usize>; 3]| at.map(|k| k.map(|i| scalars[i]));
     match element.name.as_str() {
         "vertex" => {
-            let c = |k: usize| layout.xyz[k].map_or(f64::NAN, |i| scalars[i]);
-            let p = DVec3::new(c(0), c(1), c(2));
+            let [Some(x), Some(y), Some(z)] = vector(layout.xyz) else {
+                unreachable!("layout() requires x, y and z")
+            };
+            let p = DVec3::new(x, y, z);
             if !p.is_finite() {
                 return Err(format!("vertex {} is not finite", mesh.positions.len()));
             }
             mesh.positions.push(p);
+            if let [Some(x), Some(y), Some(z)] = vector(layout.normal) {
+                let n = DVec3::new(x, y, z);
+                if !n.is_finite() {
+                    return Err(format!(
+                        "normal of vertex {} is not finite",
+                        mesh.positions.len() - 1
+                    ));
+                }
+                mesh.normals.push(n);
+            }
         }
         "face" => mesh.polygons.push(list),
         _ => {}
@@ -286,7 +313,7 @@ fn read_ascii(
     body: &[u8],
     header_lines: u32,
     elements: &[ElementDef],
-    mesh: &mut Mesh,
+    mesh: &mut Elements,
 ) -> PlyResult<()> {
     let text = std::str::from_utf8(body).map_err(|_| (None, "ascii body is not text".into()))?;
     let mut lines = text
@@ -382,7 +409,7 @@ fn read_binary(
     body: &[u8],
     format: Format,
     elements: &[ElementDef],
-    mesh: &mut Mesh,
+    mesh: &mut Elements,
 ) -> PlyResult<()> {
     let mut cursor = Cursor {
         bytes: body,
@@ -430,11 +457,27 @@ mod tests {
 
     #[test]
     fn ascii_quad_is_two_ccw_triangles() {
-        let tris = parse_ply(ASCII_QUAD.as_bytes()).unwrap();
-        assert_eq!(tris.len(), 2);
-        for t in &tris {
+        let mesh = parse_ply(ASCII_QUAD.as_bytes()).unwrap();
+        assert_eq!(mesh.triangles.len(), 2);
+        for t in &mesh.triangles {
             assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
         }
+        assert_eq!(mesh.normals, None, "nx alone is no normal");
+    }
+
+    #[test]
+    fn normals_are_kept_per_corner() {
+        let with_normals = ASCII_QUAD
+            .replace(
+                "property float nx\n",
+                "property float nx\nproperty float ny\nproperty float nz\n",
+            )
+            .replace(" 9\n", " 0 0 -1\n");
+        let mesh = parse_ply(with_normals.as_bytes()).unwrap();
+        assert_eq!(mesh.normals, Some(vec![[-DVec3::Z; 3]; 2]));
+        let bad = with_normals.replace("1 0 0 0 0 -1\n", "1 0 0 0 0 nan\n");
+        let (_, msg) = parse_ply(bad.as_bytes()).unwrap_err();
+        assert!(msg.contains("normal of vertex 1 is not finite"), "{msg}");
     }
 
     fn binary(big_endian: bool) -> Vec<u8> {
@@ -479,9 +522,9 @@ mod tests {
     #[test]
     fn binary_both_endiannesses_and_skipped_elements() {
         for be in [false, true] {
-            let tris = parse_ply(&binary(be)).unwrap();
-            assert_eq!(tris.len(), 1);
-            assert_eq!(tris[0][2], DVec3::new(0.0, 3.0, 0.0));
+            let mesh = parse_ply(&binary(be)).unwrap();
+            assert_eq!(mesh.triangles.len(), 1);
+            assert_eq!(mesh.triangles[0][2], DVec3::new(0.0, 3.0, 0.0));
         }
     }
 

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use super::Warning;
 use crate::error::{Error, Result};
 
 /// Where an element was written: file name (as given to the loader), 1-based
@@ -21,6 +22,15 @@ impl Location {
     /// An error at this location.
     pub fn error(&self, message: impl Into<String>) -> Error {
         Error::Scene {
+            file: self.file.to_string(),
+            line: self.line,
+            message: message.into(),
+        }
+    }
+
+    /// A warning at this location.
+    pub fn warning(&self, message: impl Into<String>) -> Warning {
+        Warning {
             file: self.file.to_string(),
             line: self.line,
             message: message.into(),

@@ -6,7 +6,8 @@
 //!   substitution in every attribute (overrides, like `mitsuba -D`, win),
 //!   `<include filename/>` (beside the including file, else in the scene's
 //!   directory; cycles are errors), `<ref id/>` to any object with an `id`;
-//! - shapes `rectangle`, `cube`, `obj`, `ply` (`mitsuba/shapes.rs`), BSDFs `diffuse`
+//! - shapes `rectangle`, `cube`, `disk`, `cylinder`, `sphere` (tessellated),
+//!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs `diffuse`
 //!   and `twosided` (`mitsuba/bsdfs.rs`), the `area` emitter (`mitsuba/emitters.rs`), sensors
 //!   `perspective` and `orthographic` with `hdrfilm`, `box`/`gaussian`
 //!   filters and any sampler (`mitsuba/sensors.rs`); `integrator` and top-level
@@ -18,7 +19,9 @@
 //!
 //! Everything else — other plugins, textures, media, unknown parameters or
 //! elements, malformed numbers — is an error naming the file, the line and
-//! the offending name. Nothing panics on bad input.
+//! the offending name. Nothing panics on bad input. What is loaded, but not
+//! as written (a mesh's triangles of zero area are skipped, a sheared sphere
+//! stays a sphere), is a [`Warning`] beside the scene in [`Loaded`].
 //!
 //! ```
 //! use std::path::Path;
@@ -30,7 +33,9 @@
 //!         </bsdf>
 //!     </shape>
 //! </scene>"#;
-//! let scene = wavrad_io::load_scene_str(xml, Path::new("."), "doc.xml", &[]).unwrap();
+//! let loaded = wavrad_io::load_scene_str(xml, Path::new("."), "doc.xml", &[]).unwrap();
+//! assert!(loaded.warnings.is_empty());
+//! let scene = loaded.scene;
 //! assert_eq!(scene.surfaces.len(), 2); // front and back
 //! assert_eq!(scene.surfaces[0].brdf.lambertian(), Some(wavrad_core::scene::Rgb::splat(0.8)));
 //! ```
@@ -44,6 +49,7 @@ mod shapes;
 mod transform;
 
 use std::collections::HashMap;
+use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -53,15 +59,44 @@ use crate::error::{Error, Result};
 use document::{read_scene_document, Element, Location};
 use params::{Ids, Object};
 
+/// A scene as loaded, with the warnings the loader had about it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loaded {
+    /// The scene.
+    pub scene: Scene,
+    /// What was loaded, but not as written, in document order; users should
+    /// be shown them.
+    pub warnings: Vec<Warning>,
+}
+
+/// Something in a scene that was loaded, but not as written (as a
+/// renderer's warning log would say). The `Display` form,
+/// `file:line: message`, is meant for users as is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Warning {
+    /// The scene (or included) file, as named to the loader.
+    pub file: String,
+    /// 1-based line of the element concerned.
+    pub line: u32,
+    /// What was done instead.
+    pub message: String,
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: {}", self.file, self.line, self.message)
+    }
+}
+
 /// Load a Mitsuba XML scene file.
-pub fn load_scene(path: &Path) -> Result<Scene> {
+pub fn load_scene(path: &Path) -> Result<Loaded> {
     load_scene_with(path, &[])
 }
 
 /// Load a Mitsuba XML scene file with parameter overrides (`name`, `value`),
 /// which take precedence over the file's `<default>`s like Mitsuba's
 /// `-D name=value`.
-pub fn load_scene_with(path: &Path, defaults: &[(String, String)]) -> Result<Scene> {
+pub fn load_scene_with(path: &Path, defaults: &[(String, String)]) -> Result<Loaded> {
     let xml = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -78,7 +113,7 @@ pub fn load_scene_str(
     base_dir: &Path,
     name_for_messages: &str,
     overrides: &[(String, String)],
-) -> Result<Scene> {
+) -> Result<Loaded> {
     load(xml, base_dir, name_for_messages, None, overrides)
 }
 
@@ -88,7 +123,7 @@ fn load(
     name: &str,
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
-) -> Result<Scene> {
+) -> Result<Loaded> {
     let children = read_scene_document(xml, name, dir, own_path, overrides)?;
     let root = Element {
         tag: "scene".into(),
@@ -127,10 +162,11 @@ fn collect_ids(root: &Element) -> Result<Ids<'_>> {
     Ok(ids)
 }
 
-fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Scene> {
+fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Loaded> {
     let scene = Object::parse(root, ids)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
+    let mut warnings = Vec::new();
     let mut sensor = None;
     let mut top_level_samples = None;
     let mut shape_index = 0;
@@ -142,7 +178,14 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Scene> {
         }
         match n.tag() {
             "shape" => {
-                shapes::build_shape(*n, ids, shape_index, scene_dir, &mut surfaces)?;
+                shapes::build_shape(
+                    *n,
+                    ids,
+                    shape_index,
+                    scene_dir,
+                    &mut surfaces,
+                    &mut warnings,
+                )?;
                 shape_index += 1;
             }
             "bsdf" => {
@@ -170,7 +213,7 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Scene> {
             }
         }
     }
-    Ok(Scene {
+    let scene = Scene {
         surfaces,
         camera: sensor.map(|s| s.camera),
         film: sensor.map_or_else(Film::default, |s| s.film),
@@ -179,5 +222,6 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Scene> {
                 .and_then(|s| s.samples_per_pixel)
                 .or(top_level_samples),
         },
-    })
+    };
+    Ok(Loaded { scene, warnings })
 }

@@ -309,6 +309,17 @@ impl<'a> Object<'a> {
         }
     }
 
+    /// A `<point>` (or `<vector>`) parameter, e.g. a sphere's `center`.
+    pub fn point(&mut self, name: &'static str) -> Result<Option<DVec3>> {
+        let Some((value, at)) = self.take(name) else {
+            return Ok(None);
+        };
+        match value {
+            Value::Point(p) | Value::Vector(p) => Ok(Some(p)),
+            other => Err(self.mismatch(name, "a <point>", &other, &at)),
+        }
+    }
+
     /// A `<transform>` parameter.
     pub fn transform(&mut self, name: &'static str) -> Result<Option<DMat4>> {
         let Some((value, at)) = self.take(name) else {

@@ -1,0 +1,153 @@
+//! `obj`, `ply` and `serialized`: triangle meshes from files
+//! ([`crate::mesh`]).
+//!
+//! | parameter         | shapes          | type          | default  |
+//! |-------------------|-----------------|---------------|----------|
+//! | `filename`        | all             | `<string>`    | required |
+//! | `shape_index`     | serialized      | `<integer>`   | 0        |
+//! | `face_normals`    | all             | `<boolean>`   | false    |
+//! | `flip_tex_coords` | obj, ply        | (ignored)     |          |
+//!
+//! ```xml
+//! <shape type="serialized">
+//!     <string name="filename" value="meshes/bunny.serialized"/>
+//!     <integer name="shape_index" value="2"/>
+//! </shape>
+//! ```
+//!
+//! Each triangle becomes one [`Patch::Triangle`] whose front is the side
+//! Mitsuba shades and emits on, that of its shading normal: where the file
+//! has vertex normals and `face_normals` is false, the side they point to
+//! (summed over the triangle's corners and transformed as normals, so a
+//! mirroring `to_world` keeps it); otherwise the side its vertices turn
+//! counter-clockwise around after `to_world` (so a mirroring transform turns
+//! the mesh inside out). Triangles of zero area (collinear or repeated
+//! vertices) are skipped, and a warning counts them; a mesh with no other
+//! triangle is an error.
+
+use std::path::Path;
+
+use glam::DMat4;
+use wavrad_core::scene::Patch;
+
+use super::super::document::{resolve_path, Location};
+use super::super::params::Object;
+use super::super::Warning;
+use crate::error::Result;
+use crate::mesh;
+
+/// The file formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Obj,
+    Ply,
+    /// Mitsuba's own, one shape of the file.
+    Serialized {
+        shape_index: u32,
+    },
+}
+
+/// A mesh shape's file, its parameters read.
+#[derive(Debug, Clone)]
+pub(super) struct MeshFile {
+    format: Format,
+    filename: String,
+    /// Whether the file's vertex normals are ignored.
+    face_normals: bool,
+    /// Where `filename` is written.
+    at: Location,
+}
+
+impl MeshFile {
+    /// Read the parameters of `obj`, a shape of plugin `obj`, `ply` or
+    /// `serialized`.
+    pub fn parse(obj: &mut Object) -> Result<MeshFile> {
+        let format = match obj.plugin {
+            "obj" => Format::Obj,
+            "ply" => Format::Ply,
+            _ => {
+                let index = obj.integer("shape_index")?.unwrap_or(0);
+                let shape_index = u32::try_from(index).map_err(|_| {
+                    obj.location_of("shape_index").error(format!(
+                        "shape_index of {} must be a non-negative integer, not {index}",
+                        obj.describe()
+                    ))
+                })?;
+                Format::Serialized { shape_index }
+            }
+        };
+        if matches!(format, Format::Obj | Format::Ply) {
+            obj.ignore(&["flip_tex_coords"]);
+        }
+        let face_normals = obj.boolean("face_normals")?.unwrap_or(false);
+        let filename = obj.string("filename")?.ok_or_else(|| {
+            obj.at()
+                .error(format!("{} needs a \"filename\" parameter", obj.describe()))
+        })?;
+        Ok(MeshFile {
+            format,
+            filename,
+            face_normals,
+            at: obj.location_of("filename").clone(),
+        })
+    }
+
+    /// The mesh's triangles in world space, less those of zero area (counted
+    /// in a warning). `describe` names the shape in messages; `scene_dir` is
+    /// the fallback for a relative `filename`.
+    pub fn patches(
+        &self,
+        world_from_local: &DMat4,
+        describe: &str,
+        scene_dir: &Path,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<Vec<Patch>> {
+        let path = resolve_path(&self.filename, &self.at.dir, scene_dir);
+        let mesh = match self.format {
+            Format::Obj => mesh::read_obj(&path),
+            Format::Ply => mesh::read_ply(&path),
+            Format::Serialized { shape_index } => mesh::read_serialized(&path, shape_index),
+        }
+        .map_err(|e| {
+            self.at
+                .error(format!("cannot load mesh of {describe}: {e}"))
+        })?;
+        let count = mesh.triangles.len();
+        let normals = mesh.normals.filter(|_| !self.face_normals);
+        // A triangle whose normals point against its winding is turned
+        // round, and so is every one when to_world mirrors (it reverses the
+        // winding but not the normals).
+        let mirrored = world_from_local.determinant() < 0.0;
+        let patches: Vec<Patch> = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| {
+                let p = Patch::Triangle(*t).transformed(world_from_local);
+                if p.is_degenerate() {
+                    return None;
+                }
+                let turn = normals.as_ref().is_some_and(|normals| {
+                    let [a, b, c] = *t;
+                    let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
+                    against != mirrored
+                });
+                Some(if turn { p.flipped() } else { p })
+            })
+            .collect();
+        if patches.is_empty() {
+            return Err(self.at.error(format!(
+                "mesh \"{}\" has no usable triangles ({count} triangles, all degenerate or none)",
+                path.display()
+            )));
+        }
+        let skipped = count - patches.len();
+        if skipped > 0 {
+            warnings.push(self.at.warning(format!(
+                "{describe}: skipped {skipped} of the {count} triangles of mesh \"{}\": they have zero area (collinear or repeated vertices)",
+                path.display()
+            )));
+        }
+        Ok(patches)
+    }
+}

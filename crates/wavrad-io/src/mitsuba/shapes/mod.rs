@@ -1,0 +1,260 @@
+//! Shape plugins: `rectangle`, `cube` (`parallelogram.rs`), `disk`,
+//! `cylinder`, `sphere` (tessellated: `tessellation.rs`), and the meshes
+//! `obj`, `ply`, `serialized` (`mesh_file.rs`). Each plugin's module lists
+//! its own parameters; every shape takes
+//!
+//! | parameter      | type          | default  |
+//! |----------------|---------------|----------|
+//! | `to_world`     | `<transform>` | identity |
+//! | `flip_normals` | `<boolean>`   | false    |
+//!
+//! plus at most one nested (or referenced) `<bsdf>` and one `<emitter
+//! type="area">`.
+//!
+//! ```xml
+//! <shape type="rectangle">
+//!     <transform name="to_world">
+//!         <translate y="-1"/>
+//!     </transform>
+//!     <ref id="white"/>
+//! </shape>
+//! ```
+//!
+//! The front side is the one Mitsuba shades and emits on, that of its
+//! shading normal. A mirroring `to_world` keeps it for `rectangle`, `cube`,
+//! `disk`, `cylinder` and meshes with vertex normals (Mitsuba transforms
+//! their normals, not their edges), while it turns a `sphere` and a mesh
+//! without normals inside out, as in Mitsuba; `flip_normals` then turns any
+//! shape round. Each case was checked against Mitsuba 3.9.1's emitters.
+
+mod cylinder;
+mod disk;
+mod mesh_file;
+mod parallelogram;
+mod sphere;
+mod tessellation;
+
+use std::path::Path;
+
+use glam::{DMat4, DVec3};
+use wavrad_core::scene::{Patch, Rgb, Surface};
+
+use super::bsdfs::{parse_bsdf, Material};
+use super::emitters::parse_area_emitter;
+use super::params::{Ids, Nested, Object};
+use super::Warning;
+use crate::error::Result;
+use mesh_file::MeshFile;
+
+/// The shape plugins wavrad reads, for messages.
+const SUPPORTED: &str = "rectangle, cube, disk, cylinder, sphere, obj, ply, serialized";
+
+/// A shape plugin with its own parameters read.
+#[derive(Debug, Clone)]
+enum Geometry {
+    Rectangle,
+    Cube,
+    Disk,
+    Cylinder { p0: DVec3, p1: DVec3, radius: f64 },
+    Sphere { center: DVec3, radius: f64 },
+    Mesh(MeshFile),
+}
+
+/// Which side of a shape is the front after a mirroring `to_world`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Front {
+    /// The side its transformed normals point to (Mitsuba transforms them
+    /// as normals): the patches are turned round when `to_world` mirrors.
+    Normals,
+    /// The side its transformed vertices turn counter-clockwise around.
+    Winding,
+}
+
+impl Geometry {
+    /// Read the plugin's own parameters from `obj`.
+    fn parse(obj: &mut Object) -> Result<Geometry> {
+        Ok(match obj.plugin {
+            "rectangle" => Geometry::Rectangle,
+            "cube" => Geometry::Cube,
+            "disk" => Geometry::Disk,
+            "cylinder" => Geometry::Cylinder {
+                p0: obj.point("p0")?.unwrap_or(DVec3::ZERO),
+                p1: obj.point("p1")?.unwrap_or(DVec3::Z),
+                radius: obj.float("radius")?.unwrap_or(1.0),
+            },
+            "sphere" => Geometry::Sphere {
+                center: obj.point("center")?.unwrap_or(DVec3::ZERO),
+                radius: obj.float("radius")?.unwrap_or(1.0),
+            },
+            "obj" | "ply" | "serialized" => Geometry::Mesh(MeshFile::parse(obj)?),
+            plugin => {
+                return Err(obj.at().error(format!(
+                    "unsupported shape plugin \"{plugin}\" (supported: {SUPPORTED})"
+                )))
+            }
+        })
+    }
+
+    /// The shape's patches in world space, front side Mitsuba's (before
+    /// `flip_normals`).
+    fn patches(
+        &self,
+        obj: &Object,
+        world_from_local: &DMat4,
+        scene_dir: &Path,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<Vec<Patch>> {
+        let zero_area = || {
+            obj.at()
+                .error(format!("{} has zero area after to_world", obj.describe()))
+        };
+        let too_large = || {
+            obj.at().error(format!(
+                "{} is too large for 64-bit floats after to_world",
+                obj.describe()
+            ))
+        };
+        let (local, world_from_local, front) = match self {
+            Geometry::Rectangle => (
+                vec![parallelogram::rectangle()],
+                *world_from_local,
+                Front::Normals,
+            ),
+            Geometry::Cube => (
+                parallelogram::cube().to_vec(),
+                *world_from_local,
+                Front::Normals,
+            ),
+            Geometry::Disk => (disk::unit_disk(), *world_from_local, Front::Normals),
+            Geometry::Cylinder { p0, p1, radius } => {
+                let local_from_cylinder = cylinder::local_from_cylinder(*p0, *p1, *radius)
+                    .ok_or_else(|| {
+                        obj.location_of("p1").error(format!(
+                            "{} has p0 = p1 = {p0}: its axis has no direction",
+                            obj.describe()
+                        ))
+                    })?;
+                (
+                    cylinder::unit_cylinder(),
+                    *world_from_local * local_from_cylinder,
+                    Front::Normals,
+                )
+            }
+            Geometry::Sphere { center, radius } => {
+                let world_from_unit =
+                    sphere::Placement::world_from_unit(world_from_local, *center, *radius);
+                if !world_from_unit.is_finite() {
+                    return Err(too_large());
+                }
+                let placement = sphere::Placement::new(&world_from_unit).ok_or_else(zero_area)?;
+                if placement.replaced {
+                    warnings.push(obj.location_of("to_world").warning(format!(
+                        "to_world of {} shears or scales unevenly; as in Mitsuba, the shape is a sphere of radius {} (its length along the local x axis)",
+                        obj.describe(),
+                        placement.radius()
+                    )));
+                }
+                (
+                    sphere::unit_sphere(),
+                    placement.world_from_sphere,
+                    Front::Winding,
+                )
+            }
+            Geometry::Mesh(file) => {
+                return file.patches(world_from_local, &obj.describe(), scene_dir, warnings)
+            }
+        };
+        let mirrored = world_from_local.determinant() < 0.0;
+        local
+            .iter()
+            .map(|p| {
+                let p = p.transformed(&world_from_local);
+                if !p.vertices().iter().all(|v| v.is_finite()) {
+                    return Err(too_large());
+                }
+                match (p.is_degenerate(), front == Front::Normals && mirrored) {
+                    (true, _) => Err(zero_area()),
+                    (false, true) => Ok(p.flipped()),
+                    (false, false) => Ok(p),
+                }
+            })
+            .collect()
+    }
+}
+
+/// Append the surfaces of shape `shape` to `out`, all named by the shape's
+/// `id` (else its `name`, else `plugin#index`). `scene_dir` is the fallback
+/// for relative mesh paths; what was loaded but not as written goes to
+/// `warnings`.
+pub(crate) fn build_shape(
+    shape: Nested,
+    ids: &Ids,
+    index: usize,
+    scene_dir: &Path,
+    out: &mut Vec<Surface>,
+    warnings: &mut Vec<Warning>,
+) -> Result<()> {
+    let mut obj = Object::parse(shape.element, ids)?;
+    let plugin = obj.plugin;
+
+    // Parameters.
+    let geometry = Geometry::parse(&mut obj)?;
+    let world_from_local = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    if !world_from_local.is_finite() {
+        return Err(obj
+            .location_of("to_world")
+            .error(format!("to_world of {} is not finite", obj.describe())));
+    }
+    let flip_normals = obj.boolean("flip_normals")?.unwrap_or(false);
+    obj.finish()?;
+
+    // Nested BSDF and emitter.
+    let mut material = None;
+    let mut emission = None;
+    for n in &obj.nested {
+        match n.tag() {
+            "bsdf" if material.is_none() => material = Some(parse_bsdf(*n, ids)?),
+            "emitter" if emission.is_none() => emission = Some(parse_area_emitter(*n, ids)?),
+            "bsdf" | "emitter" => {
+                return Err(n.at.error(format!(
+                    "{} has more than one <{}>",
+                    obj.describe(),
+                    n.tag()
+                )))
+            }
+            _ => return Err(obj.unexpected(n)),
+        }
+    }
+    let material: Material = material.unwrap_or_default();
+    let emission = emission.unwrap_or(Rgb::ZERO);
+
+    // Geometry in world space.
+    let mut patches = geometry.patches(&obj, &world_from_local, scene_dir, warnings)?;
+    if flip_normals {
+        patches = patches.iter().map(Patch::flipped).collect();
+    }
+
+    // Surfaces: the front carries the emission; twosided adds the back.
+    let name = shape
+        .element
+        .attr("id")
+        .or(shape.element.attr("name"))
+        .map_or_else(|| format!("{plugin}#{index}"), str::to_string);
+    for patch in patches {
+        out.push(Surface {
+            name: name.clone(),
+            patch,
+            brdf: material.front.clone(),
+            emission,
+        });
+        if let Some(back) = &material.back {
+            out.push(Surface {
+                name: name.clone(),
+                patch: patch.flipped(),
+                brdf: back.clone(),
+                emission: Rgb::ZERO,
+            });
+        }
+    }
+    Ok(())
+}
