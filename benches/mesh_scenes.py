@@ -4,6 +4,7 @@ with its blocks replaced by a tessellated sphere (convex: its triangles never
 see each other) or by a bowl (concave: they do), at any triangle count.
 
     python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes   # writes scene.xml + mesh
+    python3 benches/mesh_scenes.py bunny.ply /tmp/scenes     # any PLY/OBJ, fitted in
 
 Standard library only. The meshes are written as binary PLY.
 """
@@ -61,22 +62,61 @@ def write_ply(path: Path, verts, faces):
             f.write(struct.pack("<B3i", 3, *t))
 
 
-def make(kind: str, triangles: int, out: Path) -> Path:
-    """Write `out/scene.xml` and its mesh; return the scene's path."""
-    out.mkdir(parents=True, exist_ok=True)
-    verts, faces = grid_sphere(triangles, rows_for_bowl=(kind == "bowl"))
-    write_ply(out / "mesh.ply", verts, faces)
+def mesh_bounds(path: Path) -> tuple[list[float], list[float]]:
+    """Bounding box of the vertices of a PLY (ASCII or binary little-endian,
+    x y z as the first three float properties) or OBJ file."""
+    lo, hi = [math.inf] * 3, [-math.inf] * 3
+
+    def add(v):
+        for k in range(3):
+            lo[k], hi[k] = min(lo[k], v[k]), max(hi[k], v[k])
+
+    if path.suffix.lower() == ".obj":
+        for line in path.read_text(errors="replace").splitlines():
+            if line.startswith("v "):
+                add([float(x) for x in line.split()[1:4]])
+        return lo, hi
+    data = path.read_bytes()
+    end = data.index(b"end_header") + len(b"end_header")
+    end = data.index(b"\n", end) + 1
+    header = data[:end].decode("ascii", errors="replace").splitlines()
+    count, props, fmt = 0, [], header[1].split()[1]
+    for line in header:
+        words = line.split()
+        if words[:2] == ["element", "vertex"]:
+            count = int(words[2])
+        elif words and words[0] == "element":
+            if count and props:
+                break
+        elif words[:1] == ["property"] and count and words[1] != "list":
+            props.append(words[1])
+    sizes = {"float": "f", "float32": "f", "double": "d", "float64": "d", "uchar": "B", "uint8": "B",
+             "int": "i", "int32": "i", "uint": "I", "uint32": "I", "short": "h", "ushort": "H"}
+    if fmt == "ascii":
+        lines = data[end:].decode().splitlines()[:count]
+        for line in lines:
+            add([float(x) for x in line.split()[:3]])
+        return lo, hi
+    record = struct.Struct("<" + "".join(sizes[p] for p in props))
+    for k in range(count):
+        add(record.unpack_from(data, end + k * record.size)[:3])
+    return lo, hi
+
+
+def room(mesh: str, scale: float, offset: list[float], out: Path, bsdf: str) -> Path:
+    """The Cornell box without its blocks, with `mesh` (in `out`) scaled by
+    `scale` and moved by `offset`."""
     xml = CORNELL.read_text()
     # Drop the two blocks (every shape after the walls' comment block).
     xml = re.sub(r"<!-- =+ Box(?:es)? =+ -->.*?(?=</scene>)", "", xml, flags=re.S)
-    bsdf = '<bsdf type="twosided"><ref id="white"/></bsdf>' if kind == "bowl" else '<ref id="white"/>'
+    kind = "obj" if mesh.lower().endswith(".obj") else "ply"
     shape = f"""
-    <shape type="ply">
-        <string name="filename" value="mesh.ply"/>
+    <shape type="{kind}">
+        <string name="filename" value="{mesh}"/>
         <boolean name="face_normals" value="true"/>
         <transform name="to_world">
-            <scale value="0.45"/>
-            <translate x="0" y="-0.5" z="0"/>
+            <scale value="{scale}"/>
+            <translate x="{offset[0]}" y="{offset[1]}" z="{offset[2]}"/>
         </transform>
         {bsdf}
     </shape>
@@ -87,6 +127,30 @@ def make(kind: str, triangles: int, out: Path) -> Path:
     return path
 
 
+def make(kind: str, triangles: int, out: Path) -> Path:
+    """Write `out/scene.xml` with a sphere or bowl of about `triangles`
+    triangles, 0.45 in radius, its centre 0.5 above the floor; return the
+    scene's path."""
+    out.mkdir(parents=True, exist_ok=True)
+    verts, faces = grid_sphere(triangles, rows_for_bowl=(kind == "bowl"))
+    write_ply(out / "mesh.ply", verts, faces)
+    two_sided = '<bsdf type="twosided"><ref id="white"/></bsdf>'
+    return room("mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else '<ref id="white"/>')
+
+
+def make_from(mesh: Path, out: Path) -> Path:
+    """Write `out/scene.xml` with the mesh file `mesh` fitted into the box
+    (its largest side 0.9, standing on the floor), two-sided."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / mesh.name).write_bytes(mesh.read_bytes())
+    lo, hi = mesh_bounds(mesh)
+    scale = 0.9 / max(h - l for l, h in zip(lo, hi))
+    offset = [-scale * 0.5 * (lo[0] + hi[0]), -0.999 - scale * lo[1], -scale * 0.5 * (lo[2] + hi[2])]
+    return room(mesh.name, scale, offset, out, '<bsdf type="twosided"><ref id="white"/></bsdf>')
+
+
 if __name__ == "__main__":
-    kind, count, out = sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])
-    print(make(kind, count, out))
+    if sys.argv[1] in ("sphere", "bowl"):
+        print(make(sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])))
+    else:
+        print(make_from(Path(sys.argv[1]), Path(sys.argv[2])))

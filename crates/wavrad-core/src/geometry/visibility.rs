@@ -96,6 +96,12 @@ impl Tri {
     }
 }
 
+/// Most triangles whose boxes meet a shaft that
+/// [`Occluder::clear_between`] tests one by one before it gives up (the
+/// answer is then `false`, and rays are traced). Without a bound a shaft
+/// across a mesh of a million triangles tested each of them.
+pub const SHAFT_TRIANGLES: u32 = 256;
+
 /// Acceleration structure over triangles (built once, immutable, `Send + Sync`
 /// so rayon threads can query it).
 #[derive(Debug, Clone)]
@@ -236,7 +242,8 @@ impl Occluder {
     /// shaft's box must each be kept apart from it, by more than the boxes'
     /// padding, along one of a few separating axes (the polygons' and the
     /// triangle's normals, and cross products of their edges and the line
-    /// between the polygons' centres), else the answer is `false`.
+    /// between the polygons' centres), else the answer is `false`; so is
+    /// it when more than [`SHAFT_TRIANGLES`] triangles' boxes meet it.
     pub fn clear_between(&self, a: &[DVec3], c: &[DVec3], skip: impl Fn(u32) -> bool) -> bool {
         let Some(BoxTree(boxes)) = &self.boxes else {
             return true;
@@ -268,7 +275,7 @@ impl Occluder {
                 .chain(lines.iter().flat_map(|l| edges.map(|e| l.cross(e))))
                 .map(|axis| (axis, span(hull(), axis)))
                 .collect();
-        let mut clear = true;
+        let (mut clear, mut budget) = (true, SHAFT_TRIANGLES);
         boxes.aabb_traverse(query, |bvh, node| {
             let node = &bvh.nodes[node as usize];
             let first = node.first_index as usize;
@@ -277,6 +284,13 @@ impl Occluder {
                 if skip(tri.id) {
                     continue;
                 }
+                // A shaft through a fine mesh: tracing its rays is cheaper
+                // than proving it clear.
+                if budget == 0 {
+                    clear = false;
+                    return false;
+                }
+                budget -= 1;
                 let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2];
                 let apart = |axis: DVec3, (h0, h1): (f64, f64)| {
                     let (t0, t1) = span(corners.iter(), axis);

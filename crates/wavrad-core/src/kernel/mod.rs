@@ -126,13 +126,30 @@ impl KernelContext<'_> {
 /// Whether some vertex of `q` lies in front of the plane of `p`, and
 /// whether some lies behind it (vertices in the plane count as neither).
 pub(super) fn sides_of_plane(p: &Patch, q: &Patch) -> (bool, bool) {
-    let (n, o) = (p.normal(), p.vertices()[0]);
-    q.vertices()
-        .iter()
-        .fold((false, false), |(front, back), v| {
-            let (h, tolerance) = (n.dot(*v - o), 1e-12 * (1.0 + v.length()));
-            (front || h > tolerance, back || h < -tolerance)
-        })
+    let first = |p: &Patch| match *p {
+        Patch::Parallelogram { origin, .. } => origin,
+        Patch::Triangle([a, _, _]) => a,
+    };
+    let (n, o) = (p.normal(), first(p));
+    // The corners without allocating (this runs for every pair of
+    // surfaces linking visits).
+    let corners = match *q {
+        Patch::Parallelogram {
+            origin,
+            edge_s,
+            edge_t,
+        } => [
+            origin,
+            origin + edge_s,
+            origin + edge_s + edge_t,
+            origin + edge_t,
+        ],
+        Patch::Triangle([a, b, c]) => [a, b, c, c],
+    };
+    corners.iter().fold((false, false), |(front, back), v| {
+        let (h, tolerance) = (n.dot(*v - o), 1e-12 * (1.0 + v.length()));
+        (front || h > tolerance, back || h < -tolerance)
+    })
 }
 
 /// The visibility targets of outer point `i` of an `m` × `m` rule: the

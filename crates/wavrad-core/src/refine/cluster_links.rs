@@ -142,7 +142,12 @@ impl Linker<'_> {
     }
 
     fn patch(&self, e: ElementRef) -> Patch {
-        e.id.patch(&self.ctx.scene.surfaces[e.surface as usize].patch)
+        let root = self.ctx.scene.surfaces[e.surface as usize].patch;
+        if e.id.level == 0 {
+            root
+        } else {
+            e.id.patch(&root)
+        }
     }
 
     fn bounds(&self, end: End) -> Bounds {

@@ -74,6 +74,9 @@ pub struct ClusterTransfers {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FarField {
     sent: Vec<[[DVec3; 3]; 2]>,
+    /// What each surface's root receives through its clusters' links
+    /// (irradiance over π, before reflectance).
+    at_roots: Vec<Rgb>,
 }
 
 impl ClusterTransfers {
@@ -159,7 +162,7 @@ impl ClusterTransfers {
     /// (every surface's node averages): over its members that face the
     /// other end's centroid.
     pub fn far_field(&self, radiance: &[Vec<Rgb>]) -> FarField {
-        let sent = self
+        let sent: Vec<[[DVec3; 3]; 2]> = self
             .links
             .par_iter()
             .map(|t| {
@@ -187,39 +190,56 @@ impl ClusterTransfers {
                 })
             })
             .collect();
-        FarField { sent }
+        // What every surface's root receives through the links of the
+        // clusters above it, in parallel (this sweep's far field is fixed).
+        let surfaces = if self.clusters.nodes.is_empty() {
+            0
+        } else {
+            self.roots.len()
+        };
+        let at_roots = (0..surfaces)
+            .into_par_iter()
+            .map(|p| {
+                let root = &self.roots[p];
+                let ancestors = self.clusters.ancestors(p as u32);
+                ancestors
+                    .flat_map(|c| &self.at_cluster[c as usize])
+                    .map(|&at| self.received(root, at, &sent))
+                    .fold(Rgb::ZERO, |a, b| a + b)
+            })
+            .collect();
+        FarField { sent, at_roots }
+    }
+
+    /// The irradiance over π that `member` receives through side `side` of
+    /// link `link` from the intensities `sent`: V·cos·I(−u)/(π·d²).
+    fn received(&self, member: &Member, (link, side): (u32, u8), sent: &[[[DVec3; 3]; 2]]) -> Rgb {
+        let t = &self.links[link as usize];
+        let to = t.centers[1 - side as usize] - member.point;
+        let d2 = to.length_squared();
+        let cos = member.normal.dot(to);
+        if cos <= 0.0 || d2 <= 0.0 {
+            return Rgb::ZERO;
+        }
+        // I(−u)·|u|: the source's intensity towards the member.
+        let intensity = Rgb(sent[link as usize][1 - side as usize].map(|n| (-n.dot(to)).max(0.0)));
+        intensity * (t.visibility * cos / (PI * d2 * d2))
     }
 
     /// Add to `gathered` (surface `p`'s tree) the light of reflectance
     /// `reflectance` it gathers through cluster links from `far`.
     pub fn gather_into(&self, p: u32, reflectance: Rgb, far: &FarField, gathered: &mut Gathered) {
-        let mut add = |member: &Member, (link, side): (u32, u8)| {
-            let t = &self.links[link as usize];
-            let to = t.centers[1 - side as usize] - member.point;
-            let d2 = to.length_squared();
-            let cos = member.normal.dot(to);
-            if cos <= 0.0 || d2 <= 0.0 {
-                return;
-            }
-            let [r, g, b] = far.sent[link as usize][1 - side as usize];
-            // I(−u)·|u|: the source's intensity towards the member.
-            let intensity = Rgb([r, g, b].map(|n| (-n.dot(to)).max(0.0)));
-            let factor = t.visibility * cos / (PI * d2 * d2);
-            let value = reflectance * intensity * factor;
-            gathered.add(member.node as usize, value, DVec3::ZERO);
-        };
-        if self.clusters.nodes.is_empty() {
+        if far.at_roots.is_empty() {
             return;
         }
-        let root = &self.roots[p as usize];
-        for c in self.clusters.ancestors(p) {
-            for &at in &self.at_cluster[c as usize] {
-                add(root, at);
-            }
+        let root = far.at_roots[p as usize];
+        if root != Rgb::ZERO {
+            gathered.add(0, reflectance * root, DVec3::ZERO);
         }
         for &at in &self.at_surface[p as usize] {
             if let Side::Element(m) = self.links[at.0 as usize].sides[at.1 as usize] {
-                add(&m, at);
+                let value = reflectance * self.received(&m, at, &far.sent);
+                gathered.add(m.node as usize, value, DVec3::ZERO);
             }
         }
     }

@@ -4,12 +4,12 @@
 Renders each case with RAYON_NUM_THREADS=1, 2, ..., reads the phase times
 from the --stats JSON, checks that every image is byte-for-byte identical to
 the one-thread image (images must not depend on the thread count), and
-writes the tables to docs/scaling.md, keeping what follows its
+writes the tables to docs/thread-scaling.md, keeping what follows its
 `<!-- notes -->` line. Standard library only.
 
     cargo build --release -p wavrad-cli
-    python3 benches/scaling.py                      # 1 and 2 threads, one run each
-    python3 benches/scaling.py --threads 1 2 4 --repeat 3 --full
+    python3 benches/thread_scaling.py                      # 1 and 2 threads, one run each
+    python3 benches/thread_scaling.py --threads 1 2 4 --repeat 3 --full
 
 The glossy Cornell box runs with --three-point-max-level 2; --full adds it
 at the default settings (level 3: minutes on one thread).
@@ -171,7 +171,7 @@ def report(results, threads, repeat, load, notes: str, commit: str | None) -> st
         "the cores the process actually got; × = speed-up over "
         f"{threads[0]} thread(s); identical =",
         f"the EXR file is byte-for-byte the {threads[0]}-thread one.",
-        f"Written by `python3 benches/scaling.py {' '.join(sys.argv[1:])}`.",
+        f"Written by `python3 benches/thread_scaling.py {' '.join(sys.argv[1:])}`.",
         "",
         f"Measured {datetime.date.today()} at commit `{commit or 'unknown'}` on "
         f"{platform.machine()}, {os.cpu_count()} logical CPUs, load average "
@@ -197,7 +197,7 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs per count; fastest counts")
     parser.add_argument("--full", action="store_true", help="add the glossy box at defaults")
     parser.add_argument("--only", help="run only the case of this name")
-    parser.add_argument("--out", type=Path, default=ROOT / "docs/scaling.md")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs/thread-scaling.md")
     parser.add_argument("--commit", help="commit the binary was built from (default: HEAD)")
     args = parser.parse_args()
     wavrad = args.wavrad.resolve()
