@@ -26,11 +26,12 @@ pub fn hash2(seed: u64, index: u64) -> DVec2 {
 pub enum Stream {
     /// A final gather's shadow rays to emitter `e`.
     Shadow(u32),
-    /// A final gather's area samples of the bright surface `q`.
-    Bright(u32),
-    /// A final gather's directions through the mirror image numbered
-    /// `index`.
-    Mirror(u32),
+    /// A final gather's area samples of the bright surfaces (a surface,
+    /// and a point on it).
+    Bright,
+    /// A final gather's directions through the mirror images (an image,
+    /// and a point on it).
+    Mirror,
     /// A final gather's cosine-distributed rays.
     Cosine,
     /// A glossy point's light samples of emitter `e`.
@@ -45,8 +46,8 @@ impl Stream {
     fn key(self) -> u64 {
         match self {
             Stream::Shadow(e) => u64::from(e) << 32,
-            Stream::Bright(q) => 0x3c6e_f372 ^ u64::from(q) << 32,
-            Stream::Mirror(index) => 0x6a09_e667 ^ u64::from(index) << 32,
+            Stream::Bright => 0x3c6e_f372,
+            Stream::Mirror => 0x6a09_e667,
             Stream::Cosine => 0x5bd1_e995,
             Stream::Light(e) => 0x2545_f491 ^ u64::from(e) << 32,
             Stream::Brdf => 0x9e37_79b9,
@@ -299,7 +300,7 @@ mod tests {
         assert_ne!(other.point(Stream::Cosine, 16, 0), block(0)[0]);
         let first = |stream| Samples::pixel(5, 0).point(stream, 16, 0);
         assert_ne!(first(Stream::Shadow(1)), first(Stream::Light(1)));
-        assert_ne!(first(Stream::Bright(0)), first(Stream::Mirror(0)));
+        assert_ne!(first(Stream::Bright), first(Stream::Mirror));
     }
 
     #[test]

@@ -15,11 +15,13 @@
 
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
-use crate::render::mirror::MirrorImage;
+use crate::render::discrete::DiscreteDistribution;
+use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
 use crate::scene::{Rgb, Scene};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
+use std::ops::Range;
 
 /// A visible point where light is gathered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,19 +86,78 @@ pub fn direct_radiance(
     out
 }
 
-/// Where a final gather looks for concentrated light besides its cosine
-/// rays: `grid` × `grid` points by area on each of the `bright` surfaces
+/// The surfaces a final gather samples by area besides its cosine rays
 /// (glossy ones, whose reflected light is concentrated, and unusually bright
-/// diffuse ones: a small mirror-like surface lighting a wall is found by few
-/// cosine rays), and as many through each of the `mirrors` (the specular
-/// reflection points of an emitter on a planar glossy surface).
+/// diffuse ones: a small mirror-like surface lighting a wall is found by
+/// few cosine rays), with one distribution over them by weight: a gather
+/// draws each of its area samples from one surface picked by it, uniformly
+/// by area on that surface, so its cost does not grow with their number.
+#[derive(Debug, Clone, Default)]
+pub struct BrightSurfaces {
+    /// The surfaces, ascending.
+    surfaces: Vec<u32>,
+    choice: DiscreteDistribution,
+}
+
+impl BrightSurfaces {
+    /// The surfaces of `weighted` (surface, non-negative weight) pairs,
+    /// each surface once; one of zero weight is never sampled.
+    pub fn new(mut weighted: Vec<(u32, f64)>) -> BrightSurfaces {
+        weighted.sort_unstable_by_key(|&(s, _)| s);
+        debug_assert!(weighted.windows(2).all(|w| w[0].0 < w[1].0));
+        BrightSurfaces {
+            choice: DiscreteDistribution::new(weighted.iter().map(|&(_, w)| w)),
+            surfaces: weighted.into_iter().map(|(s, _)| s).collect(),
+        }
+    }
+
+    /// The surfaces, ascending.
+    pub fn surfaces(&self) -> &[u32] {
+        &self.surfaces
+    }
+
+    /// Whether surface `s` is one of them.
+    pub fn contains(&self, s: u32) -> bool {
+        self.surfaces.binary_search(&s).is_ok()
+    }
+
+    /// The surface that `u` ∈ \[0,1)² picks among those other than
+    /// `excluded` (the gather's own), with the point of \[0,1)² it then
+    /// samples and the probability it had.
+    fn sample(&self, u: DVec2, excluded: u32) -> Option<(u32, DVec2, f64)> {
+        let drawn = self.choice.sample(u.x, self.position(excluded))?;
+        let q = self.surfaces[drawn.index];
+        Some((q, DVec2::new(drawn.u, u.y), drawn.probability))
+    }
+
+    /// The probability that [`BrightSurfaces::sample`], leaving out
+    /// `excluded`, picks surface `q`.
+    fn probability(&self, q: u32, excluded: u32) -> f64 {
+        match self.surfaces.binary_search(&q) {
+            Ok(i) => self.choice.probability(i, self.position(excluded)),
+            Err(_) => 0.0,
+        }
+    }
+
+    /// Where surface `s` is among them: one position or none.
+    fn position(&self, s: u32) -> Range<usize> {
+        let i = self.surfaces.partition_point(|&t| t < s);
+        i..i + usize::from(self.surfaces.get(i) == Some(&s))
+    }
+}
+
+/// Where a final gather looks for concentrated light besides its cosine
+/// rays: `grid` × `grid` points by area on the `bright` surfaces together,
+/// and as many through the `mirrors` together (the specular reflection
+/// points of an emitter on a planar glossy surface).
 #[derive(Debug, Clone, Copy)]
 pub struct GatherSources<'a> {
     /// Surfaces sampled by area.
-    pub bright: &'a [u32],
+    pub bright: &'a BrightSurfaces,
     /// Emitters' images through glossy surfaces.
-    pub mirrors: &'a [MirrorImage],
-    /// Samples per side of each surface's or image's stratified grid.
+    pub mirrors: &'a MirrorImages,
+    /// Samples per side of the bright surfaces' stratified grid and of the
+    /// mirror images'.
     pub grid: u32,
 }
 
@@ -140,17 +201,15 @@ pub fn indirect_radiance(
     let (t, b) = orthonormal_basis(normal);
     let (n_cos, n_grid) = (f64::from(rays), f64::from(grid * grid));
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
-    // whose ray first meets surface q at y.
+    // whose ray first meets surface q at y: each looks at q alone.
     let density = |q: u32, wi: DVec3, y: DVec3| {
         let mut d = n_cos * normal.dot(wi) * std::f64::consts::FRAC_1_PI;
-        if bright.contains(&q) {
+        let chosen = bright.probability(q, surface);
+        if chosen > 0.0 {
             let patch = &scene.surfaces[q as usize].patch;
-            d += n_grid * area_pdf(patch, wi, (y - x).length_squared());
+            d += n_grid * chosen * area_pdf(patch, wi, (y - x).length_squared());
         }
-        for m in mirrors.iter().filter(|m| m.surface == q) {
-            d += n_grid * m.pdf(x, wi, (y - x).length());
-        }
-        d
+        d + n_grid * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
     };
     let mut sum = Rgb::ZERO;
     // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
@@ -158,31 +217,30 @@ pub fn indirect_radiance(
         let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
         sum += outgoing(q, y) * weight;
     };
-    for &q in bright {
-        if q == surface {
-            continue;
-        }
-        for (wi, y, _) in area_samples(scene, tracer, point, q, grid, Stream::Bright) {
+    for k in 0..grid * grid {
+        let u = samples.point(Stream::Bright, grid * grid, k);
+        let Some((q, uv, _)) = bright.sample(u, surface) else {
+            break;
+        };
+        if let Some((wi, y, _)) = area_sample(scene, tracer, point, q, uv) {
             add(q, wi, y);
         }
     }
-    for (index, m) in mirrors.iter().enumerate() {
-        if m.surface == surface {
-            continue;
-        }
+    for k in 0..grid * grid {
+        let u = samples.point(Stream::Mirror, grid * grid, k);
+        let Some((m, uv, _)) = mirrors.sample(u, surface) else {
+            break;
+        };
         let patch = &scene.surfaces[m.surface as usize].patch;
         let skip = |prim: u32| {
             let h = tracer.surface_of(prim);
             h == m.surface || h == surface
         };
-        for k in 0..grid * grid {
-            let u = samples.point(Stream::Mirror(index as u32), grid * grid, k);
-            let Some((wi, y, _)) = m.sample(patch, x, u) else {
-                continue;
-            };
-            if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
-                add(m.surface, wi, y);
-            }
+        let Some((wi, y, _)) = m.sample(patch, x, uv) else {
+            continue;
+        };
+        if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
+            add(m.surface, wi, y);
         }
     }
     let mut inverse_distances = 0.0;
@@ -219,43 +277,33 @@ fn area_pdf(patch: &crate::scene::Patch, wi: DVec3, r2: f64) -> f64 {
     r2 / (cos_y * patch.area())
 }
 
-/// `grid` × `grid` stratified points of surface `q` by area, drawn from
-/// `stream(q)`, that `point` sees in front of itself: (direction to it, the
-/// point, solid-angle pdf).
-fn area_samples(
+/// The point of surface `q` at `uv` ∈ \[0,1)² (uniform by area), if
+/// `point` sees it in front of itself: (direction to it, the point,
+/// solid-angle pdf).
+fn area_sample(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
     q: u32,
-    grid: u32,
-    stream: fn(u32) -> Stream,
-) -> Vec<(DVec3, DVec3, f64)> {
+    uv: DVec2,
+) -> Option<(DVec3, DVec3, f64)> {
     let patch = &scene.surfaces[q as usize].patch;
     let x = point.position;
+    let y = patch.point_at(patch.square_to_param(uv));
+    let wi = (y - x).normalize();
+    let p = area_pdf(patch, wi, (y - x).length_squared());
     let skip = |prim: u32| {
         let h = tracer.surface_of(prim);
         h == q || h == point.surface
     };
-    let mut out = Vec::new();
-    for k in 0..grid * grid {
-        let uv = point.samples.point(stream(q), grid * grid, k);
-        let y = patch.point_at(patch.square_to_param(uv));
-        let wi = (y - x).normalize();
-        let p = area_pdf(patch, wi, (y - x).length_squared());
-        if p.is_finite()
-            && point.normal.dot(wi) > 0.0
-            && !tracer.occluder.occluded_except(x, y, skip)
-        {
-            out.push((wi, y, p));
-        }
-    }
-    out
+    (p.is_finite() && point.normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip))
+        .then_some((wi, y, p))
 }
 
 /// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
 /// world direction `wo` (its surface's BRDF, or only some of its lobes;
-/// emission not included): light straight from `emitters` by light
-/// sampling and BRDF sampling combined with the balance heuristic (Veach
+/// emission not included): light straight from `emitters` (ascending) by
+/// light sampling and BRDF sampling combined with the balance heuristic (Veach
 /// 1997), and the rest of the solution by BRDF sampling, each sampled
 /// direction looking up `outgoing(surface, point)`, the solution's radiance
 /// leaving the point hit towards `point`. `grid` × `grid` light samples per
@@ -290,7 +338,11 @@ pub fn glossy_radiance(
             continue;
         }
         let light = &scene.surfaces[e as usize];
-        for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, Stream::Light) {
+        let light_samples = (0..samples).filter_map(|k| {
+            let uv = sample_points.point(Stream::Light(e), samples, k);
+            area_sample(scene, tracer, point, e, uv)
+        });
+        for (wi, _, p_light) in light_samples {
             let wi_local = frame.to_local(wi);
             let f = brdf.eval(wo_local, wi_local);
             let p_brdf = brdf.pdf(wo_local, wi_local);
@@ -315,7 +367,7 @@ pub fn glossy_radiance(
             continue; // itself, or the back of a one-sided surface: black
         }
         let l = outgoing(hit.surface, hit.position);
-        let emitted_weight = if emitters.contains(&hit.surface) {
+        let emitted_weight = if emitters.binary_search(&hit.surface).is_ok() {
             let p_light = area_pdf(&q.patch, wi, (hit.position - x).length_squared());
             sample.pdf / (p_light + sample.pdf)
         } else {
@@ -391,44 +443,62 @@ mod tests {
             samples: Samples::Hashed(3),
         };
         let sources = GatherSources {
-            bright: &[],
-            mirrors: &[],
+            bright: &BrightSurfaces::default(),
+            mirrors: &MirrorImages::default(),
             grid: 1,
         };
         let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| Rgb::splat(2.0));
         assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
     }
 
+    /// A wall point facing a sharp glossy floor lit from above by two
+    /// lights, and a small panel: light leaves the floor in a bump where it
+    /// mirrors the lights towards the point, and the panel evenly. Cosine
+    /// rays, area samples of the floor, the panel and the wall itself (never
+    /// drawn, as the wall cannot light itself) from one distribution, and
+    /// the lights' mirror images, combined, must integrate it as a fine
+    /// midpoint rule over the floor and the panel does; the images must cut
+    /// the noise.
     #[test]
     fn mirror_and_area_samples_leave_the_gather_unbiased() {
-        // A wall point facing a sharp glossy floor lit from above: light
-        // leaving the floor in a bump where it mirrors the light towards the
-        // point. Cosine rays, area samples of the floor and the light's
-        // mirror image, combined, must integrate it as a fine midpoint rule
-        // over the floor does.
         let mut scene = crate::testing::mirror_floor_and_light();
-        scene
-            .surfaces
-            .push(crate::testing::grey(Patch::Parallelogram {
-                origin: DVec3::new(1.2, 0.0, 0.0),
-                edge_s: DVec3::Z,
-                edge_t: DVec3::Y,
-            }));
+        let square = |origin: DVec3, edge_s: DVec3, edge_t: DVec3| Patch::Parallelogram {
+            origin,
+            edge_s,
+            edge_t,
+        };
+        let wall = square(DVec3::new(1.2, 0.0, 0.0), DVec3::Z, DVec3::Y);
+        let panel = square(DVec3::new(0.0, 0.2, 0.1), DVec3::Y * 0.6, DVec3::Z * 0.4);
+        let light = square(DVec3::new(0.1, 0.6, 0.9), DVec3::Y * 0.2, DVec3::X * 0.2);
+        scene.surfaces.push(crate::testing::grey(wall));
+        scene.surfaces.push(crate::testing::grey(panel));
+        scene.surfaces.push(Surface {
+            emission: Rgb::splat(3.0),
+            ..crate::testing::grey(light)
+        });
         let tracer = SceneTracer::new(&scene);
         let x = DVec3::new(1.2, 0.5, 0.4);
         let normal = scene.surfaces[2].patch.normal();
         assert!((normal + DVec3::X).length() < 1e-12);
+        assert!((scene.surfaces[3].patch.normal() - DVec3::X).length() < 1e-12);
         // The light's centre mirrored through the floor, seen from x, is
         // at (0.986, 0.5, 0): the bump sits where the floor reflects it.
         let centre = DVec3::new(0.95, 0.5, 0.0);
         let bump = |y: DVec3| (-(y - centre).length_squared() / 0.005).exp();
-        let outgoing = |q: u32, y: DVec3| Rgb::splat(if q == 0 { bump(y) } else { 0.0 });
-        let mirrors = MirrorImage::of_scene(&scene, &[0], &[1]);
-        assert_eq!(mirrors.len(), 1);
+        let outgoing = |q: u32, y: DVec3| {
+            Rgb::splat(match q {
+                0 => bump(y),
+                3 => 0.2,
+                _ => 0.0,
+            })
+        };
+        let bright = BrightSurfaces::new(vec![(3, 0.5), (0, 1.0), (2, 1.0)]);
+        let mirrors = MirrorImages::of_scene(&scene, &[0], &[1, 4]);
+        assert_eq!(mirrors.images().len(), 2);
         // Mean and standard error over `runs` seeds.
-        let estimate = |mirrors: &[MirrorImage]| {
+        let estimate = |mirrors: &MirrorImages| {
             let sources = GatherSources {
-                bright: &[0],
+                bright: &bright,
                 mirrors,
                 grid: 3,
             };
@@ -451,18 +521,30 @@ mod tests {
                 ((sq / runs as f64 - mean * mean) / runs as f64).sqrt(),
             )
         };
-        // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor.
+        // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor and the panel.
         let n = 1000;
         let mut expect = 0.0;
-        for y in crate::testing::unit_square_midpoints(n) {
-            let d = y - x;
-            let r2 = d.length_squared();
-            let cos_x = normal.dot(d) / r2.sqrt();
-            let cos_y = -d.z / r2.sqrt();
-            expect += bump(y) * cos_x * cos_y / r2 / (n * n) as f64;
+        for (q, origin, edges) in [
+            (0, DVec3::ZERO, [DVec3::X, DVec3::Y]),
+            (
+                3,
+                DVec3::new(0.0, 0.2, 0.1),
+                [DVec3::Y * 0.6, DVec3::Z * 0.4],
+            ),
+        ] {
+            let patch = &scene.surfaces[q as usize].patch;
+            for m in crate::testing::unit_square_midpoints(n) {
+                let y = origin + m.x * edges[0] + m.y * edges[1];
+                let d = y - x;
+                let r2 = d.length_squared();
+                let cos_x = normal.dot(d) / r2.sqrt();
+                let cos_y = -patch.normal().dot(d) / r2.sqrt();
+                let area = patch.area() / (n * n) as f64;
+                expect += outgoing(q, y)[0] * cos_x * cos_y / r2 * area;
+            }
         }
         expect *= 0.5 / std::f64::consts::PI;
-        let (area_only, area_error) = estimate(&[]);
+        let (area_only, area_error) = estimate(&MirrorImages::default());
         let (mirrored, mirror_error) = estimate(&mirrors);
         for (mean, error) in [(area_only, area_error), (mirrored, mirror_error)] {
             assert!(

@@ -7,6 +7,7 @@
 
 pub mod cache;
 pub mod camera;
+pub mod discrete;
 pub mod enclosure;
 pub mod estimator;
 pub mod eye;
@@ -379,7 +380,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .map(|(s, surface)| {
                 surface.is_emitter()
                     || (!surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
-                        && bright.contains(&(s as u32)))
+                        && bright.contains(s as u32))
             })
             .collect();
         let (w, h) = (film.width as usize, film.height as usize);

@@ -1,8 +1,8 @@
 //! What final gathers read from a solution ([`SolutionReader`]), built once
 //! per solution by its [`super::Renderer`], and the final gather over it.
 
-use super::gather::{self, GatherPoint};
-use super::mirror::MirrorImage;
+use super::gather::{self, BrightSurfaces, GatherPoint};
+use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
 use super::{GATHER_GRID, GLOSSY_GRID};
 use crate::sampling::Samples;
@@ -46,8 +46,8 @@ pub(super) struct SolutionReader {
     pub(super) non_lambertian: Vec<Option<Brdf>>,
     beyond_first: Vec<Option<Vec<Rgb>>>,
     pub(super) emitters: Vec<u32>,
-    pub(super) bright: Vec<u32>,
-    mirrors: Vec<MirrorImage>,
+    pub(super) bright: BrightSurfaces,
+    mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
 }
 
@@ -109,15 +109,15 @@ impl SolutionReader {
             })
             .collect();
         let bright = secondary_sources(solution, &glossy);
-        let mirrors = MirrorImage::of_scene(&solution.scene, &glossy, &emitters);
+        let mirrors = MirrorImages::of_scene(&solution.scene, &glossy, &emitters);
         let caustic = (0..surfaces.len())
-            .map(|s| mirrors.iter().any(|m| m.lights(&solution.scene, s as u32)))
+            .map(|s| (mirrors.images().iter()).any(|m| m.lights(&solution.scene, s as u32)))
             .collect();
         // A strongly lit diffuse surface that reflects most of the scene's
         // light shows gather rays its first bounce per point.
         let power = reflected_power(solution);
         let total: f64 = power.iter().sum();
-        let per_point: Vec<usize> = (bright.iter().map(|&s| s as usize))
+        let per_point: Vec<usize> = (bright.surfaces().iter().map(|&s| s as usize))
             .filter(|&s| power[s] > 0.5 * total)
             .collect();
         let mut beyond_first = vec![None; surfaces.len()];
@@ -158,11 +158,9 @@ impl SolutionReader {
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
     /// the light straight from the emitters (the `budget`'s shadow rays to
     /// each) and its cosine rays' worth of the rest of the solution, with
-    /// about as many samples of the bright surfaces together, and of each
-    /// mirror image ([`gather::indirect_radiance`]).
-    /// The bright surfaces share their samples: each glossy face of a box
-    /// counts as one, and area samples each cost a shadow ray and a glossy
-    /// evaluation.
+    /// about as many samples of the bright surfaces together, and as many
+    /// of the mirror images together ([`gather::indirect_radiance`]; each
+    /// costs a shadow ray and, on a glossy surface, a glossy evaluation).
     pub(super) fn final_gather(
         &self,
         solution: &Solution,
@@ -183,10 +181,7 @@ impl SolutionReader {
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
-            grid: ((f64::from(rays) / self.bright.len().max(1) as f64)
-                .sqrt()
-                .round() as u32)
-                .max(GATHER_GRID),
+            grid: (f64::from(rays).sqrt().round() as u32).max(GATHER_GRID),
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
@@ -312,8 +307,12 @@ fn reflected_power(solution: &Solution) -> Vec<f64> {
 /// cosine rays: every `glossy` one (its reflected light is concentrated in
 /// its lobes) and every diffuse non-emitter whose average radiance is over
 /// four times the area-weighted mean of all non-emitters (a small, strongly
-/// lit surface that lights the others: cosine rays rarely find it).
-fn secondary_sources(solution: &Solution, glossy: &[u32]) -> Vec<u32> {
+/// lit surface that lights the others: cosine rays rarely find it). Each is
+/// weighted by its area, a diffuse one's times the ratio of its average
+/// radiance to that threshold: the light a surface reflects, as far as the
+/// diffuse solution tells (a glossy surface's is taken to be at the
+/// threshold).
+fn secondary_sources(solution: &Solution, glossy: &[u32]) -> BrightSurfaces {
     let surfaces = &solution.scene.surfaces;
     let power = reflected_power(solution);
     let lit = |s: usize| {
@@ -326,12 +325,12 @@ fn secondary_sources(solution: &Solution, glossy: &[u32]) -> Vec<u32> {
     let area = |s: usize| surfaces[s].patch.area();
     let n = surfaces.len();
     let total_area: f64 = (0..n).filter(|&s| lit(s)).map(area).sum();
-    let mean = power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
-    let mut out = glossy.to_vec();
-    out.extend((0..n as u32).filter(|&s| {
-        let s = s as usize;
-        lit(s) && power[s] > 4.0 * mean * area(s)
-    }));
-    out.sort_unstable();
-    out
+    let threshold = 4.0 * power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
+    let mut weighted: Vec<(u32, f64)> = glossy.iter().map(|&s| (s, area(s as usize))).collect();
+    weighted.extend(
+        (0..n)
+            .filter(|&s| lit(s) && power[s] > threshold * area(s))
+            .map(|s| (s as u32, power[s] / threshold)),
+    );
+    BrightSurfaces::new(weighted)
 }
