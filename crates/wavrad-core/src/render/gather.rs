@@ -147,18 +147,17 @@ impl BrightSurfaces {
 }
 
 /// Where a final gather looks for concentrated light besides its cosine
-/// rays: `grid` × `grid` points by area on the `bright` surfaces together,
-/// and as many through the `mirrors` together (the specular reflection
-/// points of an emitter on a planar glossy surface).
+/// rays: `count` points by area on the `bright` surfaces together, and as
+/// many through the `mirrors` together (the specular reflection points of
+/// an emitter on a planar glossy surface).
 #[derive(Debug, Clone, Copy)]
 pub struct GatherSources<'a> {
     /// Surfaces sampled by area.
     pub bright: &'a BrightSurfaces,
     /// Emitters' images through glossy surfaces.
     pub mirrors: &'a MirrorImages,
-    /// Samples per side of the bright surfaces' stratified grid and of the
-    /// mirror images'.
-    pub grid: u32,
+    /// Samples of the bright surfaces, and of the mirror images.
+    pub count: u32,
 }
 
 /// What [`indirect_radiance`] finds at a point.
@@ -195,11 +194,11 @@ pub fn indirect_radiance(
     let GatherSources {
         bright,
         mirrors,
-        grid,
+        count,
     } = sources;
     let rho = lambertian_albedo(scene, surface);
     let (t, b) = orthonormal_basis(normal);
-    let (n_cos, n_grid) = (f64::from(rays), f64::from(grid * grid));
+    let (n_cos, n_area) = (f64::from(rays), f64::from(count));
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
     // whose ray first meets surface q at y: each looks at q alone.
     let density = |q: u32, wi: DVec3, y: DVec3| {
@@ -207,9 +206,9 @@ pub fn indirect_radiance(
         let chosen = bright.probability(q, surface);
         if chosen > 0.0 {
             let patch = &scene.surfaces[q as usize].patch;
-            d += n_grid * chosen * area_pdf(patch, wi, (y - x).length_squared());
+            d += n_area * chosen * area_pdf(patch, wi, (y - x).length_squared());
         }
-        d + n_grid * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
+        d + n_area * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
     };
     let mut sum = Rgb::ZERO;
     // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
@@ -217,8 +216,8 @@ pub fn indirect_radiance(
         let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
         sum += outgoing(q, y) * weight;
     };
-    for k in 0..grid * grid {
-        let u = samples.point(Stream::Bright, grid * grid, k);
+    for k in 0..count {
+        let u = samples.point(Stream::Bright, count, k);
         let Some((q, uv, _)) = bright.sample(u, surface) else {
             break;
         };
@@ -226,8 +225,8 @@ pub fn indirect_radiance(
             add(q, wi, y);
         }
     }
-    for k in 0..grid * grid {
-        let u = samples.point(Stream::Mirror, grid * grid, k);
+    for k in 0..count {
+        let u = samples.point(Stream::Mirror, count, k);
         let Some((m, uv, _)) = mirrors.sample(u, surface) else {
             break;
         };
@@ -445,7 +444,7 @@ mod tests {
         let sources = GatherSources {
             bright: &BrightSurfaces::default(),
             mirrors: &MirrorImages::default(),
-            grid: 1,
+            count: 1,
         };
         let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| Rgb::splat(2.0));
         assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
@@ -500,7 +499,7 @@ mod tests {
             let sources = GatherSources {
                 bright: &bright,
                 mirrors,
-                grid: 3,
+                count: 9,
             };
             let runs = 1000;
             let (mut sum, mut sq) = (0.0, 0.0);

@@ -4,7 +4,7 @@
 use super::gather::{self, BrightSurfaces, GatherPoint};
 use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
-use super::{GATHER_GRID, GLOSSY_GRID};
+use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -158,9 +158,13 @@ impl SolutionReader {
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
     /// the light straight from the emitters (the `budget`'s shadow rays to
     /// each) and its cosine rays' worth of the rest of the solution, with
-    /// about as many samples of the bright surfaces together, and as many
-    /// of the mirror images together ([`gather::indirect_radiance`]; each
-    /// costs a shadow ray and, on a glossy surface, a glossy evaluation).
+    /// as many samples of the bright surfaces together, and as many of the
+    /// mirror images together ([`gather::indirect_radiance`]; each costs a
+    /// shadow ray and, on a glossy surface, a glossy evaluation), or where
+    /// that is fewer, a [`GATHER_GRID`]² grid's worth for each of a few
+    /// bright surfaces, up to [`GATHER_RAYS`] (what cosine rays miss is
+    /// concentrated: a gather with few cosine rays still needs a few samples
+    /// of each such surface).
     pub(super) fn final_gather(
         &self,
         solution: &Solution,
@@ -178,10 +182,12 @@ impl SolutionReader {
         GatherBudget { rays, shadow_grid }: GatherBudget,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let bright = self.bright.surfaces().len() as u32;
+        let few = (GATHER_GRID * GATHER_GRID).saturating_mul(bright);
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
-            grid: (f64::from(rays).sqrt().round() as u32).max(GATHER_GRID),
+            count: rays.max(few.min(GATHER_RAYS)),
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
@@ -307,11 +313,13 @@ fn reflected_power(solution: &Solution) -> Vec<f64> {
 /// cosine rays: every `glossy` one (its reflected light is concentrated in
 /// its lobes) and every diffuse non-emitter whose average radiance is over
 /// four times the area-weighted mean of all non-emitters (a small, strongly
-/// lit surface that lights the others: cosine rays rarely find it). Each is
-/// weighted by its area, a diffuse one's times the ratio of its average
-/// radiance to that threshold: the light a surface reflects, as far as the
-/// diffuse solution tells (a glossy surface's is taken to be at the
-/// threshold).
+/// lit surface that lights the others: cosine rays rarely find it).
+///
+/// Each weighs alike, a diffuse one times the ratio of its average radiance
+/// to that threshold: what cosine rays miss is small, so sampling the
+/// surfaces alike rather than by area samples the small ones densest (by
+/// area, the glossy Cornell box's floor, which cosine rays find anyway,
+/// took most of the samples and the image was noisier).
 fn secondary_sources(solution: &Solution, glossy: &[u32]) -> BrightSurfaces {
     let surfaces = &solution.scene.surfaces;
     let power = reflected_power(solution);
@@ -326,11 +334,11 @@ fn secondary_sources(solution: &Solution, glossy: &[u32]) -> BrightSurfaces {
     let n = surfaces.len();
     let total_area: f64 = (0..n).filter(|&s| lit(s)).map(area).sum();
     let threshold = 4.0 * power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
-    let mut weighted: Vec<(u32, f64)> = glossy.iter().map(|&s| (s, area(s as usize))).collect();
+    let mut weighted: Vec<(u32, f64)> = glossy.iter().map(|&s| (s, 1.0)).collect();
     weighted.extend(
         (0..n)
             .filter(|&s| lit(s) && power[s] > threshold * area(s))
-            .map(|s| (s as u32, power[s] / threshold)),
+            .map(|s| (s as u32, power[s] / (threshold * area(s)))),
     );
     BrightSurfaces::new(weighted)
 }
