@@ -5,8 +5,10 @@
 //! that member, so that a stratified set of points stays stratified on each
 //! member it picks. A contiguous run of members can be left out of one draw
 //! (the surface a gather starts from), the others' probabilities scaled up
-//! to match, without rebuilding anything.
+//! to match, without rebuilding anything. A [`SurfaceDistribution`] is one
+//! over some of a scene's surfaces, looked up by surface.
 
+use glam::DVec2;
 use std::ops::Range;
 
 /// Members `0..n` with probabilities in proportion to their weights.
@@ -102,6 +104,65 @@ impl DiscreteDistribution {
     }
 }
 
+/// Some of a scene's surfaces (the emitters, the bright surfaces a final
+/// gather samples by area) with probabilities in proportion to their
+/// weights: a point of \[0,1)² picks a surface and a point of \[0,1)² on
+/// it, leaving out the surface the sampling starts from, and the
+/// probability of any surface is found by a binary search.
+#[derive(Debug, Clone, Default)]
+pub struct SurfaceDistribution {
+    /// The surfaces, ascending.
+    surfaces: Vec<u32>,
+    choice: DiscreteDistribution,
+}
+
+impl SurfaceDistribution {
+    /// The surfaces of `weighted` (surface, non-negative weight) pairs,
+    /// each surface once; one of zero weight is never drawn.
+    pub fn new(mut weighted: Vec<(u32, f64)>) -> SurfaceDistribution {
+        weighted.sort_unstable_by_key(|&(s, _)| s);
+        debug_assert!(weighted.windows(2).all(|w| w[0].0 < w[1].0));
+        SurfaceDistribution {
+            choice: DiscreteDistribution::new(weighted.iter().map(|&(_, w)| w)),
+            surfaces: weighted.into_iter().map(|(s, _)| s).collect(),
+        }
+    }
+
+    /// The surfaces, ascending.
+    pub fn surfaces(&self) -> &[u32] {
+        &self.surfaces
+    }
+
+    /// Whether surface `s` is one of them.
+    pub fn contains(&self, s: u32) -> bool {
+        self.surfaces.binary_search(&s).is_ok()
+    }
+
+    /// The surface that `u` ∈ \[0,1)² picks among those other than
+    /// `excluded`, with the point of \[0,1)² it then samples and the
+    /// probability it had; `None` where there is none.
+    pub fn sample(&self, u: DVec2, excluded: u32) -> Option<(u32, DVec2, f64)> {
+        let drawn = self.choice.sample(u.x, self.position(excluded))?;
+        let q = self.surfaces[drawn.index];
+        Some((q, DVec2::new(drawn.u, u.y), drawn.probability))
+    }
+
+    /// The probability that [`SurfaceDistribution::sample`], leaving out
+    /// `excluded`, picks surface `q`.
+    pub fn probability(&self, q: u32, excluded: u32) -> f64 {
+        match self.surfaces.binary_search(&q) {
+            Ok(i) => self.choice.probability(i, self.position(excluded)),
+            Err(_) => 0.0,
+        }
+    }
+
+    /// Where surface `s` is among them: one position or none.
+    fn position(&self, s: u32) -> Range<usize> {
+        let i = self.surfaces.partition_point(|&t| t < s);
+        i..i + usize::from(self.surfaces.get(i) == Some(&s))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,5 +241,30 @@ mod tests {
             assert_eq!(d.sample(0.5, 0..0), None);
             assert_eq!(d.probability(0, 0..0), 0.0);
         }
+    }
+
+    /// Surfaces are found by number whatever order they were given in; the
+    /// one left out is never drawn, and a surface not among them has
+    /// probability zero.
+    #[test]
+    fn surfaces_are_drawn_by_weight_leaving_one_out() {
+        let d = SurfaceDistribution::new(vec![(9, 1.0), (2, 2.0), (5, 1.0)]);
+        assert_eq!(d.surfaces(), [2, 5, 9]);
+        assert!(d.contains(5) && !d.contains(4));
+        assert_eq!(d.probability(2, u32::MAX), 0.5);
+        assert_eq!(d.probability(9, 2), 0.5);
+        assert_eq!(d.probability(2, 2), 0.0);
+        assert_eq!(d.probability(4, 2), 0.0);
+        let n = 1000;
+        let mut counts = [0usize; 10];
+        for k in 0..n {
+            let u = DVec2::new((k as f64 + 0.5) / n as f64, 0.25);
+            let (q, uv, p) = d.sample(u, 5).unwrap();
+            counts[q as usize] += 1;
+            assert_eq!((uv.y, p), (0.25, d.probability(q, 5)));
+        }
+        assert_eq!((counts[2], counts[5], counts[9]), (667, 0, 333));
+        let alone = SurfaceDistribution::new(vec![(3, 1.0)]);
+        assert_eq!(alone.sample(DVec2::splat(0.5), 3), None);
     }
 }

@@ -15,13 +15,12 @@
 
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
-use crate::render::discrete::DiscreteDistribution;
+use crate::render::discrete::SurfaceDistribution;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
 use crate::scene::{Rgb, Scene};
 use glam::{DVec2, DVec3};
-use std::ops::Range;
 
 /// A visible point where light is gathered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,12 +35,19 @@ pub struct GatherPoint {
     pub samples: Samples,
 }
 
-/// Direct radiance reflected at `point` towards any direction, from every
-/// surface in `emitters`; `grid` × `grid` shadow rays go to each emitter.
+/// Direct radiance reflected at `point` towards any direction from the
+/// `emitters`: `grid` × `grid` shadow rays in all, each to a point of an
+/// emitter drawn from their distribution (the point's own surface left
+/// out), so that the cost does not grow with their number. An emitter e
+/// drawn n_e of the N times gives `ρ · Le_e · F(x, e) · V̄(x, e) · n_e / (N ·
+/// P(e))`, with Lambert's closed-form point-to-polygon factor F and the
+/// visible fraction V̄ of its shadow rays that reach points in front of x:
+/// its light, as far as V̄ is unbiased, whichever emitters are drawn. A
+/// lone emitter gets every ray, a jittered grid over it.
 pub fn direct_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &[u32],
+    emitters: &SurfaceDistribution,
     point: &GatherPoint,
     grid: u32,
 ) -> Rgb {
@@ -52,11 +58,14 @@ pub fn direct_radiance(
         samples,
     } = *point;
     let rho = lambertian_albedo(scene, surface);
+    let n = grid * grid;
+    let mut drawn: Vec<(u32, DVec2, f64)> = (0..n)
+        .filter_map(|k| emitters.sample(samples.point(Stream::Shadow, n, k), surface))
+        .collect();
+    drawn.sort_unstable_by_key(|&(e, ..)| e);
     let mut out = Rgb::ZERO;
-    for &e in emitters {
-        if e == surface {
-            continue;
-        }
+    for rays in drawn.chunk_by(|a, b| a.0 == b.0) {
+        let (e, _, chosen) = rays[0];
         let light = &scene.surfaces[e as usize];
         let ff = point_to_polygon(x, normal, &light.patch.vertices(), light.patch.normal());
         if ff <= 0.0 {
@@ -67,8 +76,7 @@ pub fn direct_radiance(
             s == e || s == surface
         };
         let (mut seen, mut total) = (0u32, 0u32);
-        for k in 0..grid * grid {
-            let uv = samples.point(Stream::Shadow(e), grid * grid, k);
+        for &(_, uv, _) in rays {
             let y = light.patch.point_at(light.patch.square_to_param(uv));
             if normal.dot(y - x) <= 0.0 {
                 continue;
@@ -80,80 +88,25 @@ pub fn direct_radiance(
         }
         if total > 0 {
             let v = f64::from(seen) / f64::from(total);
-            out += rho * light.emission * ff * v;
+            let share = rays.len() as f64 / (f64::from(n) * chosen);
+            out += rho * light.emission * (ff * v * share);
         }
     }
     out
 }
 
-/// The surfaces a final gather samples by area besides its cosine rays
-/// (glossy ones, whose reflected light is concentrated, and unusually bright
-/// diffuse ones: a small mirror-like surface lighting a wall is found by
-/// few cosine rays), with one distribution over them by weight: a gather
-/// draws each of its area samples from one surface picked by it, uniformly
-/// by area on that surface, so its cost does not grow with their number.
-#[derive(Debug, Clone, Default)]
-pub struct BrightSurfaces {
-    /// The surfaces, ascending.
-    surfaces: Vec<u32>,
-    choice: DiscreteDistribution,
-}
-
-impl BrightSurfaces {
-    /// The surfaces of `weighted` (surface, non-negative weight) pairs,
-    /// each surface once; one of zero weight is never sampled.
-    pub fn new(mut weighted: Vec<(u32, f64)>) -> BrightSurfaces {
-        weighted.sort_unstable_by_key(|&(s, _)| s);
-        debug_assert!(weighted.windows(2).all(|w| w[0].0 < w[1].0));
-        BrightSurfaces {
-            choice: DiscreteDistribution::new(weighted.iter().map(|&(_, w)| w)),
-            surfaces: weighted.into_iter().map(|(s, _)| s).collect(),
-        }
-    }
-
-    /// The surfaces, ascending.
-    pub fn surfaces(&self) -> &[u32] {
-        &self.surfaces
-    }
-
-    /// Whether surface `s` is one of them.
-    pub fn contains(&self, s: u32) -> bool {
-        self.surfaces.binary_search(&s).is_ok()
-    }
-
-    /// The surface that `u` ∈ \[0,1)² picks among those other than
-    /// `excluded` (the gather's own), with the point of \[0,1)² it then
-    /// samples and the probability it had.
-    fn sample(&self, u: DVec2, excluded: u32) -> Option<(u32, DVec2, f64)> {
-        let drawn = self.choice.sample(u.x, self.position(excluded))?;
-        let q = self.surfaces[drawn.index];
-        Some((q, DVec2::new(drawn.u, u.y), drawn.probability))
-    }
-
-    /// The probability that [`BrightSurfaces::sample`], leaving out
-    /// `excluded`, picks surface `q`.
-    fn probability(&self, q: u32, excluded: u32) -> f64 {
-        match self.surfaces.binary_search(&q) {
-            Ok(i) => self.choice.probability(i, self.position(excluded)),
-            Err(_) => 0.0,
-        }
-    }
-
-    /// Where surface `s` is among them: one position or none.
-    fn position(&self, s: u32) -> Range<usize> {
-        let i = self.surfaces.partition_point(|&t| t < s);
-        i..i + usize::from(self.surfaces.get(i) == Some(&s))
-    }
-}
-
 /// Where a final gather looks for concentrated light besides its cosine
-/// rays: `count` points by area on the `bright` surfaces together, and as
+/// rays: `count` points by area on the `bright` surfaces together (glossy
+/// ones, whose reflected light is concentrated, and unusually bright diffuse
+/// ones: a small mirror-like surface lighting a wall is found by few cosine
+/// rays), each drawn from one surface picked by their distribution, and as
 /// many through the `mirrors` together (the specular reflection points of
-/// an emitter on a planar glossy surface).
+/// an emitter on a planar glossy surface); so a gather's cost does not grow
+/// with their number.
 #[derive(Debug, Clone, Copy)]
 pub struct GatherSources<'a> {
     /// Surfaces sampled by area.
-    pub bright: &'a BrightSurfaces,
+    pub bright: &'a SurfaceDistribution,
     /// Emitters' images through glossy surfaces.
     pub mirrors: &'a MirrorImages,
     /// Samples of the bright surfaces, and of the mirror images.
@@ -301,16 +254,17 @@ fn area_sample(
 
 /// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
 /// world direction `wo` (its surface's BRDF, or only some of its lobes;
-/// emission not included): light straight from `emitters` (ascending) by
-/// light sampling and BRDF sampling combined with the balance heuristic (Veach
-/// 1997), and the rest of the solution by BRDF sampling, each sampled
-/// direction looking up `outgoing(surface, point)`, the solution's radiance
-/// leaving the point hit towards `point`. `grid` × `grid` light samples per
-/// emitter and as many BRDF samples.
+/// emission not included): light straight from the `emitters` by light
+/// sampling (each sample on an emitter drawn from their distribution) and
+/// BRDF sampling combined with the balance heuristic (Veach 1997), and the
+/// rest of the solution by BRDF sampling, each sampled direction looking up
+/// `outgoing(surface, point)`, the solution's radiance leaving the point
+/// hit towards `point`. `grid` × `grid` light samples in all and as many
+/// BRDF samples.
 pub fn glossy_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &[u32],
+    emitters: &SurfaceDistribution,
     point: &GatherPoint,
     (brdf, wo): (&Brdf, DVec3),
     grid: u32,
@@ -332,22 +286,20 @@ pub fn glossy_radiance(
     let samples = grid * grid;
     let n = f64::from(samples.max(1));
     // Light sampling.
-    for &e in emitters {
-        if e == surface {
+    for k in 0..samples {
+        let u = sample_points.point(Stream::Light, samples, k);
+        let Some((e, uv, chosen)) = emitters.sample(u, surface) else {
+            break;
+        };
+        let Some((wi, _, p_area)) = area_sample(scene, tracer, point, e, uv) else {
             continue;
-        }
-        let light = &scene.surfaces[e as usize];
-        let light_samples = (0..samples).filter_map(|k| {
-            let uv = sample_points.point(Stream::Light(e), samples, k);
-            area_sample(scene, tracer, point, e, uv)
-        });
-        for (wi, _, p_light) in light_samples {
-            let wi_local = frame.to_local(wi);
-            let f = brdf.eval(wo_local, wi_local);
-            let p_brdf = brdf.pdf(wo_local, wi_local);
-            let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
-            out += f * w * light.emission;
-        }
+        };
+        let p_light = chosen * p_area;
+        let wi_local = frame.to_local(wi);
+        let f = brdf.eval(wo_local, wi_local);
+        let p_brdf = brdf.pdf(wo_local, wi_local);
+        let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
+        out += f * w * scene.surfaces[e as usize].emission;
     }
     // BRDF sampling: emitters (weighted against light sampling) and the rest
     // of the solution.
@@ -366,8 +318,9 @@ pub fn glossy_radiance(
             continue; // itself, or the back of a one-sided surface: black
         }
         let l = outgoing(hit.surface, hit.position);
-        let emitted_weight = if emitters.binary_search(&hit.surface).is_ok() {
-            let p_light = area_pdf(&q.patch, wi, (hit.position - x).length_squared());
+        let chosen = emitters.probability(hit.surface, surface);
+        let emitted_weight = if chosen > 0.0 {
+            let p_light = chosen * area_pdf(&q.patch, wi, (hit.position - x).length_squared());
             sample.pdf / (p_light + sample.pdf)
         } else {
             1.0
@@ -442,7 +395,7 @@ mod tests {
             samples: Samples::Hashed(3),
         };
         let sources = GatherSources {
-            bright: &BrightSurfaces::default(),
+            bright: &SurfaceDistribution::default(),
             mirrors: &MirrorImages::default(),
             count: 1,
         };
@@ -491,7 +444,7 @@ mod tests {
                 _ => 0.0,
             })
         };
-        let bright = BrightSurfaces::new(vec![(3, 0.5), (0, 1.0), (2, 1.0)]);
+        let bright = SurfaceDistribution::new(vec![(3, 0.5), (0, 1.0), (2, 1.0)]);
         let mirrors = MirrorImages::of_scene(&scene, &[0], &[1, 4]);
         assert_eq!(mirrors.images().len(), 2);
         // Mean and standard error over `runs` seeds.
@@ -609,7 +562,8 @@ mod tests {
             };
             let ceiling = |q: u32, _| Rgb::splat(if q == 1 { 1.0 } else { 0.0 });
             let brdf = (&floor.brdf, wo);
-            glossy_radiance(&scene, &tracer, &[], &point, brdf, 2, ceiling)[0]
+            let no_emitters = &SurfaceDistribution::default();
+            glossy_radiance(&scene, &tracer, no_emitters, &point, brdf, 2, ceiling)[0]
         };
         let mean_and_error = |values: Vec<f64>| {
             let m = values.len() as f64;
@@ -671,9 +625,129 @@ mod tests {
             normal: DVec3::Z,
             samples: Samples::Hashed(7),
         };
-        let l = direct_radiance(&scene, &tracer, &[1], &point, 4);
+        let light = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let l = direct_radiance(&scene, &tracer, &light, &point, 4);
         let s = 2f64.sqrt();
         let expect = 0.5 * (2.0 / s * (1.0 / s).atan()) / (2.0 * std::f64::consts::PI);
         assert!((l[0] - expect).abs() < 1e-12, "{} vs {expect}", l[0]);
+    }
+
+    /// The unit floor (surface 0) under three lights of different power: the
+    /// light overhead (radiance 1), a brighter one off to the side, and an
+    /// upright one beyond the floor's edge facing it.
+    fn floor_under_three_lights() -> Scene {
+        let mut scene = crate::testing::mirror_floor_and_light();
+        let light = |origin: DVec3, edge_s: DVec3, edge_t: DVec3, radiance: f64| Surface {
+            emission: Rgb::splat(radiance),
+            ..crate::testing::grey(Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            })
+        };
+        let (side, upright) = (DVec3::new(0.6, 0.0, 0.7), DVec3::new(-0.3, 0.2, 0.05));
+        scene
+            .surfaces
+            .push(light(side, DVec3::Y * 0.3, DVec3::X * 0.3, 2.5));
+        scene
+            .surfaces
+            .push(light(upright, DVec3::Y * 0.4, DVec3::Z * 0.4, 4.0));
+        scene
+    }
+
+    /// Mean and standard error of `estimate` over `runs` seeds.
+    fn mean_and_error(runs: u64, estimate: impl Fn(Samples) -> f64) -> (f64, f64) {
+        let values: Vec<f64> = (0..runs).map(|s| estimate(Samples::Hashed(s))).collect();
+        let m = runs as f64;
+        let mean = values.iter().sum::<f64>() / m;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
+        (mean, (var / m).sqrt())
+    }
+
+    /// Four shadow rays among three emitters, each drawn by power (the
+    /// floor itself, also listed, left out): the direct light averages to
+    /// ρ Σ Le·F over the three in closed form, although each estimate
+    /// leaves some emitter out.
+    #[test]
+    fn direct_light_drawn_among_emitters_averages_to_all_of_it() {
+        let mut scene = floor_under_three_lights();
+        scene.surfaces[0].brdf = crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5));
+        let tracer = SceneTracer::new(&scene);
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        let power = |e: u32| {
+            let s = &scene.surfaces[e as usize];
+            s.emission[0] * s.patch.area()
+        };
+        let emitters =
+            SurfaceDistribution::new(vec![(0, 1.0), (1, power(1)), (2, power(2)), (3, power(3))]);
+        let expect: f64 = (1..4)
+            .map(|e| {
+                let light = &scene.surfaces[e].patch;
+                let ff = point_to_polygon(x, DVec3::Z, &light.vertices(), light.normal());
+                0.5 * scene.surfaces[e].emission[0] * ff
+            })
+            .sum();
+        let (mean, error) = mean_and_error(4000, |samples| {
+            let point = GatherPoint {
+                surface: 0,
+                position: x,
+                normal: DVec3::Z,
+                samples,
+            };
+            direct_radiance(&scene, &tracer, &emitters, &point, 2)[0]
+        });
+        assert!(error > 1e-3 * expect, "the emitters drawn vary: {error}");
+        assert!(
+            (mean - expect).abs() < 4.0 * error,
+            "{mean} ± {error} vs {expect}"
+        );
+    }
+
+    /// A sharp glossy floor under three lights: light samples drawn among
+    /// them (and the floor, left out) and BRDF samples, combined, average
+    /// to ∫ f Le cos θ over the lights (the midpoint rule over each).
+    #[test]
+    fn light_samples_drawn_among_emitters_average_to_the_reflected_light() {
+        let scene = floor_under_three_lights();
+        let tracer = SceneTracer::new(&scene);
+        let floor = &scene.surfaces[0];
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        // Mirrored, wo points at the overhead light's corner.
+        let wo = DVec3::new(0.3, 0.1, 1.0).normalize();
+        let frame = floor.frame();
+        let wo_local = frame.to_local(wo);
+        let n = 400;
+        let mut reflected = 0.0;
+        for e in 1..4 {
+            let light = &scene.surfaces[e];
+            let cell = light.patch.area() / (n * n) as f64;
+            for m in crate::testing::unit_square_midpoints(n) {
+                let y = light
+                    .patch
+                    .point_at(light.patch.square_to_param(m.truncate()));
+                let d = y - x;
+                let r2 = d.length_squared();
+                let wi = d / r2.sqrt();
+                let cos_y = -light.patch.normal().dot(wi);
+                let f = floor.brdf.eval(wo_local, frame.to_local(wi))[0];
+                reflected += f * light.emission[0] * wi.z * cos_y / r2 * cell;
+            }
+        }
+        let emitters = SurfaceDistribution::new(vec![(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0)]);
+        let emission = |q: u32, _| scene.surfaces[q as usize].emission;
+        let (mean, error) = mean_and_error(4000, |samples| {
+            let point = GatherPoint {
+                surface: 0,
+                position: x,
+                normal: DVec3::Z,
+                samples,
+            };
+            let brdf = (&floor.brdf, wo);
+            glossy_radiance(&scene, &tracer, &emitters, &point, brdf, 2, emission)[0]
+        });
+        assert!(
+            (mean - reflected).abs() < 4.0 * error + 2e-3 * reflected,
+            "{mean} ± {error} vs {reflected}"
+        );
     }
 }

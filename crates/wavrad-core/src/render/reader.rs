@@ -1,7 +1,8 @@
 //! What final gathers read from a solution ([`SolutionReader`]), built once
 //! per solution by its [`super::Renderer`], and the final gather over it.
 
-use super::gather::{self, BrightSurfaces, GatherPoint};
+use super::discrete::SurfaceDistribution;
+use super::gather::{self, GatherPoint};
 use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
 use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
@@ -40,13 +41,15 @@ use rayon::prelude::*;
 ///
 /// It also knows where a gather looks for concentrated light besides its
 /// cosine rays ([`gather::GatherSources`]): the `bright` surfaces, the
-/// emitters' `mirrors` images, and the `caustic` receivers they light.
+/// emitters' `mirrors` images, and the `caustic` receivers they light; and
+/// the `emitters`, by power (emission, the mean of the channels, times
+/// area), from which shadow rays and glossy points' light samples draw.
 pub(super) struct SolutionReader {
     pub(super) smooth: Vec<SmoothLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
     beyond_first: Vec<Option<Vec<Rgb>>>,
-    pub(super) emitters: Vec<u32>,
-    pub(super) bright: BrightSurfaces,
+    pub(super) emitters: SurfaceDistribution,
+    pub(super) bright: SurfaceDistribution,
     mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
 }
@@ -80,7 +83,7 @@ impl From<&GatherPoint> for SurfacePoint {
 }
 
 /// The rays a final gather casts: `rays` cosine rays' worth of indirect
-/// samples, and `shadow_grid` × `shadow_grid` shadow rays to each emitter.
+/// samples, and `shadow_grid` × `shadow_grid` shadow rays to the emitters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct GatherBudget {
     pub(super) rays: u32,
@@ -97,9 +100,13 @@ impl SolutionReader {
     /// What final gathers read from `solution` (view-independent).
     pub(super) fn new(solution: &Solution) -> SolutionReader {
         let surfaces = &solution.scene.surfaces;
-        let emitters: Vec<u32> = (0..surfaces.len() as u32)
-            .filter(|&s| surfaces[s as usize].is_emitter())
-            .collect();
+        // Emitters by power: emission (mean of the channels) times area.
+        let emitters = SurfaceDistribution::new(
+            (surfaces.iter().enumerate())
+                .filter(|(_, s)| s.is_emitter())
+                .map(|(e, s)| (e as u32, s.emission.average() * s.patch.area()))
+                .collect(),
+        );
         let glossy: Vec<u32> = (0..surfaces.len() as u32)
             .filter(|&s| {
                 surfaces[s as usize]
@@ -109,7 +116,7 @@ impl SolutionReader {
             })
             .collect();
         let bright = secondary_sources(solution, &glossy);
-        let mirrors = MirrorImages::of_scene(&solution.scene, &glossy, &emitters);
+        let mirrors = MirrorImages::of_scene(&solution.scene, &glossy, emitters.surfaces());
         let caustic = (0..surfaces.len())
             .map(|s| (mirrors.images().iter()).any(|m| m.lights(&solution.scene, s as u32)))
             .collect();
@@ -156,15 +163,15 @@ impl SolutionReader {
     }
 
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
-    /// the light straight from the emitters (the `budget`'s shadow rays to
-    /// each) and its cosine rays' worth of the rest of the solution, with
-    /// as many samples of the bright surfaces together, and as many of the
-    /// mirror images together ([`gather::indirect_radiance`]; each costs a
-    /// shadow ray and, on a glossy surface, a glossy evaluation), or where
-    /// that is fewer, a [`GATHER_GRID`]² grid's worth for each of a few
-    /// bright surfaces, up to [`GATHER_RAYS`] (what cosine rays miss is
-    /// concentrated: a gather with few cosine rays still needs a few samples
-    /// of each such surface).
+    /// the light straight from the emitters (the `budget`'s shadow rays,
+    /// [`gather::direct_radiance`]) and its cosine rays' worth of the rest of
+    /// the solution, with a square grid of about as many samples of the
+    /// bright surfaces together, and as many of the mirror images together
+    /// ([`gather::indirect_radiance`]; each costs a shadow ray and, on a
+    /// glossy surface, a glossy evaluation), or where that is fewer, a
+    /// [`GATHER_GRID`]² grid's worth for each of a few bright surfaces, up
+    /// to [`GATHER_RAYS`] (what cosine rays miss is concentrated: a gather
+    /// with few cosine rays still needs a few samples of each such surface).
     pub(super) fn final_gather(
         &self,
         solution: &Solution,
@@ -182,12 +189,13 @@ impl SolutionReader {
         GatherBudget { rays, shadow_grid }: GatherBudget,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let grid = f64::from(rays).sqrt().round() as u32;
         let bright = self.bright.surfaces().len() as u32;
         let few = (GATHER_GRID * GATHER_GRID).saturating_mul(bright);
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
-            count: rays.max(few.min(GATHER_RAYS)),
+            count: (grid * grid).max(few.min(GATHER_RAYS)),
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
@@ -320,7 +328,7 @@ fn reflected_power(solution: &Solution) -> Vec<f64> {
 /// surfaces alike rather than by area samples the small ones densest (by
 /// area, the glossy Cornell box's floor, which cosine rays find anyway,
 /// took most of the samples and the image was noisier).
-fn secondary_sources(solution: &Solution, glossy: &[u32]) -> BrightSurfaces {
+fn secondary_sources(solution: &Solution, glossy: &[u32]) -> SurfaceDistribution {
     let surfaces = &solution.scene.surfaces;
     let power = reflected_power(solution);
     let lit = |s: usize| {
@@ -340,5 +348,5 @@ fn secondary_sources(solution: &Solution, glossy: &[u32]) -> BrightSurfaces {
             .filter(|&s| lit(s) && power[s] > threshold * area(s))
             .map(|s| (s as u32, power[s] / (threshold * area(s)))),
     );
-    BrightSurfaces::new(weighted)
+    SurfaceDistribution::new(weighted)
 }
