@@ -554,22 +554,11 @@ mod tests {
             }
         }
         let estimate = |samples: Samples| {
-            let point = GatherPoint {
-                surface: 0,
-                position: x,
-                normal: DVec3::Z,
-                samples,
-            };
             let ceiling = |q: u32, _| Rgb::splat(if q == 1 { 1.0 } else { 0.0 });
             let brdf = (&floor.brdf, wo);
             let no_emitters = &SurfaceDistribution::default();
+            let point = on_floor(x, samples);
             glossy_radiance(&scene, &tracer, no_emitters, &point, brdf, 2, ceiling)[0]
-        };
-        let mean_and_error = |values: Vec<f64>| {
-            let m = values.len() as f64;
-            let mean = values.iter().sum::<f64>() / m;
-            let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
-            (mean, (var / m).sqrt())
         };
         let hashed = mean_and_error((0..4096).map(|s| estimate(Samples::Hashed(s))).collect());
         // Each pixel's 16 blocks together, as one estimate.
@@ -619,12 +608,7 @@ mod tests {
             },
         ]);
         let tracer = SceneTracer::new(&scene);
-        let point = GatherPoint {
-            surface: 0,
-            position: DVec3::ZERO,
-            normal: DVec3::Z,
-            samples: Samples::Hashed(7),
-        };
+        let point = on_floor(DVec3::ZERO, Samples::Hashed(7));
         let light = SurfaceDistribution::new(vec![(1, 1.0)]);
         let l = direct_radiance(&scene, &tracer, &light, &point, 4);
         let s = 2f64.sqrt();
@@ -655,13 +639,22 @@ mod tests {
         scene
     }
 
-    /// Mean and standard error of `estimate` over `runs` seeds.
-    fn mean_and_error(runs: u64, estimate: impl Fn(Samples) -> f64) -> (f64, f64) {
-        let values: Vec<f64> = (0..runs).map(|s| estimate(Samples::Hashed(s))).collect();
-        let m = runs as f64;
+    /// Mean and standard error of independent estimates.
+    fn mean_and_error(values: Vec<f64>) -> (f64, f64) {
+        let m = values.len() as f64;
         let mean = values.iter().sum::<f64>() / m;
         let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
         (mean, (var / m).sqrt())
+    }
+
+    /// The point `x` of a floor (surface 0, facing +z), drawing `samples`.
+    fn on_floor(x: DVec3, samples: Samples) -> GatherPoint {
+        GatherPoint {
+            surface: 0,
+            position: x,
+            normal: DVec3::Z,
+            samples,
+        }
     }
 
     /// Four shadow rays among three emitters, each drawn by power (the
@@ -687,15 +680,14 @@ mod tests {
                 0.5 * scene.surfaces[e].emission[0] * ff
             })
             .sum();
-        let (mean, error) = mean_and_error(4000, |samples| {
-            let point = GatherPoint {
-                surface: 0,
-                position: x,
-                normal: DVec3::Z,
-                samples,
-            };
-            direct_radiance(&scene, &tracer, &emitters, &point, 2)[0]
-        });
+        let (mean, error) = mean_and_error(
+            (0..4000)
+                .map(|s| {
+                    let point = on_floor(x, Samples::Hashed(s));
+                    direct_radiance(&scene, &tracer, &emitters, &point, 2)[0]
+                })
+                .collect(),
+        );
         assert!(error > 1e-3 * expect, "the emitters drawn vary: {error}");
         assert!(
             (mean - expect).abs() < 4.0 * error,
@@ -735,16 +727,14 @@ mod tests {
         }
         let emitters = SurfaceDistribution::new(vec![(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0)]);
         let emission = |q: u32, _| scene.surfaces[q as usize].emission;
-        let (mean, error) = mean_and_error(4000, |samples| {
-            let point = GatherPoint {
-                surface: 0,
-                position: x,
-                normal: DVec3::Z,
-                samples,
-            };
-            let brdf = (&floor.brdf, wo);
-            glossy_radiance(&scene, &tracer, &emitters, &point, brdf, 2, emission)[0]
-        });
+        let (mean, error) = mean_and_error(
+            (0..4000)
+                .map(|s| {
+                    let (point, brdf) = (on_floor(x, Samples::Hashed(s)), (&floor.brdf, wo));
+                    glossy_radiance(&scene, &tracer, &emitters, &point, brdf, 2, emission)[0]
+                })
+                .collect(),
+        );
         assert!(
             (mean - reflected).abs() < 4.0 * error + 2e-3 * reflected,
             "{mean} ± {error} vs {reflected}"
