@@ -19,22 +19,23 @@ pub fn hash2(seed: u64, index: u64) -> DVec2 {
 }
 
 /// The sample streams of rendering, by what they sample: each draws its
-/// points from sequences of its own, keyed by its salt and the surface,
-/// emitter or image it samples (pbrt-v4's samplers hand out their
-/// dimensions the same way).
+/// points from sequences of its own, keyed by its salt (pbrt-v4's samplers
+/// hand out their dimensions the same way). A stream that samples one of
+/// many emitters or surfaces picks it with its points' first number too.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stream {
-    /// A final gather's shadow rays to emitter `e`.
-    Shadow(u32),
-    /// A final gather's area samples of the bright surface `q`.
-    Bright(u32),
-    /// A final gather's directions through the mirror image numbered
-    /// `index`.
-    Mirror(u32),
+    /// A final gather's shadow rays (an emitter, and a point on it).
+    Shadow,
+    /// A final gather's area samples of the bright surfaces (a surface,
+    /// and a point on it).
+    Bright,
+    /// A final gather's directions through the mirror images (an image,
+    /// and a point on it).
+    Mirror,
     /// A final gather's cosine-distributed rays.
     Cosine,
-    /// A glossy point's light samples of emitter `e`.
-    Light(u32),
+    /// A glossy point's light samples (an emitter, and a point on it).
+    Light,
     /// A glossy point's BRDF samples (a direction, and with
     /// [`Samples::third`] a lobe).
     Brdf,
@@ -44,11 +45,11 @@ impl Stream {
     /// The key that picks the stream's sequences.
     fn key(self) -> u64 {
         match self {
-            Stream::Shadow(e) => u64::from(e) << 32,
-            Stream::Bright(q) => 0x3c6e_f372 ^ u64::from(q) << 32,
-            Stream::Mirror(index) => 0x6a09_e667 ^ u64::from(index) << 32,
+            Stream::Shadow => 0x1b87_3593,
+            Stream::Bright => 0x3c6e_f372,
+            Stream::Mirror => 0x6a09_e667,
             Stream::Cosine => 0x5bd1_e995,
-            Stream::Light(e) => 0x2545_f491 ^ u64::from(e) << 32,
+            Stream::Light => 0x2545_f491,
             Stream::Brdf => 0x9e37_79b9,
         }
     }
@@ -298,8 +299,8 @@ mod tests {
         };
         assert_ne!(other.point(Stream::Cosine, 16, 0), block(0)[0]);
         let first = |stream| Samples::pixel(5, 0).point(stream, 16, 0);
-        assert_ne!(first(Stream::Shadow(1)), first(Stream::Light(1)));
-        assert_ne!(first(Stream::Bright(0)), first(Stream::Mirror(0)));
+        assert_ne!(first(Stream::Shadow), first(Stream::Light));
+        assert_ne!(first(Stream::Bright), first(Stream::Mirror));
     }
 
     #[test]

@@ -15,11 +15,12 @@
 
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
-use crate::render::mirror::MirrorImage;
+use crate::render::discrete::SurfaceDistribution;
+use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
 use crate::scene::{Rgb, Scene};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 /// A visible point where light is gathered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,12 +35,19 @@ pub struct GatherPoint {
     pub samples: Samples,
 }
 
-/// Direct radiance reflected at `point` towards any direction, from every
-/// surface in `emitters`; `grid` × `grid` shadow rays go to each emitter.
+/// Direct radiance reflected at `point` towards any direction from the
+/// `emitters`: `grid` × `grid` shadow rays in all, each to a point of an
+/// emitter drawn from their distribution (the point's own surface left
+/// out), so that the cost does not grow with their number. An emitter e
+/// drawn n_e of the N times gives `ρ · Le_e · F(x, e) · V̄(x, e) · n_e / (N ·
+/// P(e))`, with Lambert's closed-form point-to-polygon factor F and the
+/// visible fraction V̄ of its shadow rays that reach points in front of x:
+/// its light, as far as V̄ is unbiased, whichever emitters are drawn. A
+/// lone emitter gets every ray, a jittered grid over it.
 pub fn direct_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &[u32],
+    emitters: &SurfaceDistribution,
     point: &GatherPoint,
     grid: u32,
 ) -> Rgb {
@@ -50,11 +58,14 @@ pub fn direct_radiance(
         samples,
     } = *point;
     let rho = lambertian_albedo(scene, surface);
+    let n = grid * grid;
+    let mut drawn: Vec<(u32, DVec2, f64)> = (0..n)
+        .filter_map(|k| emitters.sample(samples.point(Stream::Shadow, n, k), surface))
+        .collect();
+    drawn.sort_unstable_by_key(|&(e, ..)| e);
     let mut out = Rgb::ZERO;
-    for &e in emitters {
-        if e == surface {
-            continue;
-        }
+    for rays in drawn.chunk_by(|a, b| a.0 == b.0) {
+        let (e, _, chosen) = rays[0];
         let light = &scene.surfaces[e as usize];
         let ff = point_to_polygon(x, normal, &light.patch.vertices(), light.patch.normal());
         if ff <= 0.0 {
@@ -65,8 +76,7 @@ pub fn direct_radiance(
             s == e || s == surface
         };
         let (mut seen, mut total) = (0u32, 0u32);
-        for k in 0..grid * grid {
-            let uv = samples.point(Stream::Shadow(e), grid * grid, k);
+        for &(_, uv, _) in rays {
             let y = light.patch.point_at(light.patch.square_to_param(uv));
             if normal.dot(y - x) <= 0.0 {
                 continue;
@@ -78,26 +88,29 @@ pub fn direct_radiance(
         }
         if total > 0 {
             let v = f64::from(seen) / f64::from(total);
-            out += rho * light.emission * ff * v;
+            let share = rays.len() as f64 / (f64::from(n) * chosen);
+            out += rho * light.emission * (ff * v * share);
         }
     }
     out
 }
 
 /// Where a final gather looks for concentrated light besides its cosine
-/// rays: `grid` × `grid` points by area on each of the `bright` surfaces
-/// (glossy ones, whose reflected light is concentrated, and unusually bright
-/// diffuse ones: a small mirror-like surface lighting a wall is found by few
-/// cosine rays), and as many through each of the `mirrors` (the specular
-/// reflection points of an emitter on a planar glossy surface).
+/// rays: `count` points by area on the `bright` surfaces together (glossy
+/// ones, whose reflected light is concentrated, and unusually bright diffuse
+/// ones: a small mirror-like surface lighting a wall is found by few cosine
+/// rays), each drawn from one surface picked by their distribution, and as
+/// many through the `mirrors` together (the specular reflection points of
+/// an emitter on a planar glossy surface); so a gather's cost does not grow
+/// with their number.
 #[derive(Debug, Clone, Copy)]
 pub struct GatherSources<'a> {
     /// Surfaces sampled by area.
-    pub bright: &'a [u32],
+    pub bright: &'a SurfaceDistribution,
     /// Emitters' images through glossy surfaces.
-    pub mirrors: &'a [MirrorImage],
-    /// Samples per side of each surface's or image's stratified grid.
-    pub grid: u32,
+    pub mirrors: &'a MirrorImages,
+    /// Samples of the bright surfaces, and of the mirror images.
+    pub count: u32,
 }
 
 /// What [`indirect_radiance`] finds at a point.
@@ -134,23 +147,21 @@ pub fn indirect_radiance(
     let GatherSources {
         bright,
         mirrors,
-        grid,
+        count,
     } = sources;
     let rho = lambertian_albedo(scene, surface);
     let (t, b) = orthonormal_basis(normal);
-    let (n_cos, n_grid) = (f64::from(rays), f64::from(grid * grid));
+    let (n_cos, n_area) = (f64::from(rays), f64::from(count));
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
-    // whose ray first meets surface q at y.
+    // whose ray first meets surface q at y: each looks at q alone.
     let density = |q: u32, wi: DVec3, y: DVec3| {
         let mut d = n_cos * normal.dot(wi) * std::f64::consts::FRAC_1_PI;
-        if bright.contains(&q) {
+        let chosen = bright.probability(q, surface);
+        if chosen > 0.0 {
             let patch = &scene.surfaces[q as usize].patch;
-            d += n_grid * area_pdf(patch, wi, (y - x).length_squared());
+            d += n_area * chosen * area_pdf(patch, wi, (y - x).length_squared());
         }
-        for m in mirrors.iter().filter(|m| m.surface == q) {
-            d += n_grid * m.pdf(x, wi, (y - x).length());
-        }
-        d
+        d + n_area * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
     };
     let mut sum = Rgb::ZERO;
     // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
@@ -158,31 +169,30 @@ pub fn indirect_radiance(
         let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
         sum += outgoing(q, y) * weight;
     };
-    for &q in bright {
-        if q == surface {
-            continue;
-        }
-        for (wi, y, _) in area_samples(scene, tracer, point, q, grid, Stream::Bright) {
+    for k in 0..count {
+        let u = samples.point(Stream::Bright, count, k);
+        let Some((q, uv, _)) = bright.sample(u, surface) else {
+            break;
+        };
+        if let Some((wi, y, _)) = area_sample(scene, tracer, point, q, uv) {
             add(q, wi, y);
         }
     }
-    for (index, m) in mirrors.iter().enumerate() {
-        if m.surface == surface {
-            continue;
-        }
+    for k in 0..count {
+        let u = samples.point(Stream::Mirror, count, k);
+        let Some((m, uv, _)) = mirrors.sample(u, surface) else {
+            break;
+        };
         let patch = &scene.surfaces[m.surface as usize].patch;
         let skip = |prim: u32| {
             let h = tracer.surface_of(prim);
             h == m.surface || h == surface
         };
-        for k in 0..grid * grid {
-            let u = samples.point(Stream::Mirror(index as u32), grid * grid, k);
-            let Some((wi, y, _)) = m.sample(patch, x, u) else {
-                continue;
-            };
-            if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
-                add(m.surface, wi, y);
-            }
+        let Some((wi, y, _)) = m.sample(patch, x, uv) else {
+            continue;
+        };
+        if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
+            add(m.surface, wi, y);
         }
     }
     let mut inverse_distances = 0.0;
@@ -219,51 +229,42 @@ fn area_pdf(patch: &crate::scene::Patch, wi: DVec3, r2: f64) -> f64 {
     r2 / (cos_y * patch.area())
 }
 
-/// `grid` × `grid` stratified points of surface `q` by area, drawn from
-/// `stream(q)`, that `point` sees in front of itself: (direction to it, the
-/// point, solid-angle pdf).
-fn area_samples(
+/// The point of surface `q` at `uv` ∈ \[0,1)² (uniform by area), if
+/// `point` sees it in front of itself: (direction to it, the point,
+/// solid-angle pdf).
+fn area_sample(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
     q: u32,
-    grid: u32,
-    stream: fn(u32) -> Stream,
-) -> Vec<(DVec3, DVec3, f64)> {
+    uv: DVec2,
+) -> Option<(DVec3, DVec3, f64)> {
     let patch = &scene.surfaces[q as usize].patch;
     let x = point.position;
+    let y = patch.point_at(patch.square_to_param(uv));
+    let wi = (y - x).normalize();
+    let p = area_pdf(patch, wi, (y - x).length_squared());
     let skip = |prim: u32| {
         let h = tracer.surface_of(prim);
         h == q || h == point.surface
     };
-    let mut out = Vec::new();
-    for k in 0..grid * grid {
-        let uv = point.samples.point(stream(q), grid * grid, k);
-        let y = patch.point_at(patch.square_to_param(uv));
-        let wi = (y - x).normalize();
-        let p = area_pdf(patch, wi, (y - x).length_squared());
-        if p.is_finite()
-            && point.normal.dot(wi) > 0.0
-            && !tracer.occluder.occluded_except(x, y, skip)
-        {
-            out.push((wi, y, p));
-        }
-    }
-    out
+    (p.is_finite() && point.normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip))
+        .then_some((wi, y, p))
 }
 
 /// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
 /// world direction `wo` (its surface's BRDF, or only some of its lobes;
-/// emission not included): light straight from `emitters` by light
-/// sampling and BRDF sampling combined with the balance heuristic (Veach
-/// 1997), and the rest of the solution by BRDF sampling, each sampled
-/// direction looking up `outgoing(surface, point)`, the solution's radiance
-/// leaving the point hit towards `point`. `grid` × `grid` light samples per
-/// emitter and as many BRDF samples.
+/// emission not included): light straight from the `emitters` by light
+/// sampling (each sample on an emitter drawn from their distribution) and
+/// BRDF sampling combined with the balance heuristic (Veach 1997), and the
+/// rest of the solution by BRDF sampling, each sampled direction looking up
+/// `outgoing(surface, point)`, the solution's radiance leaving the point
+/// hit towards `point`. `grid` × `grid` light samples in all and as many
+/// BRDF samples.
 pub fn glossy_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &[u32],
+    emitters: &SurfaceDistribution,
     point: &GatherPoint,
     (brdf, wo): (&Brdf, DVec3),
     grid: u32,
@@ -285,18 +286,20 @@ pub fn glossy_radiance(
     let samples = grid * grid;
     let n = f64::from(samples.max(1));
     // Light sampling.
-    for &e in emitters {
-        if e == surface {
+    for k in 0..samples {
+        let u = sample_points.point(Stream::Light, samples, k);
+        let Some((e, uv, chosen)) = emitters.sample(u, surface) else {
+            break;
+        };
+        let Some((wi, _, p_area)) = area_sample(scene, tracer, point, e, uv) else {
             continue;
-        }
-        let light = &scene.surfaces[e as usize];
-        for (wi, _, p_light) in area_samples(scene, tracer, point, e, grid, Stream::Light) {
-            let wi_local = frame.to_local(wi);
-            let f = brdf.eval(wo_local, wi_local);
-            let p_brdf = brdf.pdf(wo_local, wi_local);
-            let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
-            out += f * w * light.emission;
-        }
+        };
+        let p_light = chosen * p_area;
+        let wi_local = frame.to_local(wi);
+        let f = brdf.eval(wo_local, wi_local);
+        let p_brdf = brdf.pdf(wo_local, wi_local);
+        let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
+        out += f * w * scene.surfaces[e as usize].emission;
     }
     // BRDF sampling: emitters (weighted against light sampling) and the rest
     // of the solution.
@@ -315,8 +318,9 @@ pub fn glossy_radiance(
             continue; // itself, or the back of a one-sided surface: black
         }
         let l = outgoing(hit.surface, hit.position);
-        let emitted_weight = if emitters.contains(&hit.surface) {
-            let p_light = area_pdf(&q.patch, wi, (hit.position - x).length_squared());
+        let chosen = emitters.probability(hit.surface, surface);
+        let emitted_weight = if chosen > 0.0 {
+            let p_light = chosen * area_pdf(&q.patch, wi, (hit.position - x).length_squared());
             sample.pdf / (p_light + sample.pdf)
         } else {
             1.0
@@ -391,46 +395,64 @@ mod tests {
             samples: Samples::Hashed(3),
         };
         let sources = GatherSources {
-            bright: &[],
-            mirrors: &[],
-            grid: 1,
+            bright: &SurfaceDistribution::default(),
+            mirrors: &MirrorImages::default(),
+            count: 1,
         };
         let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| Rgb::splat(2.0));
         assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
     }
 
+    /// A wall point facing a sharp glossy floor lit from above by two
+    /// lights, and a small panel: light leaves the floor in a bump where it
+    /// mirrors the lights towards the point, and the panel evenly. Cosine
+    /// rays, area samples of the floor, the panel and the wall itself (never
+    /// drawn, as the wall cannot light itself) from one distribution, and
+    /// the lights' mirror images, combined, must integrate it as a fine
+    /// midpoint rule over the floor and the panel does; the images must cut
+    /// the noise.
     #[test]
     fn mirror_and_area_samples_leave_the_gather_unbiased() {
-        // A wall point facing a sharp glossy floor lit from above: light
-        // leaving the floor in a bump where it mirrors the light towards the
-        // point. Cosine rays, area samples of the floor and the light's
-        // mirror image, combined, must integrate it as a fine midpoint rule
-        // over the floor does.
         let mut scene = crate::testing::mirror_floor_and_light();
-        scene
-            .surfaces
-            .push(crate::testing::grey(Patch::Parallelogram {
-                origin: DVec3::new(1.2, 0.0, 0.0),
-                edge_s: DVec3::Z,
-                edge_t: DVec3::Y,
-            }));
+        let square = |origin: DVec3, edge_s: DVec3, edge_t: DVec3| Patch::Parallelogram {
+            origin,
+            edge_s,
+            edge_t,
+        };
+        let wall = square(DVec3::new(1.2, 0.0, 0.0), DVec3::Z, DVec3::Y);
+        let panel = square(DVec3::new(0.0, 0.2, 0.1), DVec3::Y * 0.6, DVec3::Z * 0.4);
+        let light = square(DVec3::new(0.1, 0.6, 0.9), DVec3::Y * 0.2, DVec3::X * 0.2);
+        scene.surfaces.push(crate::testing::grey(wall));
+        scene.surfaces.push(crate::testing::grey(panel));
+        scene.surfaces.push(Surface {
+            emission: Rgb::splat(3.0),
+            ..crate::testing::grey(light)
+        });
         let tracer = SceneTracer::new(&scene);
         let x = DVec3::new(1.2, 0.5, 0.4);
         let normal = scene.surfaces[2].patch.normal();
         assert!((normal + DVec3::X).length() < 1e-12);
+        assert!((scene.surfaces[3].patch.normal() - DVec3::X).length() < 1e-12);
         // The light's centre mirrored through the floor, seen from x, is
         // at (0.986, 0.5, 0): the bump sits where the floor reflects it.
         let centre = DVec3::new(0.95, 0.5, 0.0);
         let bump = |y: DVec3| (-(y - centre).length_squared() / 0.005).exp();
-        let outgoing = |q: u32, y: DVec3| Rgb::splat(if q == 0 { bump(y) } else { 0.0 });
-        let mirrors = MirrorImage::of_scene(&scene, &[0], &[1]);
-        assert_eq!(mirrors.len(), 1);
+        let outgoing = |q: u32, y: DVec3| {
+            Rgb::splat(match q {
+                0 => bump(y),
+                3 => 0.2,
+                _ => 0.0,
+            })
+        };
+        let bright = SurfaceDistribution::new(vec![(3, 0.5), (0, 1.0), (2, 1.0)]);
+        let mirrors = MirrorImages::of_scene(&scene, &[0], &[1, 4]);
+        assert_eq!(mirrors.images().len(), 2);
         // Mean and standard error over `runs` seeds.
-        let estimate = |mirrors: &[MirrorImage]| {
+        let estimate = |mirrors: &MirrorImages| {
             let sources = GatherSources {
-                bright: &[0],
+                bright: &bright,
                 mirrors,
-                grid: 3,
+                count: 9,
             };
             let runs = 1000;
             let (mut sum, mut sq) = (0.0, 0.0);
@@ -451,18 +473,30 @@ mod tests {
                 ((sq / runs as f64 - mean * mean) / runs as f64).sqrt(),
             )
         };
-        // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor.
+        // ρ/π ∫ L cos θ_x cos θ_y / r² dA over the floor and the panel.
         let n = 1000;
         let mut expect = 0.0;
-        for y in crate::testing::unit_square_midpoints(n) {
-            let d = y - x;
-            let r2 = d.length_squared();
-            let cos_x = normal.dot(d) / r2.sqrt();
-            let cos_y = -d.z / r2.sqrt();
-            expect += bump(y) * cos_x * cos_y / r2 / (n * n) as f64;
+        for (q, origin, edges) in [
+            (0, DVec3::ZERO, [DVec3::X, DVec3::Y]),
+            (
+                3,
+                DVec3::new(0.0, 0.2, 0.1),
+                [DVec3::Y * 0.6, DVec3::Z * 0.4],
+            ),
+        ] {
+            let patch = &scene.surfaces[q as usize].patch;
+            for m in crate::testing::unit_square_midpoints(n) {
+                let y = origin + m.x * edges[0] + m.y * edges[1];
+                let d = y - x;
+                let r2 = d.length_squared();
+                let cos_x = normal.dot(d) / r2.sqrt();
+                let cos_y = -patch.normal().dot(d) / r2.sqrt();
+                let area = patch.area() / (n * n) as f64;
+                expect += outgoing(q, y)[0] * cos_x * cos_y / r2 * area;
+            }
         }
         expect *= 0.5 / std::f64::consts::PI;
-        let (area_only, area_error) = estimate(&[]);
+        let (area_only, area_error) = estimate(&MirrorImages::default());
         let (mirrored, mirror_error) = estimate(&mirrors);
         for (mean, error) in [(area_only, area_error), (mirrored, mirror_error)] {
             assert!(
@@ -520,21 +554,11 @@ mod tests {
             }
         }
         let estimate = |samples: Samples| {
-            let point = GatherPoint {
-                surface: 0,
-                position: x,
-                normal: DVec3::Z,
-                samples,
-            };
             let ceiling = |q: u32, _| Rgb::splat(if q == 1 { 1.0 } else { 0.0 });
             let brdf = (&floor.brdf, wo);
-            glossy_radiance(&scene, &tracer, &[], &point, brdf, 2, ceiling)[0]
-        };
-        let mean_and_error = |values: Vec<f64>| {
-            let m = values.len() as f64;
-            let mean = values.iter().sum::<f64>() / m;
-            let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
-            (mean, (var / m).sqrt())
+            let no_emitters = &SurfaceDistribution::default();
+            let point = on_floor(x, samples);
+            glossy_radiance(&scene, &tracer, no_emitters, &point, brdf, 2, ceiling)[0]
         };
         let hashed = mean_and_error((0..4096).map(|s| estimate(Samples::Hashed(s))).collect());
         // Each pixel's 16 blocks together, as one estimate.
@@ -584,15 +608,136 @@ mod tests {
             },
         ]);
         let tracer = SceneTracer::new(&scene);
-        let point = GatherPoint {
-            surface: 0,
-            position: DVec3::ZERO,
-            normal: DVec3::Z,
-            samples: Samples::Hashed(7),
-        };
-        let l = direct_radiance(&scene, &tracer, &[1], &point, 4);
+        let point = on_floor(DVec3::ZERO, Samples::Hashed(7));
+        let light = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let l = direct_radiance(&scene, &tracer, &light, &point, 4);
         let s = 2f64.sqrt();
         let expect = 0.5 * (2.0 / s * (1.0 / s).atan()) / (2.0 * std::f64::consts::PI);
         assert!((l[0] - expect).abs() < 1e-12, "{} vs {expect}", l[0]);
+    }
+
+    /// The unit floor (surface 0) under three lights of different power: the
+    /// light overhead (radiance 1), a brighter one off to the side, and an
+    /// upright one beyond the floor's edge facing it.
+    fn floor_under_three_lights() -> Scene {
+        let mut scene = crate::testing::mirror_floor_and_light();
+        let light = |origin: DVec3, edge_s: DVec3, edge_t: DVec3, radiance: f64| Surface {
+            emission: Rgb::splat(radiance),
+            ..crate::testing::grey(Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            })
+        };
+        let (side, upright) = (DVec3::new(0.6, 0.0, 0.7), DVec3::new(-0.3, 0.2, 0.05));
+        scene
+            .surfaces
+            .push(light(side, DVec3::Y * 0.3, DVec3::X * 0.3, 2.5));
+        scene
+            .surfaces
+            .push(light(upright, DVec3::Y * 0.4, DVec3::Z * 0.4, 4.0));
+        scene
+    }
+
+    /// Mean and standard error of independent estimates.
+    fn mean_and_error(values: Vec<f64>) -> (f64, f64) {
+        let m = values.len() as f64;
+        let mean = values.iter().sum::<f64>() / m;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
+        (mean, (var / m).sqrt())
+    }
+
+    /// The point `x` of a floor (surface 0, facing +z), drawing `samples`.
+    fn on_floor(x: DVec3, samples: Samples) -> GatherPoint {
+        GatherPoint {
+            surface: 0,
+            position: x,
+            normal: DVec3::Z,
+            samples,
+        }
+    }
+
+    /// Four shadow rays among three emitters, each drawn by power (the
+    /// floor itself, also listed, left out): the direct light averages to
+    /// ρ Σ Le·F over the three in closed form, although each estimate
+    /// leaves some emitter out.
+    #[test]
+    fn direct_light_drawn_among_emitters_averages_to_all_of_it() {
+        let mut scene = floor_under_three_lights();
+        scene.surfaces[0].brdf = crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5));
+        let tracer = SceneTracer::new(&scene);
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        let power = |e: u32| {
+            let s = &scene.surfaces[e as usize];
+            s.emission[0] * s.patch.area()
+        };
+        let emitters =
+            SurfaceDistribution::new(vec![(0, 1.0), (1, power(1)), (2, power(2)), (3, power(3))]);
+        let expect: f64 = (1..4)
+            .map(|e| {
+                let light = &scene.surfaces[e].patch;
+                let ff = point_to_polygon(x, DVec3::Z, &light.vertices(), light.normal());
+                0.5 * scene.surfaces[e].emission[0] * ff
+            })
+            .sum();
+        let (mean, error) = mean_and_error(
+            (0..4000)
+                .map(|s| {
+                    let point = on_floor(x, Samples::Hashed(s));
+                    direct_radiance(&scene, &tracer, &emitters, &point, 2)[0]
+                })
+                .collect(),
+        );
+        assert!(error > 1e-3 * expect, "the emitters drawn vary: {error}");
+        assert!(
+            (mean - expect).abs() < 4.0 * error,
+            "{mean} ± {error} vs {expect}"
+        );
+    }
+
+    /// A sharp glossy floor under three lights: light samples drawn among
+    /// them (and the floor, left out) and BRDF samples, combined, average
+    /// to ∫ f Le cos θ over the lights (the midpoint rule over each).
+    #[test]
+    fn light_samples_drawn_among_emitters_average_to_the_reflected_light() {
+        let scene = floor_under_three_lights();
+        let tracer = SceneTracer::new(&scene);
+        let floor = &scene.surfaces[0];
+        let x = DVec3::new(0.5, 0.5, 0.0);
+        // Mirrored, wo points at the overhead light's corner.
+        let wo = DVec3::new(0.3, 0.1, 1.0).normalize();
+        let frame = floor.frame();
+        let wo_local = frame.to_local(wo);
+        let n = 400;
+        let mut reflected = 0.0;
+        for e in 1..4 {
+            let light = &scene.surfaces[e];
+            let cell = light.patch.area() / (n * n) as f64;
+            for m in crate::testing::unit_square_midpoints(n) {
+                let y = light
+                    .patch
+                    .point_at(light.patch.square_to_param(m.truncate()));
+                let d = y - x;
+                let r2 = d.length_squared();
+                let wi = d / r2.sqrt();
+                let cos_y = -light.patch.normal().dot(wi);
+                let f = floor.brdf.eval(wo_local, frame.to_local(wi))[0];
+                reflected += f * light.emission[0] * wi.z * cos_y / r2 * cell;
+            }
+        }
+        let emitters = SurfaceDistribution::new(vec![(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0)]);
+        let emission = |q: u32, _| scene.surfaces[q as usize].emission;
+        let (mean, error) = mean_and_error(
+            (0..4000)
+                .map(|s| {
+                    let (point, brdf) = (on_floor(x, Samples::Hashed(s)), (&floor.brdf, wo));
+                    glossy_radiance(&scene, &tracer, &emitters, &point, brdf, 2, emission)[0]
+                })
+                .collect(),
+        );
+        assert!(
+            (mean - reflected).abs() < 4.0 * error + 2e-3 * reflected,
+            "{mean} ± {error} vs {reflected}"
+        );
     }
 }

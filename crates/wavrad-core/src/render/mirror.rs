@@ -10,14 +10,19 @@
 //! the wall's caustic is noisy; a uniform point on e, mirrored, gives a
 //! direction from x straight through it. Every surface here is planar, so
 //! the image is exact and its density in solid angle is closed-form, and the
-//! strategy joins the gather's others through the balance heuristic.
+//! strategy joins the gather's others through the balance heuristic. A
+//! gather draws its points from all images at once ([`MirrorImages`]), so
+//! that its cost does not grow with the number of glossy surfaces and
+//! emitters.
 //! Written here because it is a few lines of plane geometry on wavrad's own
 //! patches.
 
+use super::discrete::DiscreteDistribution;
 use crate::kernel::faces_away;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
 use glam::{DMat3, DMat4, DVec2, DVec3};
+use std::ops::Range;
 
 /// The image of emitter `emitter` mirrored through the plane of the glossy
 /// surface `surface`.
@@ -33,32 +38,84 @@ pub struct MirrorImage {
     area: f64,
 }
 
-impl MirrorImage {
-    /// The images of every emitter through every sharp glossy surface that
-    /// it faces ([`is_sharp`]; no other pair reflects light).
-    pub fn of_scene(scene: &Scene, glossy: &[u32], emitters: &[u32]) -> Vec<MirrorImage> {
-        let mut out = Vec::new();
+/// The images of every emitter through every sharp glossy surface that it
+/// faces ([`is_sharp`]; no other pair reflects light), ordered by glossy
+/// surface, and a distribution over them by their emitters' power
+/// (emission averaged over the channels, times area): a final gather draws
+/// each of its points from one image picked by it, and weighs a direction
+/// that meets a glossy surface with the density of the images through
+/// that surface alone.
+#[derive(Debug, Clone, Default)]
+pub struct MirrorImages {
+    images: Vec<MirrorImage>,
+    choice: DiscreteDistribution,
+}
+
+impl MirrorImages {
+    /// The images of `emitters` through the sharp ones among `glossy`.
+    pub fn of_scene(scene: &Scene, glossy: &[u32], emitters: &[u32]) -> MirrorImages {
+        let mut images = Vec::new();
         for &q in glossy
             .iter()
             .filter(|&&q| is_sharp(&scene.surfaces[q as usize]))
         {
             let plane = &scene.surfaces[q as usize].patch;
             for &e in emitters {
-                let light = &scene.surfaces[e as usize].patch;
-                if e == q || faces_away(plane, light) {
+                let light = &scene.surfaces[e as usize];
+                if e == q || faces_away(plane, &light.patch) {
                     continue;
                 }
-                out.push(MirrorImage {
+                images.push(MirrorImage {
                     surface: q,
                     emitter: e,
-                    image: light.transformed(&reflection(plane)),
-                    area: light.area(),
+                    image: light.patch.transformed(&reflection(plane)),
+                    area: light.patch.area(),
                 });
             }
         }
-        out
+        images.sort_by_key(|m| m.surface);
+        let power =
+            |m: &MirrorImage| scene.surfaces[m.emitter as usize].emission.average() * m.area;
+        MirrorImages {
+            choice: DiscreteDistribution::new(images.iter().map(power)),
+            images,
+        }
     }
 
+    /// The images, ordered by glossy surface.
+    pub fn images(&self) -> &[MirrorImage] {
+        &self.images
+    }
+
+    /// The image that `u` ∈ \[0,1\)² picks among those through surfaces
+    /// other than `excluded` (the gather's own), with the point of
+    /// \[0,1\)² it then samples and the probability it had: `None` where
+    /// there is no such image.
+    pub fn sample(&self, u: DVec2, excluded: u32) -> Option<(&MirrorImage, DVec2, f64)> {
+        let drawn = self.choice.sample(u.x, self.through(excluded))?;
+        let image = &self.images[drawn.index];
+        Some((image, DVec2::new(drawn.u, u.y), drawn.probability))
+    }
+
+    /// Solid-angle density with which [`MirrorImages::sample`] (leaving out
+    /// the images through `excluded`) and then [`MirrorImage::sample`] pick
+    /// the direction `wi` from `x`, whose ray first meets the glossy
+    /// surface `q` at distance `t`: a sum over the images through `q` only.
+    pub fn pdf(&self, excluded: u32, x: DVec3, (wi, q, t): (DVec3, u32, f64)) -> f64 {
+        let left_out = self.through(excluded);
+        self.through(q)
+            .map(|i| self.choice.probability(i, left_out.clone()) * self.images[i].pdf(x, wi, t))
+            .sum()
+    }
+
+    /// The positions of the images through surface `q`.
+    fn through(&self, q: u32) -> Range<usize> {
+        let start = self.images.partition_point(|m| m.surface < q);
+        start..start + self.images[start..].partition_point(|m| m.surface == q)
+    }
+}
+
+impl MirrorImage {
     /// Whether this image can light surface `s` by way of the glossy
     /// surface: `s` is diffuse and faces it.
     pub fn lights(&self, scene: &Scene, s: u32) -> bool {
@@ -158,7 +215,8 @@ mod tests {
         // Facing the floor (normal −x), then behind the floor's plane.
         scene.surfaces.push(wall(DVec3::new(1.2, 1.0, 0.0)));
         scene.surfaces.push(wall(DVec3::new(0.0, 0.0, -2.0)));
-        let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
+        let images = MirrorImages::of_scene(&scene, &[0], &[1]);
+        let image = &images.images()[0];
         let lit: Vec<bool> = (0..4).map(|s| image.lights(&scene, s)).collect();
         assert_eq!(lit, [false, false, true, false]);
     }
@@ -174,7 +232,9 @@ mod tests {
             ..Ward::default()
         });
         assert!(!is_sharp(&scene.surfaces[0]));
-        assert!(MirrorImage::of_scene(&scene, &[0], &[1]).is_empty());
+        assert!(MirrorImages::of_scene(&scene, &[0], &[1])
+            .images()
+            .is_empty());
         scene.surfaces[0].brdf = Brdf::diffuse(Rgb::splat(0.5));
         assert!(!is_sharp(&scene.surfaces[0]));
     }
@@ -182,7 +242,8 @@ mod tests {
     #[test]
     fn the_image_lies_behind_the_plane_as_far_as_the_emitter_is_in_front() {
         let scene = mirror_floor_and_light();
-        let images = MirrorImage::of_scene(&scene, &[0], &[1]);
+        let images = MirrorImages::of_scene(&scene, &[0], &[1]);
+        let images = images.images();
         assert_eq!(images.len(), 1);
         let light = scene.surfaces[1].patch.vertices();
         for (v, w) in light.iter().zip(images[0].image.vertices()) {
@@ -196,7 +257,8 @@ mod tests {
     #[test]
     fn sampled_directions_reflect_specularly_into_the_emitter() {
         let scene = mirror_floor_and_light();
-        let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
+        let images = MirrorImages::of_scene(&scene, &[0], &[1]);
+        let image = &images.images()[0];
         let x = DVec3::new(0.9, 0.5, 0.4);
         let floor = &scene.surfaces[0].patch;
         let mut hits = 0;
@@ -222,7 +284,8 @@ mod tests {
         // Seen from x, every direction towards the image crosses the large
         // floor: the density integrates to one over the sphere.
         let scene = mirror_floor_and_light();
-        let image = &MirrorImage::of_scene(&scene, &[0], &[1])[0];
+        let images = MirrorImages::of_scene(&scene, &[0], &[1]);
+        let image = &images.images()[0];
         let x = DVec3::new(0.4, 0.5, 0.3);
         let n = 400;
         let mut integral = 0.0;

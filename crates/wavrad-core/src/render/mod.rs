@@ -7,6 +7,7 @@
 
 pub mod cache;
 pub mod camera;
+pub mod discrete;
 pub mod enclosure;
 pub mod estimator;
 pub mod eye;
@@ -63,10 +64,11 @@ pub const GATHER_SHARE: u32 = 32;
 /// receiver gets nothing else).
 pub const CAUSTIC_GATHERS: u32 = 16;
 
-/// Shadow rays per emitter for each gathering camera ray: a `GATHER_GRID` ×
-/// `GATHER_GRID` jittered grid. Bright surfaces (glossy ones and strongly
-/// lit diffuse ones) get grids of about as many area samples in all as the
-/// gathering ray has indirect rays, and each at least this.
+/// Shadow rays for each gathering camera ray, `GATHER_GRID` ×
+/// `GATHER_GRID`, each to an emitter drawn by power (a lone emitter gets a
+/// jittered grid). Bright surfaces (glossy ones and strongly lit diffuse
+/// ones) get about as many area samples in all as the gathering ray has
+/// indirect rays, and at least this many each while they are few.
 pub const GATHER_GRID: u32 = 2;
 
 /// Indirect gather rays per gathering camera ray of an interior pixel; in a
@@ -75,8 +77,8 @@ pub const GATHER_GRID: u32 = 2;
 pub const GATHER_RAYS: u32 = 32;
 
 /// On glossy surfaces in [`Estimator::FinalGather`], where every camera ray
-/// gathers through the BRDF: `GLOSSY_GRID` × `GLOSSY_GRID` light samples per
-/// emitter and as many BRDF samples per ray. A BRDF without a Lambertian
+/// gathers through the BRDF: `GLOSSY_GRID` × `GLOSSY_GRID` light samples
+/// (each on an emitter drawn by power) and as many BRDF samples per ray. A BRDF without a Lambertian
 /// lobe gets that many per ray of a pixel with all its camera rays, and
 /// more in interior pixels (in proportion, the same in all); one with a
 /// Lambertian lobe gathers only its other lobes per ray, that lobe's light
@@ -379,7 +381,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .map(|(s, surface)| {
                 surface.is_emitter()
                     || (!surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
-                        && bright.contains(&(s as u32)))
+                        && bright.contains(s as u32))
             })
             .collect();
         let (w, h) = (film.width as usize, film.height as usize);

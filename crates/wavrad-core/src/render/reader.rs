@@ -1,10 +1,11 @@
 //! What final gathers read from a solution ([`SolutionReader`]), built once
 //! per solution by its [`super::Renderer`], and the final gather over it.
 
+use super::discrete::SurfaceDistribution;
 use super::gather::{self, GatherPoint};
-use super::mirror::MirrorImage;
+use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
-use super::{GATHER_GRID, GLOSSY_GRID};
+use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -40,14 +41,16 @@ use rayon::prelude::*;
 ///
 /// It also knows where a gather looks for concentrated light besides its
 /// cosine rays ([`gather::GatherSources`]): the `bright` surfaces, the
-/// emitters' `mirrors` images, and the `caustic` receivers they light.
+/// emitters' `mirrors` images, and the `caustic` receivers they light; and
+/// the `emitters`, by power (emission, the mean of the channels, times
+/// area), from which shadow rays and glossy points' light samples draw.
 pub(super) struct SolutionReader {
     pub(super) smooth: Vec<SmoothLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
     beyond_first: Vec<Option<Vec<Rgb>>>,
-    pub(super) emitters: Vec<u32>,
-    pub(super) bright: Vec<u32>,
-    mirrors: Vec<MirrorImage>,
+    pub(super) emitters: SurfaceDistribution,
+    pub(super) bright: SurfaceDistribution,
+    mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
 }
 
@@ -80,7 +83,7 @@ impl From<&GatherPoint> for SurfacePoint {
 }
 
 /// The rays a final gather casts: `rays` cosine rays' worth of indirect
-/// samples, and `shadow_grid` × `shadow_grid` shadow rays to each emitter.
+/// samples, and `shadow_grid` × `shadow_grid` shadow rays to the emitters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct GatherBudget {
     pub(super) rays: u32,
@@ -97,9 +100,13 @@ impl SolutionReader {
     /// What final gathers read from `solution` (view-independent).
     pub(super) fn new(solution: &Solution) -> SolutionReader {
         let surfaces = &solution.scene.surfaces;
-        let emitters: Vec<u32> = (0..surfaces.len() as u32)
-            .filter(|&s| surfaces[s as usize].is_emitter())
-            .collect();
+        // Emitters by power: emission (mean of the channels) times area.
+        let emitters = SurfaceDistribution::new(
+            (surfaces.iter().enumerate())
+                .filter(|(_, s)| s.is_emitter())
+                .map(|(e, s)| (e as u32, s.emission.average() * s.patch.area()))
+                .collect(),
+        );
         let glossy: Vec<u32> = (0..surfaces.len() as u32)
             .filter(|&s| {
                 surfaces[s as usize]
@@ -109,15 +116,15 @@ impl SolutionReader {
             })
             .collect();
         let bright = secondary_sources(solution, &glossy);
-        let mirrors = MirrorImage::of_scene(&solution.scene, &glossy, &emitters);
+        let mirrors = MirrorImages::of_scene(&solution.scene, &glossy, emitters.surfaces());
         let caustic = (0..surfaces.len())
-            .map(|s| mirrors.iter().any(|m| m.lights(&solution.scene, s as u32)))
+            .map(|s| (mirrors.images().iter()).any(|m| m.lights(&solution.scene, s as u32)))
             .collect();
         // A strongly lit diffuse surface that reflects most of the scene's
         // light shows gather rays its first bounce per point.
         let power = reflected_power(solution);
         let total: f64 = power.iter().sum();
-        let per_point: Vec<usize> = (bright.iter().map(|&s| s as usize))
+        let per_point: Vec<usize> = (bright.surfaces().iter().map(|&s| s as usize))
             .filter(|&s| power[s] > 0.5 * total)
             .collect();
         let mut beyond_first = vec![None; surfaces.len()];
@@ -156,13 +163,15 @@ impl SolutionReader {
     }
 
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
-    /// the light straight from the emitters (the `budget`'s shadow rays to
-    /// each) and its cosine rays' worth of the rest of the solution, with
-    /// about as many samples of the bright surfaces together, and of each
-    /// mirror image ([`gather::indirect_radiance`]).
-    /// The bright surfaces share their samples: each glossy face of a box
-    /// counts as one, and area samples each cost a shadow ray and a glossy
-    /// evaluation.
+    /// the light straight from the emitters (the `budget`'s shadow rays,
+    /// [`gather::direct_radiance`]) and its cosine rays' worth of the rest of
+    /// the solution, with a square grid of about as many samples of the
+    /// bright surfaces together, and as many of the mirror images together
+    /// ([`gather::indirect_radiance`]; each costs a shadow ray and, on a
+    /// glossy surface, a glossy evaluation), or where that is fewer, a
+    /// [`GATHER_GRID`]² grid's worth for each of a few bright surfaces, up
+    /// to [`GATHER_RAYS`] (what cosine rays miss is concentrated: a gather
+    /// with few cosine rays still needs a few samples of each such surface).
     pub(super) fn final_gather(
         &self,
         solution: &Solution,
@@ -180,13 +189,13 @@ impl SolutionReader {
         GatherBudget { rays, shadow_grid }: GatherBudget,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let grid = f64::from(rays).sqrt().round() as u32;
+        let bright = self.bright.surfaces().len() as u32;
+        let few = (GATHER_GRID * GATHER_GRID).saturating_mul(bright);
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
-            grid: ((f64::from(rays) / self.bright.len().max(1) as f64)
-                .sqrt()
-                .round() as u32)
-                .max(GATHER_GRID),
+            count: (grid * grid).max(few.min(GATHER_RAYS)),
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
@@ -313,7 +322,13 @@ fn reflected_power(solution: &Solution) -> Vec<f64> {
 /// its lobes) and every diffuse non-emitter whose average radiance is over
 /// four times the area-weighted mean of all non-emitters (a small, strongly
 /// lit surface that lights the others: cosine rays rarely find it).
-fn secondary_sources(solution: &Solution, glossy: &[u32]) -> Vec<u32> {
+///
+/// Each weighs alike, a diffuse one times the ratio of its average radiance
+/// to that threshold: what cosine rays miss is small, so sampling the
+/// surfaces alike rather than by area samples the small ones densest (by
+/// area, the glossy Cornell box's floor, which cosine rays find anyway,
+/// took most of the samples and the image was noisier).
+fn secondary_sources(solution: &Solution, glossy: &[u32]) -> SurfaceDistribution {
     let surfaces = &solution.scene.surfaces;
     let power = reflected_power(solution);
     let lit = |s: usize| {
@@ -326,12 +341,12 @@ fn secondary_sources(solution: &Solution, glossy: &[u32]) -> Vec<u32> {
     let area = |s: usize| surfaces[s].patch.area();
     let n = surfaces.len();
     let total_area: f64 = (0..n).filter(|&s| lit(s)).map(area).sum();
-    let mean = power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
-    let mut out = glossy.to_vec();
-    out.extend((0..n as u32).filter(|&s| {
-        let s = s as usize;
-        lit(s) && power[s] > 4.0 * mean * area(s)
-    }));
-    out.sort_unstable();
-    out
+    let threshold = 4.0 * power.iter().sum::<f64>() / total_area.max(f64::MIN_POSITIVE);
+    let mut weighted: Vec<(u32, f64)> = glossy.iter().map(|&s| (s, 1.0)).collect();
+    weighted.extend(
+        (0..n)
+            .filter(|&s| lit(s) && power[s] > threshold * area(s))
+            .map(|s| (s as u32, power[s] / (threshold * area(s)))),
+    );
+    SurfaceDistribution::new(weighted)
 }

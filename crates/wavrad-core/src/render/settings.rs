@@ -45,7 +45,7 @@ impl Described for RenderSettings {
             },
             default: "spp / 32",
             help: "With mode gather: of an interior pixel's camera rays, how many also \
-                   final-gather (4 shadow rays per emitter and 32 indirect rays each); other \
+                   final-gather (4 shadow rays to the emitters and 32 indirect rays each); other \
                    pixels gather in the same proportion, a caustic's receivers (diffuse surfaces \
                    facing a sharp glossy surface that mirrors an emitter) sixteen times as much.",
         },
