@@ -7,9 +7,16 @@ General Surface Properties* (EG Rendering Workshop 1994).
 >>> solution = wavrad.solve(scene)
 >>> image = solution.render()  # (64, 64, 3) float32, linear RGB
 >>> wavrad.write_image("cornell.exr", image)
+
+A solve's kernel projection can run elsewhere in blocks: :func:`plan`, then
+:meth:`Plan.project` of each of ``plan.blocks(n)`` (in other processes or
+on other machines, each with its own plan of the scene), then
+:meth:`Plan.finish` of their bytes; :mod:`wavrad.distributed` does so on
+Ray.
 """
 
 from wavrad._native import (
+    Plan,
     Scene,
     SceneError,
     Solution,
@@ -17,6 +24,7 @@ from wavrad._native import (
     WavradError,
     __version__,
     load_scene,
+    plan,
     read_exr,
     relative_rmse,
     solve,
@@ -25,12 +33,14 @@ from wavrad._native import (
 
 __all__ = [
     "__version__",
+    "Plan",
     "Scene",
     "SceneError",
     "Solution",
     "SolveError",
     "WavradError",
     "load_scene",
+    "plan",
     "read_exr",
     "relative_rmse",
     "solve",

@@ -10,12 +10,14 @@ from typing_extensions import TypeAlias
 
 __all__ = [
     "__version__",
+    "Plan",
     "Scene",
     "SceneError",
     "Solution",
     "SolveError",
     "WavradError",
     "load_scene",
+    "plan",
     "read_exr",
     "relative_rmse",
     "solve",
@@ -110,6 +112,15 @@ class Solution:
         sensor; ``TypeError`` for an unknown keyword.
         """
     @property
+    def radiance(self) -> npt.NDArray[np.float64]:
+        """Average radiance of every element: an (elements, 3) float64
+        array, surfaces in scene order, each surface's element hierarchy in
+        the order of its nodes."""
+    @property
+    def directional(self) -> npt.NDArray[np.float64]:
+        """Average directional radiance of every element pair of every
+        glossy surface's directional structures, in the same way."""
+    @property
     def stats(self) -> dict[str, Any]:
         """Statistics of the solve: ``two_point_nodes``,
         ``two_point_interactions``, ``three_point_nodes``,
@@ -197,6 +208,66 @@ def solve(
     setting and the range), an unknown ``oracle`` or ``solver``, the
     importance oracle on a scene without a sensor, and the shooting solver
     on a glossy scene or with the importance oracle."""
+
+class Plan:
+    """A gathering solve planned up to its kernel projection (:func:`plan`):
+    the scene's ray queries, cluster tree and linking, which fix the
+    projection's items (element pairs, then the surface triples of glossy
+    surfaces). Each block of items can be projected anywhere, by a plan of
+    the same scene with the same settings; :meth:`finish` solves from every
+    block's links, and the solution is :func:`solve`'s bit for bit.
+
+    >>> plan = wavrad.plan(scene, threshold=1e-3)
+    >>> links = [plan.project(block) for block in plan.blocks(4)]
+    >>> solution = plan.finish(links)
+    """
+
+    def __len__(self) -> int:
+        """Projection items: element pairs, then surface triples."""
+    def blocks(self, n: int) -> list[range]:
+        """The items in at most ``n`` consecutive blocks, of sizes that
+        differ by one at most (none without items)."""
+    def project(self, block: range) -> bytes:
+        """Project the items in ``block`` (a ``range`` with step 1; the GIL
+        is released) and return their links as bytes for :meth:`finish`:
+        a header naming the plan by its fingerprint, then the links in
+        postcard. Raises ``SolveError`` for a block past the items and
+        ``ValueError`` for a step other than 1."""
+    def finish(self, blocks: list[bytes]) -> Solution:
+        """Solve from the projected ``blocks``, which must hold every item
+        once, in any order: the emitters' links carried down, the element
+        hierarchies built, the Gauss-Seidel sweeps (and the weighted
+        oracles' refine-solve loop) run here. The plan is used up; using it
+        again raises ``ValueError``. Raises ``SceneError`` for bytes that
+        are not a block or were projected from another plan (another scene,
+        other settings), and ``SolveError`` for blocks that leave items out
+        or hold some twice; the plan is kept then."""
+    @property
+    def settings(self) -> dict[str, Any]:
+        """Every setting of the plan by the name :func:`plan` takes it:
+        planning the same scene again with them makes the same plan."""
+    @property
+    def fingerprint(self) -> int:
+        """The CRC-32 of the plan's settings and items, which its blocks
+        carry."""
+
+def plan(
+    scene: Scene,
+    *,
+    threshold: float | None = None,
+    max_level: int | None = None,
+    three_point_threshold: float | None = None,
+    three_point_max_level: int | None = None,
+    three_point_receiver_levels: int | None = None,
+    tolerance: float | None = None,
+    max_iterations: int | None = None,
+    oracle: Literal["kernel", "power", "importance"] | None = None,
+    refine_passes: int | None = None,
+    cluster_ratio: float | None = None,
+) -> Plan:
+    """Plan the gathering solve of ``scene`` with :func:`solve`'s settings,
+    for its kernels to be projected in blocks elsewhere (:class:`Plan`,
+    :mod:`wavrad.distributed`). Raises as :func:`solve` does."""
 
 def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Relative RMSE of ``a`` against the reference ``b``:

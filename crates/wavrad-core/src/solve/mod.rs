@@ -339,26 +339,23 @@ impl Plan {
         })
     }
 
-    /// The solution from the links of `blocks`, which must hold every item
-    /// once (in any order; they are taken in item order): carry the
-    /// emitters' links down to where their light changes, build the element
-    /// hierarchies, and solve; the weighted oracles' refine–solve loop runs
-    /// here. `stats.times.kernels_s` adds up the blocks' projection times.
-    pub fn finish(self, mut blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
-        // The blocks' links, in item order.
-        blocks.sort_by_key(|b| (b.items.start, b.items.end));
+    /// Check that `blocks` hold every item once, in any order, as
+    /// [`Plan::finish`] needs.
+    pub fn check_cover(&self, blocks: &[BlockLinks]) -> Result<()> {
         let items = self.items().end;
+        let mut ranges: Vec<Range<usize>> = blocks.iter().map(|b| b.items.clone()).collect();
+        ranges.sort_by_key(|r| (r.start, r.end));
         let mut next = 0;
-        for block in &blocks {
-            if block.items.start != next {
-                let problem = if block.items.start > next {
-                    format!("no block holds items {next}..{}", block.items.start)
+        for range in ranges {
+            if range.start != next {
+                let problem = if range.start > next {
+                    format!("no block holds items {next}..{}", range.start)
                 } else {
-                    format!("block {:?} overlaps the blocks before it", block.items)
+                    format!("block {range:?} overlaps the blocks before it")
                 };
                 return Err(Error::Blocks { items, problem });
             }
-            next = block.items.end;
+            next = range.end;
         }
         if next != items {
             return Err(Error::Blocks {
@@ -366,6 +363,18 @@ impl Plan {
                 problem: format!("no block holds items {next}..{items}"),
             });
         }
+        Ok(())
+    }
+
+    /// The solution from the links of `blocks`, which must hold every item
+    /// once (in any order; they are taken in item order): carry the
+    /// emitters' links down to where their light changes, build the element
+    /// hierarchies, and solve; the weighted oracles' refine–solve loop runs
+    /// here. `stats.times.kernels_s` adds up the blocks' projection times.
+    pub fn finish(self, mut blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
+        // The blocks' links, in item order.
+        self.check_cover(&blocks)?;
+        blocks.sort_by_key(|b| b.items.start);
         let mut times = self.times;
         let (mut links, mut three_point) = (Vec::new(), Vec::new());
         for block in blocks {
