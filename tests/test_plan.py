@@ -33,8 +33,11 @@ def test_blocks_in_any_order_make_the_solve(scene: wavrad.Scene, whole: wavrad.S
     assert blocks[0].start == 0 and blocks[-1].stop == len(plan)
     assert all(a.stop == b.start for a, b in zip(blocks, blocks[1:]))
     links = [plan.project(block) for block in reversed(blocks)]
-    split = plan.finish(links)
+    counts = [plan.links_in(block) for block in links]
+    assert sum(two for two, _ in counts) > 0
     assert whole.stats["three_point_interactions"] > 0
+    assert sum(three for _, three in counts) == whole.stats["three_point_interactions"]
+    split = plan.finish(links)
     np.testing.assert_array_equal(split.radiance, whole.radiance)
     np.testing.assert_array_equal(split.directional, whole.directional)
     assert split.radiance.shape == (whole.stats["two_point_nodes"], 3)

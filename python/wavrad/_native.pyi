@@ -34,8 +34,9 @@ class WavradError(Exception):
     """Base class of every wavrad error."""
 
 class SceneError(WavradError):
-    """A scene, mesh or image file could not be read or written; the message
-    names the file and line."""
+    """A scene, mesh or image file could not be read or written (the message
+    names the file and line), or bytes are not a block of links of this
+    plan."""
 
 class SolveError(WavradError):
     """The solver or renderer refused its input (invalid settings, empty scene,
@@ -242,6 +243,9 @@ class Plan:
         are not a block or were projected from another plan (another scene,
         other settings), and ``SolveError`` for blocks that leave items out
         or hold some twice; the plan is kept then."""
+    def links_in(self, block: bytes) -> tuple[int, int]:
+        """The two-point and three-point links in ``block``, bytes that
+        :meth:`project` of this plan returned."""
     @property
     def settings(self) -> dict[str, Any]:
         """Every setting of the plan by the name :func:`plan` takes it:

@@ -243,6 +243,14 @@ impl Plan {
         Ok(Solution(Renderer::new(solution)))
     }
 
+    /// The two-point and three-point links in `block`, bytes that `project`
+    /// of this plan returned.
+    fn links_in(&self, py: Python<'_>, block: &Bound<'_, PyBytes>) -> Result<(usize, usize)> {
+        let bytes = block.as_bytes();
+        let links = py.allow_threads(|| decode_block(bytes, self.fingerprint))?;
+        Ok((links.two_point.len(), links.three_point.len()))
+    }
+
     /// Every setting of the plan by the name `plan` takes it: planning
     /// again with them makes the same plan.
     #[getter]
