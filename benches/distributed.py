@@ -4,7 +4,8 @@ crosses the network.
 
 Writes the Cornell box around a tessellated sphere (benches/mesh_scenes.py),
 plans its solve in this process, then for each worker count starts that many
-Ray actors of one thread each on a local cluster (`wavrad.distributed`),
+Ray actors of one thread each on a local cluster (`wavrad.distributed`), sent
+each block's items (or, `replan`, planning the scene again themselves),
 projects every block on them and finishes here. Checks that each solution is
 `wavrad.solve`'s bit for bit, and writes the table to docs/distributed.md,
 keeping what follows its `<!-- notes -->` line.
@@ -50,16 +51,22 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
     scene, load_s = timed(wavrad.load_scene, scene_path)
     plan, plan_s = timed(wavrad.plan, scene)
     items = len(plan)
+    items_bytes = sum(len(plan.items(b)) for b in plan.blocks(max(workers) * blocks_per_worker))
     whole, solve_s = timed(wavrad.solve, scene)
     # In this process, on all its threads: the projection alone.
     blocks, local_s = timed(lambda: [plan.project(b) for b in plan.blocks(1)])
     local = plan.finish(blocks)
     assert np.array_equal(local.radiance, whole.radiance)
     rows = []
-    for n in workers:
+    for n, replan in [(n, replan) for replan in (False, True) for n in workers]:
         plan = wavrad.plan(scene)
         projectors, start_s = timed(
-            wavrad.distributed.Projectors, plan, scene_path, workers=n, cpus_per_worker=1
+            wavrad.distributed.Projectors,
+            plan,
+            scene_path,
+            workers=n,
+            cpus_per_worker=1,
+            replan=replan,
         )
         with projectors:
             blocks, project_s = timed(projectors.project, plan, blocks_per_worker)
@@ -68,6 +75,7 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
         rows.append(
             {
                 "workers": n,
+                "replan": replan,
                 "blocks": len(blocks),
                 "start_s": start_s,
                 "project_s": project_s,
@@ -85,6 +93,7 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
         "load_s": load_s,
         "plan_s": plan_s,
         "items": items,
+        "items_bytes": items_bytes,
         "cluster_links": whole.stats["cluster_links"],
         "surfaces": whole.stats["surfaces"],
         "solve_s": solve_s,
@@ -94,7 +103,29 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
     }
 
 
-def report(name: str, r: dict, command: str, load: tuple, commit: str) -> str:
+def header(command: str, load: tuple, commit: str) -> list[str]:
+    return [
+        "# Distributed projection (Ray)",
+        "",
+        "`wavrad.distributed` on the Cornell box around a tessellated sphere "
+        "(`benches/mesh_scenes.py`), default settings. The driver plans (loads the "
+        "scene, builds the ray queries and the cluster tree, links from the root); Ray "
+        "actors of one thread each (`cpus_per_worker=1`) on a local cluster start, load "
+        "the scene and build a projector of it, or with *replan* plan it again "
+        "(*start*); they project the items in blocks handed to whichever actor is free, "
+        "sent as items or, with *replan*, as ranges (*project*: until the last block's "
+        "bytes are in the driver); the driver finishes (decodes the blocks, resolves the "
+        "emitters' links, builds the hierarchies, sweeps). × = speed-up of *project* "
+        "over the first row; identical = radiance and directional radiance equal "
+        "`wavrad.solve`'s bit for bit. One run each.",
+        "",
+        f"Written by `{command}`. Measured {datetime.date.today()} at commit `{commit}` "
+        f"on {platform.machine()}, {os.cpu_count()} logical CPUs shared with other "
+        f"work (load average {load[0]:.2f} before, {load[1]:.2f} after).",
+    ]
+
+
+def section(triangles: int, r: dict) -> list[str]:
     rows = r["rows"]
     base = rows[0]
     links = base["two_point"] + base["three_point"]
@@ -103,30 +134,18 @@ def report(name: str, r: dict, command: str, load: tuple, commit: str) -> str:
     rate = base["bytes"] / base["project_s"] * base["workers"]
     serial = r["plan_s"] + base["finish_s"]
     lines = [
-        "# Distributed projection (Ray)",
         "",
-        f"`wavrad.distributed` on {name}. The driver plans (loads the scene, "
-        "builds the ray queries and the cluster tree, links from the root); Ray actors "
-        "of one thread each (`cpus_per_worker=1`) on a local cluster load and plan the "
-        "scene again (*start*), then project its items in blocks handed to whichever "
-        "actor is free (*project*: until the last block's bytes are in the driver); "
-        "the driver finishes (decodes the blocks, resolves the emitters' links, builds "
-        "the hierarchies, sweeps). × = speed-up of *project* over "
-        f"{base['workers']} worker(s); identical = radiance and directional radiance "
-        "equal `wavrad.solve`'s bit for bit. One run each.",
+        f"## A sphere of {triangles} triangles",
         "",
-        f"Written by `{command}`. Measured {datetime.date.today()} at commit `{commit}` "
-        f"on {platform.machine()}, {os.cpu_count()} logical CPUs shared with other "
-        f"work (load average {load[0]:.2f} before, {load[1]:.2f} after).",
-        "",
-        "| workers | blocks | start s | project s | × | finish s | links | bytes | "
+        "| workers | replan | blocks | start s | project s | × | finish s | links | bytes | "
         "bytes/link | identical |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         n = row["two_point"] + row["three_point"]
         lines.append(
-            f"| {row['workers']} | {row['blocks']} | {row['start_s']:.1f} | "
+            f"| {row['workers']} | {'yes' if row['replan'] else 'no'} | {row['blocks']} | "
+            f"{row['start_s']:.1f} | "
             f"{row['project_s']:.1f} | {base['project_s'] / row['project_s']:.2f} | "
             f"{row['finish_s']:.1f} | {n} | {row['bytes']} | "
             f"{row['bytes'] / max(n, 1):.1f} | {'yes' if row['identical'] else 'NO'} |"
@@ -137,6 +156,7 @@ def report(name: str, r: dict, command: str, load: tuple, commit: str) -> str:
         "|---|---|",
         f"| surfaces | {r['surfaces']} |",
         f"| projection items (element pairs, then surface triples) | {r['items']} |",
+        f"| items sent to the workers, all blocks | {r['items_bytes']} bytes |",
         f"| cluster links (made by the plan, not projected) | {r['cluster_links']} |",
         f"| two-point / three-point links projected | {base['two_point']} / "
         f"{base['three_point']} |",
@@ -154,14 +174,14 @@ def report(name: str, r: dict, command: str, load: tuple, commit: str) -> str:
         f"{125e6 / rate:.0f} / {1250e6 / rate:.0f} |",
         f"| serial in the driver: plan + finish | {serial:.1f} s |",
     ]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def main() -> None:
     # The generated sphere's poles hold a few triangles of zero area.
     warnings.filterwarnings("ignore", message=".*zero area")
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--triangles", type=int, default=2000)
+    parser.add_argument("--triangles", type=int, nargs="+", default=[300, 2000])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--blocks-per-worker", type=int, default=4)
     parser.add_argument("--out", type=Path, default=ROOT / "docs/distributed.md")
@@ -171,16 +191,19 @@ def main() -> None:
     ).stdout.strip()
     command = "python3 benches/distributed.py " + " ".join(sys.argv[1:])
     before = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory() as tmp:
-        scene_path = mesh_scenes.make("sphere", args.triangles, Path(tmp))
-        ray.init(num_cpus=max(args.workers), include_dashboard=False, log_to_driver=False)
-        try:
-            result = run(scene_path, args.workers, args.blocks_per_worker)
-        finally:
-            ray.shutdown()
+    sections = []
+    ray.init(num_cpus=max(args.workers), include_dashboard=False, log_to_driver=False)
+    try:
+        for triangles in args.triangles:
+            with tempfile.TemporaryDirectory() as tmp:
+                scene_path = mesh_scenes.make("sphere", triangles, Path(tmp))
+                result = run(scene_path, args.workers, args.blocks_per_worker)
+            sections += section(triangles, result)
+    finally:
+        ray.shutdown()
     after = os.getloadavg()[0]
-    name = f"the Cornell box around a sphere of {args.triangles} triangles"
-    table = report(name, result, command.strip(), (before, after), commit)
+    lines = header(command.strip(), (before, after), commit) + sections
+    table = "\n".join(lines) + "\n"
     notes = ""
     if args.out.exists() and NOTES in args.out.read_text():
         notes = args.out.read_text().split(NOTES, 1)[1]

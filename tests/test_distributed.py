@@ -43,10 +43,13 @@ def two_workers() -> Iterator[None]:
     ray.shutdown()
 
 
-def test_distributed_solve_is_the_single_process_solve(sphere: Path, two_workers: None) -> None:
+@pytest.mark.parametrize("replan", [False, True])
+def test_distributed_solve_is_the_single_process_solve(
+    sphere: Path, two_workers: None, replan: bool
+) -> None:
     single = wavrad.solve(wavrad.load_scene(sphere, **DEFINES), **SETTINGS)
     distributed = wavrad.distributed.solve(
-        sphere, workers=2, cpus_per_worker=1, defines=DEFINES, **SETTINGS
+        sphere, workers=2, cpus_per_worker=1, defines=DEFINES, replan=replan, **SETTINGS
     )
     assert single.stats["cluster_links"] > 0
     np.testing.assert_array_equal(distributed.radiance, single.radiance)
@@ -57,5 +60,5 @@ def test_distributed_solve_is_the_single_process_solve(sphere: Path, two_workers
 def test_workers_that_plan_another_scene_are_refused(sphere: Path, two_workers: None) -> None:
     plan = wavrad.plan(wavrad.load_scene(sphere, **DEFINES), **SETTINGS)
     other = ROOT / "scenes" / "cornell-box" / "scene.xml"
-    with pytest.raises(wavrad.SolveError, match="planned .* differently"):
+    with pytest.raises(wavrad.SolveError, match="made .* differently"):
         wavrad.distributed.Projectors(plan, other, workers=1, defines=DEFINES)

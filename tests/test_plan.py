@@ -45,6 +45,26 @@ def test_blocks_in_any_order_make_the_solve(scene: wavrad.Scene, whole: wavrad.S
         plan.project(blocks[0])
 
 
+def test_a_projector_elsewhere_projects_the_items(
+    scene: wavrad.Scene, whole: wavrad.Solution
+) -> None:
+    plan = wavrad.plan(scene, **SETTINGS)
+    worker = wavrad.projector(scene, **plan.settings)
+    assert worker.fingerprint == plan.projector_fingerprint
+    links = [worker.project(plan.items(block)) for block in plan.blocks(3)]
+    split = plan.finish(links)
+    np.testing.assert_array_equal(split.radiance, whole.radiance)
+    np.testing.assert_array_equal(split.directional, whole.directional)
+
+
+def test_a_projector_of_other_settings_refuses_the_items(scene: wavrad.Scene) -> None:
+    plan = wavrad.plan(scene, **SETTINGS)
+    worker = wavrad.projector(scene, **{**SETTINGS, "max_level": 2})
+    assert worker.fingerprint != plan.projector_fingerprint
+    with pytest.raises(wavrad.SceneError, match="another scene or other settings"):
+        worker.project(plan.items(range(0, 1)))
+
+
 def test_planning_again_with_its_settings_makes_the_same_plan(scene: wavrad.Scene) -> None:
     plan = wavrad.plan(scene, **SETTINGS)
     assert plan.settings["threshold"] == SETTINGS["threshold"]

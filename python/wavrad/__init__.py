@@ -9,14 +9,15 @@ General Surface Properties* (EG Rendering Workshop 1994).
 >>> wavrad.write_image("cornell.exr", image)
 
 A solve's kernel projection can run elsewhere in blocks: :func:`plan`, then
-:meth:`Plan.project` of each of ``plan.blocks(n)`` (in other processes or
-on other machines, each with its own plan of the scene), then
-:meth:`Plan.finish` of their bytes; :mod:`wavrad.distributed` does so on
-Ray.
+for each of ``plan.blocks(n)`` its items (:meth:`Plan.items`, bytes)
+projected by a :func:`projector` of the same scene and settings in another
+process or on another machine, then :meth:`Plan.finish` of the links they
+return; :mod:`wavrad.distributed` does so on Ray.
 """
 
 from wavrad._native import (
     Plan,
+    Projector,
     Scene,
     SceneError,
     Solution,
@@ -25,6 +26,7 @@ from wavrad._native import (
     __version__,
     load_scene,
     plan,
+    projector,
     read_exr,
     relative_rmse,
     solve,
@@ -34,6 +36,7 @@ from wavrad._native import (
 __all__ = [
     "__version__",
     "Plan",
+    "Projector",
     "Scene",
     "SceneError",
     "Solution",
@@ -41,6 +44,7 @@ __all__ = [
     "WavradError",
     "load_scene",
     "plan",
+    "projector",
     "read_exr",
     "relative_rmse",
     "solve",

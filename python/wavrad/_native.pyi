@@ -11,6 +11,7 @@ from typing_extensions import TypeAlias
 __all__ = [
     "__version__",
     "Plan",
+    "Projector",
     "Scene",
     "SceneError",
     "Solution",
@@ -18,6 +19,7 @@ __all__ = [
     "WavradError",
     "load_scene",
     "plan",
+    "projector",
     "read_exr",
     "relative_rmse",
     "solve",
@@ -214,12 +216,15 @@ class Plan:
     """A gathering solve planned up to its kernel projection (:func:`plan`):
     the scene's ray queries, cluster tree and linking, which fix the
     projection's items (element pairs, then the surface triples of glossy
-    surfaces). Each block of items can be projected anywhere, by a plan of
-    the same scene with the same settings; :meth:`finish` solves from every
-    block's links, and the solution is :func:`solve`'s bit for bit.
+    surfaces). Each block of items can be projected anywhere: here
+    (:meth:`project`), or as bytes (:meth:`items`) by a :class:`Projector`
+    of the same scene and settings in another process; :meth:`finish`
+    solves from every block's links, and the solution is :func:`solve`'s
+    bit for bit.
 
     >>> plan = wavrad.plan(scene, threshold=1e-3)
-    >>> links = [plan.project(block) for block in plan.blocks(4)]
+    >>> worker = wavrad.projector(scene, **plan.settings)  # elsewhere
+    >>> links = [worker.project(plan.items(block)) for block in plan.blocks(4)]
     >>> solution = plan.finish(links)
     """
 
@@ -234,6 +239,11 @@ class Plan:
         a header naming the plan by its fingerprint, then the links in
         postcard. Raises ``SolveError`` for a block past the items and
         ``ValueError`` for a step other than 1."""
+    def items(self, block: range) -> bytes:
+        """The items in ``block`` (a ``range`` with step 1) as bytes for
+        :meth:`Projector.project`: a header naming the scene, settings and
+        plan by their fingerprints, then the element pairs and surface
+        triples in postcard. Raises as :meth:`project` does."""
     def finish(self, blocks: list[bytes]) -> Solution:
         """Solve from the projected ``blocks``, which must hold every item
         once, in any order: the emitters' links carried down, the element
@@ -252,8 +262,30 @@ class Plan:
         planning the same scene again with them makes the same plan."""
     @property
     def fingerprint(self) -> int:
-        """The CRC-32 of the plan's settings and items, which its blocks
-        carry."""
+        """The CRC-32 of the plan's scene, settings and items, which its
+        blocks carry."""
+    @property
+    def projector_fingerprint(self) -> int:
+        """The CRC-32 of the plan's scene and settings: the
+        :attr:`Projector.fingerprint` of a projector that can project its
+        items."""
+
+@final
+class Projector:
+    """What projects a plan's items in a process that did not plan
+    (:func:`projector`): the scene, its ray queries and the settings,
+    without the linking."""
+
+    def project(self, items: bytes) -> bytes:
+        """Project ``items`` (bytes from :meth:`Plan.items` of a plan of the
+        same scene and settings; the GIL is released) and return their
+        links as bytes for that plan's :meth:`Plan.finish`. Raises
+        ``SceneError`` for bytes that are not a block's items or were made
+        for another scene or other settings."""
+    @property
+    def fingerprint(self) -> int:
+        """The CRC-32 of the scene (its surfaces, camera and film), the
+        settings and wavrad's version."""
 
 def plan(
     scene: Scene,
@@ -272,6 +304,24 @@ def plan(
     """Plan the gathering solve of ``scene`` with :func:`solve`'s settings,
     for its kernels to be projected in blocks elsewhere (:class:`Plan`,
     :mod:`wavrad.distributed`). Raises as :func:`solve` does."""
+
+def projector(
+    scene: Scene,
+    *,
+    threshold: float | None = None,
+    max_level: int | None = None,
+    three_point_threshold: float | None = None,
+    three_point_max_level: int | None = None,
+    three_point_receiver_levels: int | None = None,
+    tolerance: float | None = None,
+    max_iterations: int | None = None,
+    oracle: Literal["kernel", "power", "importance"] | None = None,
+    refine_passes: int | None = None,
+    cluster_ratio: float | None = None,
+) -> Projector:
+    """What projects the items of plans of ``scene`` with :func:`solve`'s
+    settings (pass a plan's :attr:`Plan.settings`), in a process that did
+    not plan. Raises as :func:`solve` does."""
 
 def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Relative RMSE of ``a`` against the reference ``b``:

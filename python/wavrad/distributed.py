@@ -3,11 +3,13 @@
 The driver plans the solve (:func:`wavrad.plan`), Ray actors project its
 items in blocks, and the driver finishes it from their links
 (:meth:`wavrad.Plan.finish`): the solution is that of :func:`wavrad.solve`
-bit for bit. Each actor loads the scene from its path and plans it again
-(a worker ships nothing but the path and the settings); the plan's
-fingerprint, which every block carries, makes sure the workers planned what
-the driver did. Ray is an optional dependency: ``pip install
-"wavrad[distributed]"``.
+bit for bit. Each actor loads the scene from its path and builds a
+:class:`wavrad.Projector` of it; the driver sends it each block's items
+(``replan=True`` instead has every actor plan the scene again and sends it
+only the blocks' ranges: the linking is then repeated by every worker).
+Fingerprints of the scene, the settings and the plan, which every block
+carries, make sure the workers project what the driver planned. Ray is an
+optional dependency: ``pip install "wavrad[distributed]"``.
 
 >>> import ray, wavrad.distributed
 >>> ray.init()  # or ray.init(address="auto") to join a running cluster
@@ -43,13 +45,27 @@ def _ray() -> Any:
 
 
 class _Projector:
-    """One worker: the plan of the scene, re-made from its file."""
+    """One worker: a projector of the scene, sent each block's items."""
 
     def __init__(
         self, path: str, defines: Mapping[str, object], settings: Mapping[str, Any]
     ) -> None:
-        scene = wavrad.load_scene(path, **defines)
-        self.plan = wavrad.plan(scene, **settings)
+        self.projector = wavrad.projector(wavrad.load_scene(path, **defines), **settings)
+
+    def fingerprint(self) -> tuple[int, str]:
+        return self.projector.fingerprint, platform.node()
+
+    def project(self, items: bytes) -> bytes:
+        return self.projector.project(items)
+
+
+class _Replanner:
+    """One worker: the plan of the scene, made again, sent blocks' ranges."""
+
+    def __init__(
+        self, path: str, defines: Mapping[str, object], settings: Mapping[str, Any]
+    ) -> None:
+        self.plan = wavrad.plan(wavrad.load_scene(path, **defines), **settings)
 
     def fingerprint(self) -> tuple[int, str]:
         return self.plan.fingerprint, platform.node()
@@ -60,12 +76,13 @@ class _Projector:
 
 class Projectors:
     """``workers`` Ray actors, spread over the cluster's nodes, each holding
-    the plan of the scene at ``scene_path`` (loaded with ``defines``) with
-    the settings of ``plan``, and projecting its blocks on
-    ``cpus_per_worker`` threads (default: the cluster's CPUs shared
-    equally). Raises ``wavrad.SolveError`` if a worker's plan is not the
-    driver's (another scene file on its node, another wavrad). Use as a
-    context manager, or call :meth:`close`.
+    a projector (or, with ``replan``, a plan) of the scene at
+    ``scene_path`` (loaded with ``defines``) with the settings of ``plan``,
+    and projecting blocks on ``cpus_per_worker`` threads (default: the
+    cluster's CPUs shared equally). Raises ``wavrad.SolveError`` if a
+    worker's scene or settings are not the driver's (other scene files on
+    its node, another wavrad). Use as a context manager, or call
+    :meth:`close`.
     """
 
     def __init__(
@@ -76,6 +93,7 @@ class Projectors:
         workers: int,
         cpus_per_worker: int | None = None,
         defines: Mapping[str, object] | None = None,
+        replan: bool = False,
     ) -> None:
         ray = _ray()
         if workers < 1:
@@ -83,7 +101,8 @@ class Projectors:
         if cpus_per_worker is None:
             cpus = int(ray.cluster_resources().get("CPU", 1))
             cpus_per_worker = max(1, cpus // workers)
-        remote = ray.remote(_Projector).options(
+        self.replan = replan
+        remote = ray.remote(_Replanner if replan else _Projector).options(
             num_cpus=cpus_per_worker,
             scheduling_strategy="SPREAD",
             runtime_env={"env_vars": {"RAYON_NUM_THREADS": str(cpus_per_worker)}},
@@ -92,12 +111,13 @@ class Projectors:
         self.actors = [
             remote.remote(path, dict(defines or {}), plan.settings) for _ in range(workers)
         ]
+        expected = plan.fingerprint if replan else plan.projector_fingerprint
         try:
             for fingerprint, node in ray.get([a.fingerprint.remote() for a in self.actors]):
-                if fingerprint != plan.fingerprint:
+                if fingerprint != expected:
                     raise wavrad.SolveError(
-                        f"the worker on {node} planned {path} differently from the driver "
-                        f"(fingerprint {fingerprint:08x}, the driver's {plan.fingerprint:08x}): "
+                        f"the worker on {node} made {path} differently from the driver "
+                        f"(fingerprint {fingerprint:08x}, the driver's {expected:08x}): "
                         "its scene files or its wavrad differ"
                     )
         except BaseException:
@@ -111,7 +131,11 @@ class Projectors:
 
         blocks = plan.blocks(len(self.actors) * blocks_per_worker)
         pool = ActorPool(self.actors)
-        return list(pool.map_unordered(lambda actor, block: actor.project.remote(block), blocks))
+
+        def submit(actor: Any, block: range) -> Any:
+            return actor.project.remote(block if self.replan else plan.items(block))
+
+        return list(pool.map_unordered(submit, blocks))
 
     def close(self) -> None:
         """End the workers."""
@@ -139,6 +163,7 @@ def solve(
     cpus_per_worker: int | None = None,
     blocks_per_worker: int = 4,
     defines: Mapping[str, object] | None = None,
+    replan: bool = False,
     **settings: Any,
 ) -> wavrad.Solution:
     """Solve the scene at ``scene_path`` (loaded with ``defines``, as
@@ -149,7 +174,12 @@ def solve(
     scene = wavrad.load_scene(scene_path, **(defines or {}))
     plan = wavrad.plan(scene, **settings)
     with Projectors(
-        plan, scene_path, workers=workers, cpus_per_worker=cpus_per_worker, defines=defines
+        plan,
+        scene_path,
+        workers=workers,
+        cpus_per_worker=cpus_per_worker,
+        defines=defines,
+        replan=replan,
     ) as projectors:
         blocks = projectors.project(plan, blocks_per_worker)
     return plan.finish(blocks)

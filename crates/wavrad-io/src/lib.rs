@@ -11,8 +11,8 @@
 //!   triangle meshes;
 //! - [`write_image`], [`read_exr_rgb`], [`relative_rmse`]: images and the
 //!   error metric against references;
-//! - [`block_links::encode_block`], [`block_links::decode_block`]: blocks
-//!   of projected links between the processes of a distributed solve.
+//! - [`block_links`]: a planned solve's blocks of items and of projected
+//!   links as bytes, between the processes of a distributed solve.
 //!
 //! Every failure is an [`Error`] whose message names the file — and for
 //! scene files the line — and the offending name, e.g.

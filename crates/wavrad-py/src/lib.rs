@@ -26,7 +26,10 @@ use wavrad_core::scene::Rgb;
 use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{SolveSettings, Solver};
-use wavrad_io::block_links::{decode_block, encode_block, plan_fingerprint};
+use wavrad_io::block_links::{
+    decode_items, decode_links, encode_items, encode_links, fingerprint, projector_fingerprint,
+    Fingerprint,
+};
 
 use error::{Error, Result, SceneError, SolveError, WavradError};
 
@@ -177,7 +180,7 @@ fn rows<'py>(py: Python<'py>, trees: &[Vec<Rgb>]) -> Bound<'py, PyArray2<f64>> {
 struct Plan {
     /// `None` once finished (the solution took its scene and ray queries).
     plan: Option<wavrad_core::solve::Plan>,
-    fingerprint: u32,
+    fingerprint: Fingerprint,
 }
 
 impl Plan {
@@ -213,17 +216,23 @@ impl Plan {
         block: &Bound<'py, PyRange>,
     ) -> Result<Bound<'py, PyBytes>> {
         let plan = self.planned()?;
-        let (start, stop, step) = (block.start()?, block.stop()?, block.step()?);
-        let (Ok(start), Ok(stop), 1) = (usize::try_from(start), usize::try_from(stop), step) else {
-            return Err(Error::Argument(format!(
-                "project: a block is a range of items with step 1, got range({start}, {stop}, {step})"
-            )));
-        };
+        let block = items_of("project", block)?;
         let bytes = py.allow_threads(|| {
-            plan.project(start..stop, &Silent)
-                .map(|links| encode_block(self.fingerprint, &links))
+            plan.project(block, &Silent)
+                .map(|links| encode_links(self.fingerprint, &links))
         })?;
         Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// The items in `block` (a `range` with step 1) as bytes, for a
+    /// `Projector` of the same scene and settings.
+    fn items<'py>(
+        &self,
+        py: Python<'py>,
+        block: &Bound<'py, PyRange>,
+    ) -> Result<Bound<'py, PyBytes>> {
+        let items = self.planned()?.block_items(items_of("items", block)?)?;
+        Ok(PyBytes::new(py, &encode_items(self.fingerprint, &items)))
     }
 
     /// Solve from the projected `blocks` (the bytes `project` returned,
@@ -234,7 +243,7 @@ impl Plan {
         let links = py.allow_threads(|| {
             bytes
                 .iter()
-                .map(|b| decode_block(b, fingerprint))
+                .map(|b| decode_links(b, fingerprint))
                 .collect::<wavrad_io::Result<Vec<_>>>()
         })?;
         self.planned()?.check_cover(&links)?;
@@ -247,7 +256,7 @@ impl Plan {
     /// of this plan returned.
     fn links_in(&self, py: Python<'_>, block: &Bound<'_, PyBytes>) -> Result<(usize, usize)> {
         let bytes = block.as_bytes();
-        let links = py.allow_threads(|| decode_block(bytes, self.fingerprint))?;
+        let links = py.allow_threads(|| decode_links(bytes, self.fingerprint))?;
         Ok((links.two_point.len(), links.three_point.len()))
     }
 
@@ -256,7 +265,7 @@ impl Plan {
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> Result<Bound<'py, PyDict>> {
         let settings = PyDict::new(py);
-        for (name, value) in self.planned()?.settings().values() {
+        for (name, value) in self.planned()?.projector().settings().values() {
             match value {
                 Value::Real(x) => settings.set_item(name, x)?,
                 Value::Count(n) => settings.set_item(name, n)?,
@@ -267,10 +276,18 @@ impl Plan {
         Ok(settings)
     }
 
-    /// The CRC-32 of the plan's settings and items that its blocks carry.
+    /// The CRC-32 of the plan's scene, settings and items, which its blocks
+    /// carry.
     #[getter]
     fn fingerprint(&self) -> u32 {
-        self.fingerprint
+        self.fingerprint.plan
+    }
+
+    /// The CRC-32 of the plan's scene and settings: that of a `Projector`
+    /// that can project its items.
+    #[getter]
+    fn projector_fingerprint(&self) -> u32 {
+        self.fingerprint.projector
     }
 
     fn __repr__(&self) -> String {
@@ -283,6 +300,60 @@ impl Plan {
             ),
             None => "Plan(finished)".into(),
         }
+    }
+}
+
+/// The items of a block given as a `range` with step 1, to `function`.
+fn items_of(function: &str, block: &Bound<'_, PyRange>) -> Result<std::ops::Range<usize>> {
+    let (start, stop, step) = (block.start()?, block.stop()?, block.step()?);
+    match (usize::try_from(start), usize::try_from(stop), step) {
+        (Ok(start), Ok(stop), 1) => Ok(start..stop),
+        _ => Err(Error::Argument(format!(
+            "{function}: a block is a range of items with step 1, got range({start}, {stop}, {step})"
+        ))),
+    }
+}
+
+/// What projects a plan's items in another process (`wavrad.projector`):
+/// the scene, its ray queries and the settings, without the linking.
+#[pyclass(module = "wavrad", frozen)]
+struct Projector {
+    projector: wavrad_core::solve::Projector,
+    fingerprint: u32,
+}
+
+#[pymethods]
+impl Projector {
+    /// Project the items in `items` (bytes from `Plan.items` of a plan of
+    /// the same scene and settings) and return their links as bytes for
+    /// that plan's `finish`.
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        items: &Bound<'py, PyBytes>,
+    ) -> Result<Bound<'py, PyBytes>> {
+        let bytes = items.as_bytes();
+        let links = py.allow_threads(|| {
+            decode_items(bytes, self.fingerprint).map(|(fingerprint, items)| {
+                encode_links(fingerprint, &self.projector.project(&items, &Silent))
+            })
+        })?;
+        Ok(PyBytes::new(py, &links))
+    }
+
+    /// The CRC-32 of the scene and settings, which `Plan.projector_fingerprint`
+    /// of a plan whose items it can project equals.
+    #[getter]
+    fn fingerprint(&self) -> u32 {
+        self.fingerprint
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Projector(surfaces={}, fingerprint={:08x})",
+            self.projector.scene().surfaces.len(),
+            self.fingerprint
+        )
     }
 }
 
@@ -388,8 +459,25 @@ fn plan(py: Python<'_>, scene: &Scene, settings: Option<&Bound<'_, PyDict>>) -> 
     let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
     let plan = py.allow_threads(|| wavrad_core::solve::plan(&scene.0, &settings, &Silent))?;
     Ok(Plan {
-        fingerprint: plan_fingerprint(&plan),
+        fingerprint: fingerprint(&plan),
         plan: Some(plan),
+    })
+}
+
+/// What projects the items of plans of `scene` with the settings given by
+/// name (as `solve`'s), in a process that did not plan.
+#[pyfunction]
+#[pyo3(signature = (scene, **settings))]
+fn projector(
+    py: Python<'_>,
+    scene: &Scene,
+    settings: Option<&Bound<'_, PyDict>>,
+) -> Result<Projector> {
+    let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
+    let projector = py.allow_threads(|| wavrad_core::solve::Projector::new(&scene.0, &settings))?;
+    Ok(Projector {
+        fingerprint: projector_fingerprint(&projector),
+        projector,
     })
 }
 
@@ -507,9 +595,11 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Scene>()?;
     m.add_class::<Solution>()?;
     m.add_class::<Plan>()?;
+    m.add_class::<Projector>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
+    m.add_function(wrap_pyfunction!(projector, m)?)?;
     m.add_function(wrap_pyfunction!(relative_rmse, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;

@@ -154,7 +154,9 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 /// §4.2), so the items can be split into blocks projected anywhere — other
 /// threads, processes, machines — by [`Plan::project`]; [`Plan::finish`]
 /// takes the blocks' links in item order and solves. The solution is
-/// [`solve`]'s bit for bit, however the items are split.
+/// [`solve`]'s bit for bit, however the items are split. A process that is
+/// sent its items ([`Plan::block_items`]) projects them with a
+/// [`Projector`] of the same scene and settings, without the linking.
 ///
 /// ```
 /// use wavrad_core::progress::Silent;
@@ -173,20 +175,39 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
 /// assert_eq!(split.radiance, whole.radiance);
 /// ```
 pub struct Plan {
-    scene: Scene,
-    settings: SolveSettings,
-    tracer: SceneTracer,
+    projector: Projector,
     clusters: ClusterTree,
     linking: Linking,
     /// The surface pairs of `linking`'s element pairs.
     pairs: Vec<(u32, u32)>,
     triples: Vec<(u32, u32, u32)>,
-    /// The light the weighted oracles weigh the first projection with.
-    estimate: Option<LightEstimate>,
     times: PhaseTimes,
 }
 
-/// The links [`Plan::project`] made of one block of a plan's items.
+/// What projecting needs besides the items: the scene, its ray queries,
+/// the settings, and the light the weighted oracles weigh the first
+/// projection with.
+pub struct Projector {
+    scene: Scene,
+    settings: SolveSettings,
+    tracer: SceneTracer,
+    estimate: Option<LightEstimate>,
+}
+
+/// The items of one block of a plan ([`Plan::block_items`]), for a
+/// [`Projector`] elsewhere.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BlockItems {
+    /// Which of the plan's items they are.
+    pub items: Range<usize>,
+    /// The element pairs among them, in order.
+    pub element_pairs: Vec<[ElementRef; 2]>,
+    /// The surface triples (r, p, q) among them, in order.
+    pub triples: Vec<(u32, u32, u32)>,
+}
+
+/// The links [`Plan::project`] or [`Projector::project`] made of one block
+/// of a plan's items.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BlockLinks {
     /// The items projected (indices into the plan's items).
@@ -203,48 +224,115 @@ pub struct BlockLinks {
 /// queries and the cluster tree, link from the root cluster, and list the
 /// surface triples of glossy surfaces.
 pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Plan> {
-    settings.validate()?;
-    check_size(scene)?;
-    if settings.oracle == Oracle::Importance && scene.camera.is_none() {
-        return Err(Error::InvalidSetting(
-            "the importance oracle needs a sensor in the scene".into(),
-        ));
-    }
     let mut times = PhaseTimes::default();
-
-    // Visibility structure.
-    let clock = Instant::now();
-    let scene = scene.clone();
-    let tracer = SceneTracer::new(&scene);
-    times.visibility_build_s = clock.elapsed().as_secs_f64();
-    let ctx = KernelContext {
-        scene: &scene,
-        tracer: &tracer,
-        quadrature: settings.quadrature,
-    };
+    let projector = Projector::timed(scene, settings, &mut times)?;
 
     // What compute_kernel() will project: pairs and triples of elements.
     let clock = Instant::now();
-    let estimate = settings
-        .oracle
-        .is_weighted()
-        .then(|| LightEstimate::emission(&scene, importance(&ctx, settings.oracle, &[])));
-    let clusters = ClusterTree::build(&scene);
+    let ctx = projector.kernel_context();
+    let clusters = ClusterTree::build(scene);
     let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
     let pairs = linking.surface_pairs();
-    let triples = surface_triples(&scene, &pairs);
-    times.kernels_s = clock.elapsed().as_secs_f64();
+    let triples = surface_triples(scene, &pairs);
+    times.kernels_s += clock.elapsed().as_secs_f64();
     Ok(Plan {
-        settings: *settings,
+        projector,
         clusters,
         linking,
         pairs,
         triples,
-        estimate,
         times,
-        tracer,
-        scene,
     })
+}
+
+impl Projector {
+    /// Check the settings against `scene` and build the ray queries (and,
+    /// for the weighted oracles, the emission's light estimate).
+    pub fn new(scene: &Scene, settings: &SolveSettings) -> Result<Projector> {
+        Projector::timed(scene, settings, &mut PhaseTimes::default())
+    }
+
+    /// [`Projector::new`], adding its times to `times`.
+    fn timed(scene: &Scene, settings: &SolveSettings, times: &mut PhaseTimes) -> Result<Projector> {
+        settings.validate()?;
+        check_size(scene)?;
+        if settings.oracle == Oracle::Importance && scene.camera.is_none() {
+            return Err(Error::InvalidSetting(
+                "the importance oracle needs a sensor in the scene".into(),
+            ));
+        }
+
+        // Visibility structure.
+        let clock = Instant::now();
+        let scene = scene.clone();
+        let tracer = SceneTracer::new(&scene);
+        times.visibility_build_s += clock.elapsed().as_secs_f64();
+
+        let clock = Instant::now();
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: settings.quadrature,
+        };
+        let estimate = settings
+            .oracle
+            .is_weighted()
+            .then(|| LightEstimate::emission(&scene, importance(&ctx, settings.oracle, &[])));
+        times.kernels_s += clock.elapsed().as_secs_f64();
+        Ok(Projector {
+            settings: *settings,
+            estimate,
+            tracer,
+            scene,
+        })
+    }
+
+    /// The scene projected in.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The settings of the solve.
+    pub fn settings(&self) -> &SolveSettings {
+        &self.settings
+    }
+
+    /// compute_kernel() (§4.2) of `block`: the adaptive two-point links of
+    /// its element pairs and three-point links of its surface triples,
+    /// refined in parallel.
+    pub fn project(&self, block: &BlockItems, progress: &dyn Progress) -> BlockLinks {
+        let clock = Instant::now();
+        let ctx = self.kernel_context();
+        let two_point = refine_links(
+            &ctx,
+            self.settings.refine,
+            self.estimate.as_ref(),
+            &block.element_pairs,
+            progress,
+        );
+        let three_point = refine_three_point_links(
+            &ctx,
+            self.settings.three_point_refine(),
+            self.estimate.as_ref(),
+            &block.triples,
+            |q| self.scene.surfaces[q as usize].patch,
+            progress,
+        );
+        BlockLinks {
+            items: block.items.clone(),
+            two_point,
+            three_point,
+            kernels_s: clock.elapsed().as_secs_f64(),
+        }
+    }
+
+    fn kernel_context(&self) -> KernelContext<'_> {
+        KernelContext {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            quadrature: self.settings.quadrature,
+        }
+    }
 }
 
 /// The receivers' importance for the scene's sensor, lit through `links`,
@@ -255,14 +343,9 @@ fn importance(ctx: &KernelContext, oracle: Oracle, links: &[Link]) -> Option<Imp
 }
 
 impl Plan {
-    /// The scene planned for.
-    pub fn scene(&self) -> &Scene {
-        &self.scene
-    }
-
-    /// The settings of the solve.
-    pub fn settings(&self) -> &SolveSettings {
-        &self.settings
+    /// What projects its items here.
+    pub fn projector(&self) -> &Projector {
+        &self.projector
     }
 
     /// The element pairs to project, the first items.
@@ -297,10 +380,8 @@ impl Plan {
             .collect()
     }
 
-    /// compute_kernel() (§4.2) of the items in `block`: the adaptive
-    /// two-point links of its element pairs and three-point links of its
-    /// surface triples, refined in parallel.
-    pub fn project(&self, block: Range<usize>, progress: &dyn Progress) -> Result<BlockLinks> {
+    /// The items in `block`, to be projected by a [`Projector`].
+    pub fn block_items(&self, block: Range<usize>) -> Result<BlockItems> {
         let items = self.items().end;
         if block.start > block.end || block.end > items {
             return Err(Error::Blocks {
@@ -308,35 +389,23 @@ impl Plan {
                 problem: format!("block {block:?} is not a range of them"),
             });
         }
-        let clock = Instant::now();
-        let ctx = self.kernel_context();
         let element_pairs = self.linking.element_pairs.len();
         let (pairs, triples) = (
             block.start.min(element_pairs)..block.end.min(element_pairs),
             block.start.max(element_pairs) - element_pairs
                 ..block.end.max(element_pairs) - element_pairs,
         );
-        let two_point = refine_links(
-            &ctx,
-            self.settings.refine,
-            self.estimate.as_ref(),
-            &self.linking.element_pairs[pairs],
-            progress,
-        );
-        let three_point = refine_three_point_links(
-            &ctx,
-            self.settings.three_point_refine(),
-            self.estimate.as_ref(),
-            &self.triples[triples],
-            |q| self.scene.surfaces[q as usize].patch,
-            progress,
-        );
-        Ok(BlockLinks {
+        Ok(BlockItems {
             items: block,
-            two_point,
-            three_point,
-            kernels_s: clock.elapsed().as_secs_f64(),
+            element_pairs: self.linking.element_pairs[pairs].to_vec(),
+            triples: self.triples[triples].to_vec(),
         })
+    }
+
+    /// compute_kernel() (§4.2) of the items in `block`
+    /// ([`Projector::project`]).
+    pub fn project(&self, block: Range<usize>, progress: &dyn Progress) -> Result<BlockLinks> {
+        Ok(self.projector.project(&self.block_items(block)?, progress))
     }
 
     /// Check that `blocks` hold every item once, in any order, as
@@ -384,15 +453,16 @@ impl Plan {
         }
 
         let Plan {
-            scene,
-            settings,
+            projector: Projector {
+                scene, settings, ..
+            },
             clusters,
             linking,
             pairs,
             triples,
             ..
         } = &self;
-        let ctx = self.kernel_context();
+        let ctx = self.projector.kernel_context();
         // Carry the emitters' links down to where their light changes
         // (`resolve_emitter_links`), then arrange the links and solve the
         // system they make. The refine–solve loop's intermediate solutions
@@ -475,7 +545,7 @@ impl Plan {
             )
         };
         let (settings, pairs) = (*settings, pairs.clone());
-        let Plan { scene, tracer, .. } = self;
+        let Projector { scene, tracer, .. } = self.projector;
         Ok(Solution {
             scene,
             tracer,
@@ -487,14 +557,6 @@ impl Plan {
             settings,
             stats,
         })
-    }
-
-    fn kernel_context(&self) -> KernelContext<'_> {
-        KernelContext {
-            scene: &self.scene,
-            tracer: &self.tracer,
-            quadrature: self.settings.quadrature,
-        }
     }
 }
 
