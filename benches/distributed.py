@@ -69,7 +69,9 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
             replan=replan,
         )
         with projectors:
+            cpu = sum(projectors.cpu_seconds())
             blocks, project_s = timed(projectors.project, plan, blocks_per_worker)
+            cpu = sum(projectors.cpu_seconds()) - cpu
         counts = [plan.links_in(b) for b in blocks]
         solution, finish_s = timed(plan.finish, blocks)
         rows.append(
@@ -79,6 +81,7 @@ def run(scene_path: Path, workers: list[int], blocks_per_worker: int) -> dict:
                 "blocks": len(blocks),
                 "start_s": start_s,
                 "project_s": project_s,
+                "cores": cpu / project_s,
                 "finish_s": finish_s,
                 "bytes": sum(len(b) for b in blocks),
                 "two_point": sum(c[0] for c in counts),
@@ -115,8 +118,10 @@ def header(command: str, load: tuple, commit: str) -> list[str]:
         "(*start*); they project the items in blocks handed to whichever actor is free, "
         "sent as items or, with *replan*, as ranges (*project*: until the last block's "
         "bytes are in the driver); the driver finishes (decodes the blocks, resolves the "
-        "emitters' links, builds the hierarchies, sweeps). × = speed-up of *project* "
-        "over the first row; identical = radiance and directional radiance equal "
+        "emitters' links, builds the hierarchies, sweeps). *cores* = the workers' CPU "
+        "seconds during *project* over its wall-clock seconds: the cores they really got "
+        "on a machine shared with other work; × = speed-up of *project* over the first "
+        "row; identical = radiance and directional radiance equal "
         "`wavrad.solve`'s bit for bit. One run each.",
         "",
         f"Written by `{command}`. Measured {datetime.date.today()} at commit `{commit}` "
@@ -137,16 +142,17 @@ def section(triangles: int, r: dict) -> list[str]:
         "",
         f"## A sphere of {triangles} triangles",
         "",
-        "| workers | replan | blocks | start s | project s | × | finish s | links | bytes | "
-        "bytes/link | identical |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| workers | replan | blocks | start s | project s | cores | × | finish s | links | "
+        "bytes | bytes/link | identical |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         n = row["two_point"] + row["three_point"]
         lines.append(
             f"| {row['workers']} | {'yes' if row['replan'] else 'no'} | {row['blocks']} | "
             f"{row['start_s']:.1f} | "
-            f"{row['project_s']:.1f} | {base['project_s'] / row['project_s']:.2f} | "
+            f"{row['project_s']:.1f} | {row['cores']:.2f} | "
+            f"{base['project_s'] / row['project_s']:.2f} | "
             f"{row['finish_s']:.1f} | {n} | {row['bytes']} | "
             f"{row['bytes'] / max(n, 1):.1f} | {'yes' if row['identical'] else 'NO'} |"
         )

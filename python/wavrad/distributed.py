@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import os
 import platform
+import time
 from collections.abc import Mapping
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
@@ -55,6 +56,9 @@ class _Projector:
     def fingerprint(self) -> tuple[int, str]:
         return self.projector.fingerprint, platform.node()
 
+    def cpu_seconds(self) -> float:
+        return time.process_time()
+
     def project(self, items: bytes) -> bytes:
         return self.projector.project(items)
 
@@ -69,6 +73,9 @@ class _Replanner:
 
     def fingerprint(self) -> tuple[int, str]:
         return self.plan.fingerprint, platform.node()
+
+    def cpu_seconds(self) -> float:
+        return time.process_time()
 
     def project(self, block: range) -> bytes:
         return self.plan.project(block)
@@ -136,6 +143,11 @@ class Projectors:
             return actor.project.remote(block if self.replan else plan.items(block))
 
         return list(pool.map_unordered(submit, blocks))
+
+    def cpu_seconds(self) -> list[float]:
+        """The CPU seconds each worker's process has used so far: how many
+        cores the workers really got, against the wall-clock time."""
+        return _ray().get([actor.cpu_seconds.remote() for actor in self.actors])
 
     def close(self) -> None:
         """End the workers."""
