@@ -6,7 +6,7 @@ from typing import Any, Literal, final
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import TypeAlias
+from typing_extensions import TypeAlias, TypedDict, Unpack
 
 __all__ = [
     "__version__",
@@ -31,6 +31,21 @@ __version__: str
 
 _Path: TypeAlias = str | PathLike[str]
 _Image: TypeAlias = npt.NDArray[np.float32]
+
+class _SolveSettings(TypedDict, total=False):
+    """The settings :func:`solve` takes by keyword (documented there), as
+    :func:`plan` and :func:`projector` take them."""
+
+    threshold: float
+    max_level: int
+    three_point_threshold: float
+    three_point_max_level: int
+    three_point_receiver_levels: int
+    tolerance: float
+    max_iterations: int
+    oracle: Literal["kernel", "power", "importance"]
+    refine_passes: int
+    cluster_ratio: float
 
 class WavradError(Exception):
     """Base class of every wavrad error."""
@@ -289,17 +304,7 @@ class Projector:
 
 def plan(
     scene: Scene,
-    *,
-    threshold: float | None = None,
-    max_level: int | None = None,
-    three_point_threshold: float | None = None,
-    three_point_max_level: int | None = None,
-    three_point_receiver_levels: int | None = None,
-    tolerance: float | None = None,
-    max_iterations: int | None = None,
-    oracle: Literal["kernel", "power", "importance"] | None = None,
-    refine_passes: int | None = None,
-    cluster_ratio: float | None = None,
+    **settings: Unpack[_SolveSettings],
 ) -> Plan:
     """Plan the gathering solve of ``scene`` with :func:`solve`'s settings,
     for its kernels to be projected in blocks elsewhere (:class:`Plan`,
@@ -307,17 +312,7 @@ def plan(
 
 def projector(
     scene: Scene,
-    *,
-    threshold: float | None = None,
-    max_level: int | None = None,
-    three_point_threshold: float | None = None,
-    three_point_max_level: int | None = None,
-    three_point_receiver_levels: int | None = None,
-    tolerance: float | None = None,
-    max_iterations: int | None = None,
-    oracle: Literal["kernel", "power", "importance"] | None = None,
-    refine_passes: int | None = None,
-    cluster_ratio: float | None = None,
+    **settings: Unpack[_SolveSettings],
 ) -> Projector:
     """What projects the items of plans of ``scene`` with :func:`solve`'s
     settings (pass a plan's :attr:`Plan.settings`), in a process that did

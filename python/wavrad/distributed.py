@@ -45,13 +45,20 @@ def _ray() -> Any:
     return ray
 
 
-class _Projector:
-    """One worker: a projector of the scene, sent each block's items."""
+class _Worker:
+    """One worker: a projector of the scene, sent blocks' items, or with
+    ``replan`` a plan of it made again, sent blocks' ranges."""
 
     def __init__(
-        self, path: str, defines: Mapping[str, object], settings: Mapping[str, Any]
+        self,
+        path: str,
+        defines: Mapping[str, object],
+        settings: Mapping[str, Any],
+        replan: bool,
     ) -> None:
-        self.projector = wavrad.projector(wavrad.load_scene(path, **defines), **settings)
+        scene = wavrad.load_scene(path, **defines)
+        made = wavrad.plan if replan else wavrad.projector
+        self.projector: wavrad.Plan | wavrad.Projector = made(scene, **settings)
 
     def fingerprint(self) -> tuple[int, str]:
         return self.projector.fingerprint, platform.node()
@@ -59,26 +66,8 @@ class _Projector:
     def cpu_seconds(self) -> float:
         return time.process_time()
 
-    def project(self, items: bytes) -> bytes:
-        return self.projector.project(items)
-
-
-class _Replanner:
-    """One worker: the plan of the scene, made again, sent blocks' ranges."""
-
-    def __init__(
-        self, path: str, defines: Mapping[str, object], settings: Mapping[str, Any]
-    ) -> None:
-        self.plan = wavrad.plan(wavrad.load_scene(path, **defines), **settings)
-
-    def fingerprint(self) -> tuple[int, str]:
-        return self.plan.fingerprint, platform.node()
-
-    def cpu_seconds(self) -> float:
-        return time.process_time()
-
-    def project(self, block: range) -> bytes:
-        return self.plan.project(block)
+    def project(self, block: Any) -> bytes:
+        return self.projector.project(block)
 
 
 class Projectors:
@@ -109,14 +98,14 @@ class Projectors:
             cpus = int(ray.cluster_resources().get("CPU", 1))
             cpus_per_worker = max(1, cpus // workers)
         self.replan = replan
-        remote = ray.remote(_Replanner if replan else _Projector).options(
+        remote = ray.remote(_Worker).options(
             num_cpus=cpus_per_worker,
             scheduling_strategy="SPREAD",
             runtime_env={"env_vars": {"RAYON_NUM_THREADS": str(cpus_per_worker)}},
         )
         path = os.fspath(scene_path)
         self.actors = [
-            remote.remote(path, dict(defines or {}), plan.settings) for _ in range(workers)
+            remote.remote(path, dict(defines or {}), plan.settings, replan) for _ in range(workers)
         ]
         expected = plan.fingerprint if replan else plan.projector_fingerprint
         try:

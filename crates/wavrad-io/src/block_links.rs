@@ -55,7 +55,7 @@ const VERSION: u16 = 1;
 pub struct Fingerprint {
     /// Of the scene and settings ([`projector_fingerprint`]).
     pub projector: u32,
-    /// Of the plan: those and its items ([`plan_fingerprint`]).
+    /// Of the plan: that and its items ([`fingerprint`]).
     pub plan: u32,
 }
 
