@@ -26,8 +26,10 @@ $(PYTHON):
 
 venv: $(PYTHON)
 
+# With the `distributed` extra (Ray, ~15 s to install) for wavrad.distributed
+# and tests/test_distributed.py, which skips where Ray cannot be imported.
 python: venv
-	$(VENV)/bin/maturin develop --release --quiet
+	$(VENV)/bin/maturin develop --release --quiet --extras distributed
 
 test-rust:
 	$(CARGO) test --release --workspace --exclude wavrad-py

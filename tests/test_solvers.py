@@ -211,5 +211,5 @@ def test_an_exception_in_on_step_is_raised_from_solve(scene: wavrad.Scene) -> No
 
 
 def test_on_step_needs_the_shooting_solver(scene: wavrad.Scene) -> None:
-    with pytest.raises(ValueError, match="solver=\"shoot\""):
+    with pytest.raises(ValueError, match='solver="shoot"'):
         wavrad.solve(scene, max_level=MAX_LEVEL, on_step=lambda step, image: None)

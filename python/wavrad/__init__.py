@@ -7,9 +7,17 @@ General Surface Properties* (EG Rendering Workshop 1994).
 >>> solution = wavrad.solve(scene)
 >>> image = solution.render()  # (64, 64, 3) float32, linear RGB
 >>> wavrad.write_image("cornell.exr", image)
+
+A solve's kernel projection can run elsewhere in blocks: :func:`plan`, then
+for each of ``plan.blocks(n)`` its items (:meth:`Plan.items`, bytes)
+projected by a :func:`projector` of the same scene and settings in another
+process or on another machine, then :meth:`Plan.finish` of the links they
+return; :mod:`wavrad.distributed` does so on Ray.
 """
 
 from wavrad._native import (
+    Plan,
+    Projector,
     Scene,
     SceneError,
     Solution,
@@ -17,6 +25,8 @@ from wavrad._native import (
     WavradError,
     __version__,
     load_scene,
+    plan,
+    projector,
     read_exr,
     relative_rmse,
     solve,
@@ -25,12 +35,16 @@ from wavrad._native import (
 
 __all__ = [
     "__version__",
+    "Plan",
+    "Projector",
     "Scene",
     "SceneError",
     "Solution",
     "SolveError",
     "WavradError",
     "load_scene",
+    "plan",
+    "projector",
     "read_exr",
     "relative_rmse",
     "solve",

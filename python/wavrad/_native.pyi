@@ -6,16 +6,20 @@ from typing import Any, Literal, final
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import TypeAlias
+from typing_extensions import TypeAlias, TypedDict, Unpack
 
 __all__ = [
     "__version__",
+    "Plan",
+    "Projector",
     "Scene",
     "SceneError",
     "Solution",
     "SolveError",
     "WavradError",
     "load_scene",
+    "plan",
+    "projector",
     "read_exr",
     "relative_rmse",
     "solve",
@@ -28,12 +32,28 @@ __version__: str
 _Path: TypeAlias = str | PathLike[str]
 _Image: TypeAlias = npt.NDArray[np.float32]
 
+class _SolveSettings(TypedDict, total=False):
+    """The settings :func:`solve` takes by keyword (documented there), as
+    :func:`plan` and :func:`projector` take them."""
+
+    threshold: float
+    max_level: int
+    three_point_threshold: float
+    three_point_max_level: int
+    three_point_receiver_levels: int
+    tolerance: float
+    max_iterations: int
+    oracle: Literal["kernel", "power", "importance"]
+    refine_passes: int
+    cluster_ratio: float
+
 class WavradError(Exception):
     """Base class of every wavrad error."""
 
 class SceneError(WavradError):
-    """A scene, mesh or image file could not be read or written; the message
-    names the file and line."""
+    """A scene, mesh or image file could not be read or written (the message
+    names the file and line), or bytes are not a block of links of this
+    plan."""
 
 class SolveError(WavradError):
     """The solver or renderer refused its input (invalid settings, empty scene,
@@ -109,6 +129,15 @@ class Solution:
         ``gather_cache=True`` with any other mode) and a scene without a
         sensor; ``TypeError`` for an unknown keyword.
         """
+    @property
+    def radiance(self) -> npt.NDArray[np.float64]:
+        """Average radiance of every element: an (elements, 3) float64
+        array, surfaces in scene order, each surface's element hierarchy in
+        the order of its nodes."""
+    @property
+    def directional(self) -> npt.NDArray[np.float64]:
+        """Average directional radiance of every element pair of every
+        glossy surface's directional structures, in the same way."""
     @property
     def stats(self) -> dict[str, Any]:
         """Statistics of the solve: ``two_point_nodes``,
@@ -197,6 +226,97 @@ def solve(
     setting and the range), an unknown ``oracle`` or ``solver``, the
     importance oracle on a scene without a sensor, and the shooting solver
     on a glossy scene or with the importance oracle."""
+
+class Plan:
+    """A gathering solve planned up to its kernel projection (:func:`plan`):
+    the scene's ray queries, cluster tree and linking, which fix the
+    projection's items (element pairs, then the surface triples of glossy
+    surfaces). Each block of items can be projected anywhere: here
+    (:meth:`project`), or as bytes (:meth:`items`) by a :class:`Projector`
+    of the same scene and settings in another process; :meth:`finish`
+    solves from every block's links, and the solution is :func:`solve`'s
+    bit for bit.
+
+    >>> plan = wavrad.plan(scene, threshold=1e-3)
+    >>> worker = wavrad.projector(scene, **plan.settings)  # elsewhere
+    >>> links = [worker.project(plan.items(block)) for block in plan.blocks(4)]
+    >>> solution = plan.finish(links)
+    """
+
+    def __len__(self) -> int:
+        """Projection items: element pairs, then surface triples."""
+    def blocks(self, n: int) -> list[range]:
+        """The items in at most ``n`` consecutive blocks, of sizes that
+        differ by one at most (none without items)."""
+    def project(self, block: range) -> bytes:
+        """Project the items in ``block`` (a ``range`` with step 1; the GIL
+        is released) and return their links as bytes for :meth:`finish`:
+        a header naming the plan by its fingerprint, then the links in
+        postcard. Raises ``SolveError`` for a block past the items and
+        ``ValueError`` for a step other than 1."""
+    def items(self, block: range) -> bytes:
+        """The items in ``block`` (a ``range`` with step 1) as bytes for
+        :meth:`Projector.project`: a header naming the scene, settings and
+        plan by their fingerprints, then the element pairs and surface
+        triples in postcard. Raises as :meth:`project` does."""
+    def finish(self, blocks: list[bytes]) -> Solution:
+        """Solve from the projected ``blocks``, which must hold every item
+        once, in any order: the emitters' links carried down, the element
+        hierarchies built, the Gauss-Seidel sweeps (and the weighted
+        oracles' refine-solve loop) run here. The plan is used up; using it
+        again raises ``ValueError``. Raises ``SceneError`` for bytes that
+        are not a block or were projected from another plan (another scene,
+        other settings), and ``SolveError`` for blocks that leave items out
+        or hold some twice; the plan is kept then."""
+    def links_in(self, block: bytes) -> tuple[int, int]:
+        """The two-point and three-point links in ``block``, bytes that
+        :meth:`project` of this plan returned."""
+    @property
+    def settings(self) -> dict[str, Any]:
+        """Every setting of the plan by the name :func:`plan` takes it:
+        planning the same scene again with them makes the same plan."""
+    @property
+    def fingerprint(self) -> int:
+        """The CRC-32 of the plan's scene, settings and items, which its
+        blocks carry."""
+    @property
+    def projector_fingerprint(self) -> int:
+        """The CRC-32 of the plan's scene and settings: the
+        :attr:`Projector.fingerprint` of a projector that can project its
+        items."""
+
+@final
+class Projector:
+    """What projects a plan's items in a process that did not plan
+    (:func:`projector`): the scene, its ray queries and the settings,
+    without the linking."""
+
+    def project(self, items: bytes) -> bytes:
+        """Project ``items`` (bytes from :meth:`Plan.items` of a plan of the
+        same scene and settings; the GIL is released) and return their
+        links as bytes for that plan's :meth:`Plan.finish`. Raises
+        ``SceneError`` for bytes that are not a block's items or were made
+        for another scene or other settings."""
+    @property
+    def fingerprint(self) -> int:
+        """The CRC-32 of the scene (its surfaces, camera and film), the
+        settings and wavrad's version."""
+
+def plan(
+    scene: Scene,
+    **settings: Unpack[_SolveSettings],
+) -> Plan:
+    """Plan the gathering solve of ``scene`` with :func:`solve`'s settings,
+    for its kernels to be projected in blocks elsewhere (:class:`Plan`,
+    :mod:`wavrad.distributed`). Raises as :func:`solve` does."""
+
+def projector(
+    scene: Scene,
+    **settings: Unpack[_SolveSettings],
+) -> Projector:
+    """What projects the items of plans of ``scene`` with :func:`solve`'s
+    settings (pass a plan's :attr:`Plan.settings`), in a process that did
+    not plan. Raises as :func:`solve` does."""
 
 def relative_rmse(a: npt.ArrayLike, b: npt.ArrayLike) -> float:
     """Relative RMSE of ``a`` against the reference ``b``:

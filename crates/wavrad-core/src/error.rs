@@ -24,6 +24,15 @@ pub enum Error {
         /// The most wavrad accepts.
         limit: usize,
     },
+    /// Blocks of a planned projection ([`crate::solve::Plan`]) that are not
+    /// its items once each: a block past its items, a gap or an overlap.
+    #[error("blocks of a plan of {items} projection items: {problem}")]
+    Blocks {
+        /// The plan's projection items.
+        items: usize,
+        /// What does not fit.
+        problem: String,
+    },
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,

@@ -1,5 +1,6 @@
 //! Invariants of whole solutions: energy balance in an open scene, and
-//! results that do not depend on the number of threads.
+//! results that do not depend on the number of threads nor on how the
+//! projection is split into blocks.
 
 use glam::DVec3;
 use wavrad_core::progress::Silent;
@@ -10,7 +11,7 @@ use wavrad_core::scene::{
     Camera, Film, FovAxis, Patch, PixelFilter, Projection, Rgb, Scene, Surface,
 };
 use wavrad_core::solve::shoot::solve_shooting;
-use wavrad_core::solve::{solve, SolveSettings};
+use wavrad_core::solve::{plan, solve, BlockLinks, SolveSettings};
 
 fn square(z: f64, up: bool) -> Patch {
     let (s, t) = if up {
@@ -126,6 +127,99 @@ fn every_solution_has_its_emitter_links_resolved() {
 
 #[test]
 fn results_do_not_depend_on_thread_count() {
+    let scene = glossy_box_under_a_camera();
+    for oracle in [Oracle::Kernel, Oracle::Power, Oracle::Importance] {
+        same_on_one_and_two_threads(&scene, &glossy_settings(oracle));
+    }
+}
+
+/// However a plan's items are split into blocks, and in whatever order the
+/// blocks come back, the solution is the one-process solve's bit for bit,
+/// two- and three-point links alike, the importance oracle's refine–solve
+/// loop included.
+#[test]
+fn results_do_not_depend_on_block_split() {
+    let scene = glossy_box_under_a_camera();
+    for oracle in [Oracle::Kernel, Oracle::Importance] {
+        let settings = SolveSettings {
+            max_refine_passes: 2,
+            ..glossy_settings(oracle)
+        };
+        let whole = solve(&scene, &settings, &Silent).unwrap();
+        let items = plan(&scene, &settings, &Silent).unwrap().items().end;
+        for n in [3, items] {
+            let plan = plan(&scene, &settings, &Silent).unwrap();
+            let mut blocks: Vec<BlockLinks> = plan
+                .blocks(n)
+                .into_iter()
+                .map(|block| plan.project(block, &Silent).unwrap())
+                .collect();
+            assert_eq!(blocks.len(), n);
+            blocks.reverse();
+            let split = plan.finish(blocks, &Silent).unwrap();
+            assert!(split.stats.three_point_interactions > 0);
+            assert_eq!(split.radiance, whole.radiance, "{oracle}, {n} blocks");
+            assert_eq!(split.directional, whole.directional, "{oracle}, {n} blocks");
+        }
+    }
+}
+
+/// Blocks that leave items out, hold some twice or reach past the plan are
+/// refused with what is wrong, not solved into a wrong image.
+#[test]
+fn blocks_that_do_not_cover_the_plan_once_are_refused() {
+    let scene = glossy_box_under_a_camera();
+    let settings = SolveSettings::default();
+    let projected = || {
+        let plan = plan(&scene, &settings, &Silent).unwrap();
+        let blocks: Vec<BlockLinks> = plan
+            .blocks(3)
+            .into_iter()
+            .map(|block| plan.project(block, &Silent).unwrap())
+            .collect();
+        (plan, blocks)
+    };
+    let (plan, mut blocks) = projected();
+    let missing = blocks.remove(1).items;
+    assert_eq!(
+        problem(plan.finish(blocks, &Silent)),
+        format!("no block holds items {missing:?}")
+    );
+    let (plan, mut blocks) = projected();
+    blocks.push(blocks[0].clone());
+    assert!(problem(plan.finish(blocks, &Silent)).contains("overlaps"));
+    let (plan, mut blocks) = projected();
+    let last = blocks.pop().unwrap().items;
+    assert_eq!(
+        problem(plan.finish(blocks, &Silent)),
+        format!("no block holds items {last:?}")
+    );
+    let (plan, _) = projected();
+    let items = plan.items().end;
+    assert!(problem(plan.project(0..items + 1, &Silent)).contains("not a range"));
+}
+
+/// What an [`wavrad_core::Error::Blocks`] says is wrong.
+fn problem<T>(result: wavrad_core::Result<T>) -> String {
+    match result {
+        Err(wavrad_core::Error::Blocks { problem, .. }) => problem,
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(_) => panic!("accepted"),
+    }
+}
+
+/// Settings that make three-point links on [`glossy_box_under_a_camera`].
+fn glossy_settings(oracle: Oracle) -> SolveSettings {
+    SolveSettings {
+        three_point_max_level: 2,
+        three_point_threshold: 1e-3,
+        ..SolveSettings::for_oracle(oracle)
+    }
+}
+
+/// A closed box, one wall emitting, one glossy (Ward), a tilted triangle
+/// inside, seen by a small camera.
+fn glossy_box_under_a_camera() -> Scene {
     let mut surfaces: Vec<Surface> =
         wavrad_core::testing::inward_box(DVec3::splat(-1.0), DVec3::ONE)
             .into_iter()
@@ -172,14 +266,7 @@ fn results_do_not_depend_on_thread_count() {
         height: 9,
         filter: PixelFilter::Gaussian { stddev: 0.5 },
     };
-    for oracle in [Oracle::Kernel, Oracle::Power, Oracle::Importance] {
-        let settings = SolveSettings {
-            three_point_max_level: 2,
-            three_point_threshold: 1e-3,
-            ..SolveSettings::for_oracle(oracle)
-        };
-        same_on_one_and_two_threads(&scene, &settings);
-    }
+    scene
 }
 
 fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {

@@ -52,6 +52,13 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A block of projected links ([`crate::block_links`]) is not one, is
+    /// damaged, or was projected from another plan.
+    #[error("block of links: {message}")]
+    BlockLinks {
+        /// What is wrong.
+        message: String,
+    },
 }
 
 impl Error {

@@ -10,7 +10,9 @@
 //! - [`mesh::read_obj`], [`mesh::read_ply`], [`mesh::read_serialized`]:
 //!   triangle meshes;
 //! - [`write_image`], [`read_exr_rgb`], [`relative_rmse`]: images and the
-//!   error metric against references.
+//!   error metric against references;
+//! - [`block_links`]: a planned solve's blocks of items and of projected
+//!   links as bytes, between the processes of a distributed solve.
 //!
 //! Every failure is an [`Error`] whose message names the file — and for
 //! scene files the line — and the offending name, e.g.
@@ -30,6 +32,7 @@
 
 #![deny(missing_docs)]
 
+pub mod block_links;
 mod error;
 pub mod image;
 pub mod mesh;

@@ -4,8 +4,10 @@
 //! ```text
 //! Exception
 //! └── WavradError
-//!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line)
-//!     └── SolveError   wavrad-core: settings, empty scene, missing sensor
+//!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line),
+//!     │                blocks of links (wavrad.Plan)
+//!     └── SolveError   wavrad-core: settings, empty scene, missing sensor,
+//!                      blocks that do not cover a plan
 //! ```
 //! Settings outside their described range or choices, and settings that do
 //! not go together, are `SolveError`s; arguments Python cannot convert (a
@@ -26,7 +28,7 @@ create_exception!(
     wavrad,
     SceneError,
     WavradError,
-    "A scene, mesh or image file could not be read or written; the message names the file and line."
+    "A scene, mesh or image file could not be read or written (the message names the file and line), or bytes are not a block of links of this plan."
 );
 create_exception!(
     wavrad,

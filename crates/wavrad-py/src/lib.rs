@@ -11,20 +11,25 @@ mod error;
 use std::path::PathBuf;
 
 use glam::DVec3;
-use numpy::ndarray::Array3;
+use numpy::ndarray::{Array2, Array3};
 use numpy::{
-    AllowTypeChange, IntoPyArray, PyArray3, PyArrayLike1, PyArrayLike3, PyArrayLikeDyn,
+    AllowTypeChange, IntoPyArray, PyArray2, PyArray3, PyArrayLike1, PyArrayLike3, PyArrayLikeDyn,
     PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict, PyRange, PyRangeMethods};
 use std::ops::ControlFlow;
 use wavrad_core::progress::Silent;
 use wavrad_core::render::{RenderSettings, Renderer};
+use wavrad_core::scene::Rgb;
 use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{SolveSettings, Solver};
+use wavrad_io::block_links::{
+    decode_items, decode_links, encode_items, encode_links, fingerprint, projector_fingerprint,
+    Fingerprint,
+};
 
 use error::{Error, Result, SceneError, SolveError, WavradError};
 
@@ -129,6 +134,21 @@ impl Solution {
         Ok(pixels(py, image.width, image.height, image.rgb))
     }
 
+    /// Average radiance of every element: an (elements, 3) float64 array,
+    /// surfaces in scene order, each surface's element hierarchy in the
+    /// order of its nodes.
+    #[getter]
+    fn radiance<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, &self.0.solution().radiance)
+    }
+
+    /// Average directional radiance of every element pair of every glossy
+    /// surface's directional structures, in the same way.
+    #[getter]
+    fn directional<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        rows(py, &self.0.solution().directional)
+    }
+
     /// Statistics of the solve (the paper's §5 quantities, times, memory).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> Result<Bound<'py, PyAny>> {
@@ -142,6 +162,197 @@ impl Solution {
         format!(
             "Solution(two_point_nodes={}, two_point_interactions={}, iterations={})",
             s.two_point_nodes, s.two_point_interactions, s.iterations
+        )
+    }
+}
+
+/// Per-node colours of several trees as one (nodes, 3) array, in order.
+fn rows<'py>(py: Python<'py>, trees: &[Vec<Rgb>]) -> Bound<'py, PyArray2<f64>> {
+    let values: Vec<f64> = trees.iter().flatten().flat_map(|c| c.0).collect();
+    Array2::from_shape_vec((values.len() / 3, 3), values)
+        .expect("three channels per node")
+        .into_pyarray(py)
+}
+
+/// A gathering solve planned up to its kernel projection (`wavrad.plan`),
+/// whose items other processes can project in blocks.
+#[pyclass(module = "wavrad")]
+struct Plan {
+    /// `None` once finished (the solution took its scene and ray queries).
+    plan: Option<wavrad_core::solve::Plan>,
+    fingerprint: Fingerprint,
+}
+
+impl Plan {
+    fn planned(&self) -> Result<&wavrad_core::solve::Plan> {
+        self.plan
+            .as_ref()
+            .ok_or_else(|| Error::Argument("this plan was finished; plan the scene again".into()))
+    }
+}
+
+#[pymethods]
+impl Plan {
+    /// Projection items: element pairs, then surface triples.
+    fn __len__(&self) -> Result<usize> {
+        Ok(self.planned()?.items().end)
+    }
+
+    /// The items in at most `n` consecutive blocks (`range`s) of sizes that
+    /// differ by one at most.
+    fn blocks<'py>(&self, py: Python<'py>, n: usize) -> Result<Vec<Bound<'py, PyRange>>> {
+        let blocks = self.planned()?.blocks(n);
+        let range = |b: std::ops::Range<usize>| {
+            PyRange::new(py, b.start as isize, b.end as isize).map_err(Error::from)
+        };
+        blocks.into_iter().map(range).collect()
+    }
+
+    /// Project the items in `block` (a `range` with step 1) and return
+    /// their links as bytes for `finish`.
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        block: &Bound<'py, PyRange>,
+    ) -> Result<Bound<'py, PyBytes>> {
+        let plan = self.planned()?;
+        let block = items_of("project", block)?;
+        let bytes = py.allow_threads(|| {
+            plan.project(block, &Silent)
+                .map(|links| encode_links(self.fingerprint, &links))
+        })?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// The items in `block` (a `range` with step 1) as bytes, for a
+    /// `Projector` of the same scene and settings.
+    fn items<'py>(
+        &self,
+        py: Python<'py>,
+        block: &Bound<'py, PyRange>,
+    ) -> Result<Bound<'py, PyBytes>> {
+        let items = self.planned()?.block_items(items_of("items", block)?)?;
+        Ok(PyBytes::new(py, &encode_items(self.fingerprint, &items)))
+    }
+
+    /// Solve from the projected `blocks` (the bytes `project` returned,
+    /// every item once, in any order); the plan is used up.
+    fn finish(&mut self, py: Python<'_>, blocks: Vec<Bound<'_, PyBytes>>) -> Result<Solution> {
+        let fingerprint = self.fingerprint;
+        let bytes: Vec<&[u8]> = blocks.iter().map(|b| b.as_bytes()).collect();
+        let links = py.allow_threads(|| {
+            bytes
+                .iter()
+                .map(|b| decode_links(b, fingerprint))
+                .collect::<wavrad_io::Result<Vec<_>>>()
+        })?;
+        self.planned()?.check_cover(&links)?;
+        let plan = self.plan.take().expect("checked above");
+        let solution = py.allow_threads(|| plan.finish(links, &Silent))?;
+        Ok(Solution(Renderer::new(solution)))
+    }
+
+    /// The two-point and three-point links in `block`, bytes that `project`
+    /// of this plan returned.
+    fn links_in(&self, py: Python<'_>, block: &Bound<'_, PyBytes>) -> Result<(usize, usize)> {
+        let bytes = block.as_bytes();
+        let links = py.allow_threads(|| decode_links(bytes, self.fingerprint))?;
+        Ok((links.two_point.len(), links.three_point.len()))
+    }
+
+    /// Every setting of the plan by the name `plan` takes it: planning
+    /// again with them makes the same plan.
+    #[getter]
+    fn settings<'py>(&self, py: Python<'py>) -> Result<Bound<'py, PyDict>> {
+        let settings = PyDict::new(py);
+        for (name, value) in self.planned()?.projector().settings().values() {
+            match value {
+                Value::Real(x) => settings.set_item(name, x)?,
+                Value::Count(n) => settings.set_item(name, n)?,
+                Value::Flag(b) => settings.set_item(name, b)?,
+                Value::Choice(choice) => settings.set_item(name, choice)?,
+            }
+        }
+        Ok(settings)
+    }
+
+    /// The CRC-32 of the plan's scene, settings and items, which its blocks
+    /// carry.
+    #[getter]
+    fn fingerprint(&self) -> u32 {
+        self.fingerprint.plan
+    }
+
+    /// The CRC-32 of the plan's scene and settings: that of a `Projector`
+    /// that can project its items.
+    #[getter]
+    fn projector_fingerprint(&self) -> u32 {
+        self.fingerprint.projector
+    }
+
+    fn __repr__(&self) -> String {
+        match &self.plan {
+            Some(plan) => format!(
+                "Plan(element_pairs={}, triples={}, cluster_links={})",
+                plan.element_pairs().len(),
+                plan.triples().len(),
+                plan.cluster_links().len()
+            ),
+            None => "Plan(finished)".into(),
+        }
+    }
+}
+
+/// The items of a block given as a `range` with step 1, to `function`.
+fn items_of(function: &str, block: &Bound<'_, PyRange>) -> Result<std::ops::Range<usize>> {
+    let (start, stop, step) = (block.start()?, block.stop()?, block.step()?);
+    match (usize::try_from(start), usize::try_from(stop), step) {
+        (Ok(start), Ok(stop), 1) => Ok(start..stop),
+        _ => Err(Error::Argument(format!(
+            "{function}: a block is a range of items with step 1, got range({start}, {stop}, {step})"
+        ))),
+    }
+}
+
+/// What projects a plan's items in another process (`wavrad.projector`):
+/// the scene, its ray queries and the settings, without the linking.
+#[pyclass(module = "wavrad", frozen)]
+struct Projector {
+    projector: wavrad_core::solve::Projector,
+    fingerprint: u32,
+}
+
+#[pymethods]
+impl Projector {
+    /// Project the items in `items` (bytes from `Plan.items` of a plan of
+    /// the same scene and settings) and return their links as bytes for
+    /// that plan's `finish`.
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        items: &Bound<'py, PyBytes>,
+    ) -> Result<Bound<'py, PyBytes>> {
+        let bytes = items.as_bytes();
+        let links = py.allow_threads(|| {
+            decode_items(bytes, self.fingerprint).map(|(fingerprint, items)| {
+                encode_links(fingerprint, &self.projector.project(&items, &Silent))
+            })
+        })?;
+        Ok(PyBytes::new(py, &links))
+    }
+
+    /// The CRC-32 of the scene and settings, which `Plan.projector_fingerprint`
+    /// of a plan whose items it can project equals.
+    #[getter]
+    fn fingerprint(&self) -> u32 {
+        self.fingerprint
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Projector(surfaces={}, fingerprint={:08x})",
+            self.projector.scene().surfaces.len(),
+            self.fingerprint
         )
     }
 }
@@ -238,6 +449,36 @@ fn solve(
         return Err(Error::Python(e));
     }
     Ok(Solution(Renderer::new(solution)))
+}
+
+/// Plan the gathering solve of `scene` with the settings given by name (as
+/// `solve`'s), for its kernels to be projected in blocks elsewhere.
+#[pyfunction]
+#[pyo3(signature = (scene, **settings))]
+fn plan(py: Python<'_>, scene: &Scene, settings: Option<&Bound<'_, PyDict>>) -> Result<Plan> {
+    let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
+    let plan = py.allow_threads(|| wavrad_core::solve::plan(&scene.0, &settings, &Silent))?;
+    Ok(Plan {
+        fingerprint: fingerprint(&plan),
+        plan: Some(plan),
+    })
+}
+
+/// What projects the items of plans of `scene` with the settings given by
+/// name (as `solve`'s), in a process that did not plan.
+#[pyfunction]
+#[pyo3(signature = (scene, **settings))]
+fn projector(
+    py: Python<'_>,
+    scene: &Scene,
+    settings: Option<&Bound<'_, PyDict>>,
+) -> Result<Projector> {
+    let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
+    let projector = py.allow_threads(|| wavrad_core::solve::Projector::new(&scene.0, &settings))?;
+    Ok(Projector {
+        fingerprint: projector_fingerprint(&projector),
+        projector,
+    })
 }
 
 /// Call `on_step(step, image)` after a shooting step: `step` a dict of the
@@ -353,8 +594,12 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SolveError", py.get_type::<SolveError>())?;
     m.add_class::<Scene>()?;
     m.add_class::<Solution>()?;
+    m.add_class::<Plan>()?;
+    m.add_class::<Projector>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(plan, m)?)?;
+    m.add_function(wrap_pyfunction!(projector, m)?)?;
     m.add_function(wrap_pyfunction!(relative_rmse, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;

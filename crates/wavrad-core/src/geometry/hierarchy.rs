@@ -12,7 +12,9 @@ use std::collections::BTreeSet;
 
 /// An element named by its level and the child indices leading to it from the
 /// surface's root, two bits per level (most significant = first step).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct ElementId {
     /// Subdivision level J (root = 0).
     pub level: u32,
@@ -82,7 +84,9 @@ impl ElementId {
 
 /// One element of one surface: how links, exposure and light estimates
 /// name an element.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct ElementRef {
     /// Index of the surface.
     pub surface: u32,

@@ -22,7 +22,7 @@ use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
 /// A three-point interaction r → p → q: `L_{a→b} += coefficient · L_{c→a}`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ThreePointLink {
     /// Source surface.
     pub r: u32,

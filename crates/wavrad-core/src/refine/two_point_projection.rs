@@ -20,7 +20,7 @@ use crate::scene::{Patch, Scene, Surface};
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Link {
     /// First surface.
     pub p: u32,
@@ -63,7 +63,7 @@ impl Link {
 /// quadrature (visibility included): how the kernel varies over the element
 /// it subdivides, which gathering spreads the link's light with
 /// ([`crate::solve::gather`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ChildShares {
     /// Whether the subdivided element is `a` (else `c`).
     pub of_a: bool,

@@ -20,7 +20,7 @@ use std::iter::Sum;
 use std::ops::{Add, AddAssign, Div, Index, Mul, Sub};
 
 /// Linear RGB triple (reflectance, radiance), one `f64` per channel.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 #[repr(transparent)]
 pub struct Rgb(pub [f64; 3]);
 

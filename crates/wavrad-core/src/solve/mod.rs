@@ -18,7 +18,7 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::{KernelContext, Quadrature};
 use crate::progress::Progress;
-use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings, End};
+use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings, End, Linking};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
@@ -35,6 +35,7 @@ use cluster_gather::ClusterTransfers;
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
+use std::ops::Range;
 use std::time::Instant;
 
 /// Settings of a solve.
@@ -136,65 +137,341 @@ pub struct Solution {
 /// (from the detail stored with it, without new quadrature) and refined
 /// further where it fails, until no link changes or after
 /// `settings.max_refine_passes` passes.
+///
+/// The steps of a [`Plan`] in one process: [`plan`], the projection of all
+/// its items, [`Plan::finish`].
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
-    settings.validate()?;
-    check_size(scene)?;
-    let camera = match (settings.oracle, &scene.camera) {
-        (Oracle::Importance, None) => {
-            return Err(Error::InvalidSetting(
-                "the importance oracle needs a sensor in the scene".into(),
-            ))
-        }
-        (Oracle::Importance, Some(camera)) => Some(camera),
-        _ => None,
-    };
+    let plan = plan(scene, settings, progress)?;
+    let links = plan.project(plan.items(), progress)?;
+    plan.finish(vec![links], progress)
+}
+
+/// A gathering solve ([`solve`]) up to its kernel projection: the scene's
+/// ray queries, its cluster tree and the linking from the root
+/// ([`link_from_root`]). The linking fixes the projection's *items*: its
+/// element pairs, then the surface triples (r, p, q) of the glossy surfaces
+/// ([`surface_triples`]). Each item is refined on its own (compute_kernel,
+/// §4.2), so the items can be split into blocks projected anywhere — other
+/// threads, processes, machines — by [`Plan::project`]; [`Plan::finish`]
+/// takes the blocks' links in item order and solves. The solution is
+/// [`solve`]'s bit for bit, however the items are split. A process that is
+/// sent its items ([`Plan::block_items`]) projects them with a
+/// [`Projector`] of the same scene and settings, without the linking.
+///
+/// ```
+/// use wavrad_core::progress::Silent;
+/// use wavrad_core::solve::{plan, solve, SolveSettings};
+///
+/// let scene = wavrad_core::testing::light_over_a_corner(0.3);
+/// let settings = SolveSettings::default();
+/// let plan = plan(&scene, &settings, &Silent).unwrap();
+/// let blocks = plan
+///     .blocks(2)
+///     .into_iter()
+///     .map(|block| plan.project(block, &Silent).unwrap())
+///     .collect();
+/// let split = plan.finish(blocks, &Silent).unwrap();
+/// let whole = solve(&scene, &settings, &Silent).unwrap();
+/// assert_eq!(split.radiance, whole.radiance);
+/// ```
+pub struct Plan {
+    projector: Projector,
+    clusters: ClusterTree,
+    linking: Linking,
+    /// The surface pairs of `linking`'s element pairs.
+    pairs: Vec<(u32, u32)>,
+    triples: Vec<(u32, u32, u32)>,
+    times: PhaseTimes,
+}
+
+/// What projecting needs besides the items: the scene, its ray queries,
+/// the settings, and the light the weighted oracles weigh the first
+/// projection with.
+pub struct Projector {
+    scene: Scene,
+    settings: SolveSettings,
+    tracer: SceneTracer,
+    estimate: Option<LightEstimate>,
+}
+
+/// The items of one block of a plan ([`Plan::block_items`]), for a
+/// [`Projector`] elsewhere.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BlockItems {
+    /// Which of the plan's items they are.
+    pub items: Range<usize>,
+    /// The element pairs among them, in order.
+    pub element_pairs: Vec<[ElementRef; 2]>,
+    /// The surface triples (r, p, q) among them, in order.
+    pub triples: Vec<(u32, u32, u32)>,
+}
+
+/// The links [`Plan::project`] or [`Projector::project`] made of one block
+/// of a plan's items.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BlockLinks {
+    /// The items projected (indices into the plan's items).
+    pub items: Range<usize>,
+    /// The two-point links of its element pairs, in item order.
+    pub two_point: Vec<Link>,
+    /// The three-point links of its surface triples, in item order.
+    pub three_point: Vec<ThreePointLink>,
+    /// Seconds the projection took where it ran.
+    pub kernels_s: f64,
+}
+
+/// Plan the gathering solve of `scene`: check the settings, build the ray
+/// queries and the cluster tree, link from the root cluster, and list the
+/// surface triples of glossy surfaces.
+pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Plan> {
     let mut times = PhaseTimes::default();
+    let projector = Projector::timed(scene, settings, &mut times)?;
 
-    // Visibility structure.
+    // What compute_kernel() will project: pairs and triples of elements.
     let clock = Instant::now();
-    let tracer = SceneTracer::new(scene);
-    times.visibility_build_s = clock.elapsed().as_secs_f64();
-    let ctx = KernelContext {
-        scene,
-        tracer: &tracer,
-        quadrature: settings.quadrature,
-    };
-    let importance = |links: &[Link]| camera.map(|c| Importance::new(&ctx, c, &scene.film, links));
-
-    // compute_kernel(): adaptive two-point and three-point links.
-    let clock = Instant::now();
-    let estimate = settings
-        .oracle
-        .is_weighted()
-        .then(|| LightEstimate::emission(scene, importance(&[])));
+    let ctx = projector.kernel_context();
     let clusters = ClusterTree::build(scene);
     let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
     let pairs = linking.surface_pairs();
-    let mut links = refine_links(
-        &ctx,
-        settings.refine,
-        estimate.as_ref(),
-        &linking.element_pairs,
-        progress,
-    );
     let triples = surface_triples(scene, &pairs);
-    let mut three_point = refine_three_point_links(
-        &ctx,
-        settings.three_point_refine(),
-        estimate.as_ref(),
-        &triples,
-        |q| scene.surfaces[q as usize].patch,
-        progress,
-    );
-    times.kernels_s = clock.elapsed().as_secs_f64();
+    times.kernels_s += clock.elapsed().as_secs_f64();
+    Ok(Plan {
+        projector,
+        clusters,
+        linking,
+        pairs,
+        triples,
+        times,
+    })
+}
 
-    // Carry the emitters' links down to where their light changes
-    // (`resolve_emitter_links`), then arrange the links and solve the
-    // system they make. The refine–solve loop's intermediate solutions only
-    // estimate where light flows, so they skip the resolution; the solution
-    // returned always has it.
-    let assemble_and_solve =
-        |links: &[Link], three_point: &[ThreePointLink], resolve: bool, times: &mut PhaseTimes| {
+impl Projector {
+    /// Check the settings against `scene` and build the ray queries (and,
+    /// for the weighted oracles, the emission's light estimate).
+    pub fn new(scene: &Scene, settings: &SolveSettings) -> Result<Projector> {
+        Projector::timed(scene, settings, &mut PhaseTimes::default())
+    }
+
+    /// [`Projector::new`], adding its times to `times`.
+    fn timed(scene: &Scene, settings: &SolveSettings, times: &mut PhaseTimes) -> Result<Projector> {
+        settings.validate()?;
+        check_size(scene)?;
+        if settings.oracle == Oracle::Importance && scene.camera.is_none() {
+            return Err(Error::InvalidSetting(
+                "the importance oracle needs a sensor in the scene".into(),
+            ));
+        }
+
+        // Visibility structure.
+        let clock = Instant::now();
+        let scene = scene.clone();
+        let tracer = SceneTracer::new(&scene);
+        times.visibility_build_s += clock.elapsed().as_secs_f64();
+
+        let clock = Instant::now();
+        let ctx = KernelContext {
+            scene: &scene,
+            tracer: &tracer,
+            quadrature: settings.quadrature,
+        };
+        let estimate = settings
+            .oracle
+            .is_weighted()
+            .then(|| LightEstimate::emission(&scene, importance(&ctx, settings.oracle, &[])));
+        times.kernels_s += clock.elapsed().as_secs_f64();
+        Ok(Projector {
+            settings: *settings,
+            estimate,
+            tracer,
+            scene,
+        })
+    }
+
+    /// The scene projected in.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The settings of the solve.
+    pub fn settings(&self) -> &SolveSettings {
+        &self.settings
+    }
+
+    /// compute_kernel() (§4.2) of `block`: the adaptive two-point links of
+    /// its element pairs and three-point links of its surface triples,
+    /// refined in parallel.
+    pub fn project(&self, block: &BlockItems, progress: &dyn Progress) -> BlockLinks {
+        let clock = Instant::now();
+        let ctx = self.kernel_context();
+        let two_point = refine_links(
+            &ctx,
+            self.settings.refine,
+            self.estimate.as_ref(),
+            &block.element_pairs,
+            progress,
+        );
+        let three_point = refine_three_point_links(
+            &ctx,
+            self.settings.three_point_refine(),
+            self.estimate.as_ref(),
+            &block.triples,
+            |q| self.scene.surfaces[q as usize].patch,
+            progress,
+        );
+        BlockLinks {
+            items: block.items.clone(),
+            two_point,
+            three_point,
+            kernels_s: clock.elapsed().as_secs_f64(),
+        }
+    }
+
+    fn kernel_context(&self) -> KernelContext<'_> {
+        KernelContext {
+            scene: &self.scene,
+            tracer: &self.tracer,
+            quadrature: self.settings.quadrature,
+        }
+    }
+}
+
+/// The receivers' importance for the scene's sensor, lit through `links`,
+/// when the importance oracle decides.
+fn importance(ctx: &KernelContext, oracle: Oracle, links: &[Link]) -> Option<Importance> {
+    let camera = ctx.scene.camera.as_ref()?;
+    (oracle == Oracle::Importance).then(|| Importance::new(ctx, camera, &ctx.scene.film, links))
+}
+
+impl Plan {
+    /// What projects its items here.
+    pub fn projector(&self) -> &Projector {
+        &self.projector
+    }
+
+    /// The element pairs to project, the first items.
+    pub fn element_pairs(&self) -> &[[ElementRef; 2]] {
+        &self.linking.element_pairs
+    }
+
+    /// The surface triples (r, p, q) to project, the items after the
+    /// element pairs.
+    pub fn triples(&self) -> &[(u32, u32, u32)] {
+        &self.triples
+    }
+
+    /// The links between clusters, made by the linking (not projected).
+    pub fn cluster_links(&self) -> &[ClusterLink] {
+        &self.linking.cluster_links
+    }
+
+    /// Every item: `0..element pairs + triples`.
+    pub fn items(&self) -> Range<usize> {
+        0..self.linking.element_pairs.len() + self.triples.len()
+    }
+
+    /// The items in at most `n` consecutive blocks of sizes that differ by
+    /// one at most (none without items).
+    pub fn blocks(&self, n: usize) -> Vec<Range<usize>> {
+        let items = self.items().end;
+        let n = n.clamp(1, items.max(1));
+        (0..n)
+            .map(|k| k * items / n..(k + 1) * items / n)
+            .filter(|block| !block.is_empty())
+            .collect()
+    }
+
+    /// The items in `block`, to be projected by a [`Projector`].
+    pub fn block_items(&self, block: Range<usize>) -> Result<BlockItems> {
+        let items = self.items().end;
+        if block.start > block.end || block.end > items {
+            return Err(Error::Blocks {
+                items,
+                problem: format!("block {block:?} is not a range of them"),
+            });
+        }
+        let element_pairs = self.linking.element_pairs.len();
+        let (pairs, triples) = (
+            block.start.min(element_pairs)..block.end.min(element_pairs),
+            block.start.max(element_pairs) - element_pairs
+                ..block.end.max(element_pairs) - element_pairs,
+        );
+        Ok(BlockItems {
+            items: block,
+            element_pairs: self.linking.element_pairs[pairs].to_vec(),
+            triples: self.triples[triples].to_vec(),
+        })
+    }
+
+    /// compute_kernel() (§4.2) of the items in `block`
+    /// ([`Projector::project`]).
+    pub fn project(&self, block: Range<usize>, progress: &dyn Progress) -> Result<BlockLinks> {
+        Ok(self.projector.project(&self.block_items(block)?, progress))
+    }
+
+    /// Check that `blocks` hold every item once, in any order, as
+    /// [`Plan::finish`] needs.
+    pub fn check_cover(&self, blocks: &[BlockLinks]) -> Result<()> {
+        let items = self.items().end;
+        let mut ranges: Vec<Range<usize>> = blocks.iter().map(|b| b.items.clone()).collect();
+        ranges.sort_by_key(|r| (r.start, r.end));
+        let mut next = 0;
+        for range in ranges {
+            if range.start != next {
+                let problem = if range.start > next {
+                    format!("no block holds items {next}..{}", range.start)
+                } else {
+                    format!("block {range:?} overlaps the blocks before it")
+                };
+                return Err(Error::Blocks { items, problem });
+            }
+            next = range.end;
+        }
+        if next != items {
+            return Err(Error::Blocks {
+                items,
+                problem: format!("no block holds items {next}..{items}"),
+            });
+        }
+        Ok(())
+    }
+
+    /// The solution from the links of `blocks`, which must hold every item
+    /// once (in any order; they are taken in item order): carry the
+    /// emitters' links down to where their light changes, build the element
+    /// hierarchies, and solve; the weighted oracles' refine–solve loop runs
+    /// here. `stats.times.kernels_s` adds up the blocks' projection times.
+    pub fn finish(self, mut blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
+        // The blocks' links, in item order.
+        self.check_cover(&blocks)?;
+        blocks.sort_by_key(|b| b.items.start);
+        let mut times = self.times;
+        let (mut links, mut three_point) = (Vec::new(), Vec::new());
+        for block in blocks {
+            links.extend(block.two_point);
+            three_point.extend(block.three_point);
+            times.kernels_s += block.kernels_s;
+        }
+
+        let Plan {
+            projector: Projector {
+                scene, settings, ..
+            },
+            clusters,
+            linking,
+            pairs,
+            triples,
+            ..
+        } = &self;
+        let ctx = self.projector.kernel_context();
+        // Carry the emitters' links down to where their light changes
+        // (`resolve_emitter_links`), then arrange the links and solve the
+        // system they make. The refine–solve loop's intermediate solutions
+        // only estimate where light flows, so they skip the resolution; the
+        // solution returned always has it.
+        let assemble_and_solve = |links: &[Link],
+                                  three_point: &[ThreePointLink],
+                                  resolve: bool,
+                                  times: &mut PhaseTimes| {
             let clock = Instant::now();
             let resolved = if resolve {
                 resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0
@@ -206,78 +483,81 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
             let links = Links {
                 two_point: &resolved,
                 three_point,
-                clusters: (&clusters, &linking.cluster_links),
+                clusters: (clusters, &linking.cluster_links),
             };
-            let mut system = System::assemble(&ctx, &triples, trees, links, times);
+            let mut system = System::assemble(&ctx, triples, trees, links, times);
             let sweeps = system.solve(scene, settings, progress, times);
             (system, sweeps, resolved)
         };
-    let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
-    let (mut system, mut sweeps, mut resolved) =
-        assemble_and_solve(&links, &three_point, !looping, &mut times);
-    let mut passes = 1;
-    let mut final_system = !looping;
-    while looping && passes < settings.max_refine_passes {
-        let clock = Instant::now();
-        let estimate = LightEstimate::from_solution(
-            scene,
-            system.trees.clone(),
-            &system.radiance,
-            system
-                .interactions
-                .directional_radiance(&system.directional),
-            importance(&links),
-        );
-        let (more, refined) = refine_further(&ctx, settings.refine, &estimate, links, progress);
-        links = more;
-        let (more, refined_three_point) = refine_further(
-            &ctx,
-            settings.three_point_refine(),
-            &estimate,
-            three_point,
-            progress,
-        );
-        three_point = more;
-        times.kernels_s += clock.elapsed().as_secs_f64();
-        if refined + refined_three_point == 0 {
-            break;
+        let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
+        let (mut system, mut sweeps, mut resolved) =
+            assemble_and_solve(&links, &three_point, !looping, &mut times);
+        let mut passes = 1;
+        let mut final_system = !looping;
+        while looping && passes < settings.max_refine_passes {
+            let clock = Instant::now();
+            let estimate = LightEstimate::from_solution(
+                scene,
+                system.trees.clone(),
+                &system.radiance,
+                system
+                    .interactions
+                    .directional_radiance(&system.directional),
+                importance(&ctx, settings.oracle, &links),
+            );
+            let (more, refined) = refine_further(&ctx, settings.refine, &estimate, links, progress);
+            links = more;
+            let (more, refined_three_point) = refine_further(
+                &ctx,
+                settings.three_point_refine(),
+                &estimate,
+                three_point,
+                progress,
+            );
+            three_point = more;
+            times.kernels_s += clock.elapsed().as_secs_f64();
+            if refined + refined_three_point == 0 {
+                break;
+            }
+            passes += 1;
+            final_system = passes == settings.max_refine_passes;
+            (system, sweeps, resolved) =
+                assemble_and_solve(&links, &three_point, final_system, &mut times);
         }
-        passes += 1;
-        final_system = passes == settings.max_refine_passes;
-        (system, sweeps, resolved) =
-            assemble_and_solve(&links, &three_point, final_system, &mut times);
-    }
-    if !final_system {
-        (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
-    }
+        if !final_system {
+            (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
+        }
 
-    let stats = Stats {
-        projections: passes,
-        exchanging_pairs: pairs.len(),
-        kernel_pairs: pairs.len(),
-        cluster_links: linking.cluster_links.len(),
-        times,
-        ..Stats::new(
+        let stats = Stats {
+            projections: passes,
+            exchanging_pairs: pairs.len(),
+            kernel_pairs: pairs.len(),
+            cluster_links: linking.cluster_links.len(),
+            times,
+            ..Stats::new(
+                scene,
+                settings,
+                &system.trees,
+                &resolved,
+                &system.interactions.directional,
+                three_point.len(),
+                sweeps,
+            )
+        };
+        let (settings, pairs) = (*settings, pairs.clone());
+        let Projector { scene, tracer, .. } = self.projector;
+        Ok(Solution {
             scene,
+            tracer,
+            pairs,
+            trees: system.trees,
+            radiance: system.radiance,
+            interactions: system.interactions,
+            directional: system.directional,
             settings,
-            &system.trees,
-            &resolved,
-            &system.interactions.directional,
-            three_point.len(),
-            sweeps,
-        )
-    };
-    Ok(Solution {
-        scene: scene.clone(),
-        tracer,
-        pairs,
-        trees: system.trees,
-        radiance: system.radiance,
-        interactions: system.interactions,
-        directional: system.directional,
-        settings: *settings,
-        stats,
-    })
+            stats,
+        })
+    }
 }
 
 impl Solution {
