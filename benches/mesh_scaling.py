@@ -14,7 +14,7 @@ costs, not the error against a path tracer. Writes docs/scaling.md,
 keeping what follows its `<!-- notes -->` line. Standard library only.
 
     cargo build --release -p wavrad-cli
-    python3 benches/mesh_scaling.py                          # 10^3 … 10^6
+    python3 benches/mesh_scaling.py                          # 10^3 … 10^6 (an hour or more)
     python3 benches/mesh_scaling.py --sizes 1000 10000 --compare-up-to 10000
     python3 benches/mesh_scaling.py --mesh path/to/bunny.ply  # add a real mesh
 
@@ -92,7 +92,9 @@ def slope(xs: list[float], ys: list[float]) -> float:
     return num / den if den > 0 else float("nan")
 
 
-def measure(args) -> list[dict]:
+def measure(args, notes: str) -> list[dict]:
+    """Every case, the report rewritten after each (a long run that is
+    stopped keeps what it measured)."""
     rows = []
     cases = [("sphere", n) for n in args.sizes] + [("bowl", n) for n in args.bowl_sizes]
     if args.mesh:
@@ -118,6 +120,7 @@ def measure(args) -> list[dict]:
                 row["clustering_error"] = errors
                 row["unclustered"] = solve(args.wavrad, scene, ["--cluster-ratio", "0"])
             rows.append(row)
+            args.out.write_text(report(rows, args, notes))
             print(f"  {s['wall_s']:.1f} s, {s['peak_rss_bytes'] / 2**20:.0f} MiB", file=sys.stderr)
     return rows
 
@@ -179,7 +182,7 @@ def main() -> int:
     )
     parser.add_argument("--wavrad", type=Path, default=ROOT / "target/release/wavrad")
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000, 1000000])
-    parser.add_argument("--bowl-sizes", type=int, nargs="*", default=[1000, 10000, 100000])
+    parser.add_argument("--bowl-sizes", type=int, nargs="*", default=[1000, 10000])
     parser.add_argument("--compare-up-to", type=int, default=10000,
                         help="largest surface count solved unclustered too")
     parser.add_argument("--mesh", type=Path, help="a real mesh (PLY/OBJ) to fit into the box")
@@ -188,8 +191,7 @@ def main() -> int:
     notes = ""
     if args.out.exists() and NOTES in args.out.read_text():
         notes = args.out.read_text().split(NOTES, 1)[1]
-    rows = measure(args)
-    args.out.write_text(report(rows, args, notes))
+    measure(args, notes)
     print(f"wrote {args.out}", file=sys.stderr)
     return 0
 
