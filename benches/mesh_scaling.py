@@ -152,7 +152,8 @@ def report(rows: list[dict], args, notes: str) -> str:
         "",
         f"Written by `python3 benches/mesh_scaling.py {' '.join(sys.argv[1:])}` on "
         f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
-        f"{os.cpu_count()} logical CPUs ({platform.machine()}), load average {load:.2f} at the end. "
+        f"{os.cpu_count()} logical CPUs ({platform.machine()}), "
+        f"load average {load:.2f} at the end. "
         "The bundled Cornell box with its blocks replaced by a mesh (`benches/mesh_scenes.py`): "
         "`sphere` is a UV sphere (convex: its triangles never see each other), `bowl` a "
         "hemisphere open at the top, two-sided (concave: they do). Triangles exclude the box's "
@@ -170,8 +171,10 @@ def report(rows: list[dict], args, notes: str) -> str:
             xs = [r["stats"]["surfaces"] for r in rs]
             t = slope(xs, [r["stats"]["wall_s"] for r in rs])
             m = slope(xs, [r["stats"]["peak_rss_bytes"] for r in rs])
-            out.append(f"- {case}: log–log slope of time {t:.2f}, of memory {m:.2f} "
-                       f"({min(xs)}–{max(xs)} surfaces).")
+            out.append(
+                f"- {case}: log–log slope of time {t:.2f}, of memory {m:.2f} "
+                f"({min(xs)}–{max(xs)} surfaces)."
+            )
     out += ["", NOTES, notes.strip(), ""]
     return "\n".join(out)
 
@@ -183,8 +186,12 @@ def main() -> int:
     parser.add_argument("--wavrad", type=Path, default=ROOT / "target/release/wavrad")
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000, 1000000])
     parser.add_argument("--bowl-sizes", type=int, nargs="*", default=[1000, 10000])
-    parser.add_argument("--compare-up-to", type=int, default=10000,
-                        help="largest surface count solved unclustered too")
+    parser.add_argument(
+        "--compare-up-to",
+        type=int,
+        default=10000,
+        help="largest surface count solved unclustered too",
+    )
     parser.add_argument("--mesh", type=Path, help="a real mesh (PLY/OBJ) to fit into the box")
     parser.add_argument("--out", type=Path, default=ROOT / "docs/scaling.md")
     args = parser.parse_args()

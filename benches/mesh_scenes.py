@@ -33,7 +33,9 @@ def grid_sphere(triangles: int, rows_for_bowl: bool = False):
         theta = math.pi * (0.5 + 0.5 * i / rows) if rows_for_bowl else math.pi * i / rows
         for j in range(cols):
             phi = 2 * math.pi * j / cols
-            verts.append((math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi)))
+            verts.append(
+                (math.sin(theta) * math.cos(phi), math.cos(theta), math.sin(theta) * math.sin(phi))
+            )
     faces = []
     for i in range(rows):
         for j in range(cols):
@@ -52,7 +54,8 @@ def write_ply(path: Path, verts, faces):
         f.write(
             (
                 "ply\nformat binary_little_endian 1.0\n"
-                f"element vertex {len(verts)}\nproperty float x\nproperty float y\nproperty float z\n"
+                f"element vertex {len(verts)}\n"
+                "property float x\nproperty float y\nproperty float z\n"
                 f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n"
             ).encode()
         )
@@ -90,8 +93,20 @@ def mesh_bounds(path: Path) -> tuple[list[float], list[float]]:
                 break
         elif words[:1] == ["property"] and count and words[1] != "list":
             props.append(words[1])
-    sizes = {"float": "f", "float32": "f", "double": "d", "float64": "d", "uchar": "B", "uint8": "B",
-             "int": "i", "int32": "i", "uint": "I", "uint32": "I", "short": "h", "ushort": "H"}
+    sizes = {
+        "float": "f",
+        "float32": "f",
+        "double": "d",
+        "float64": "d",
+        "uchar": "B",
+        "uint8": "B",
+        "int": "i",
+        "int32": "i",
+        "uint": "I",
+        "uint32": "I",
+        "short": "h",
+        "ushort": "H",
+    }
     if fmt == "ascii":
         lines = data[end:].decode().splitlines()[:count]
         for line in lines:
@@ -135,7 +150,9 @@ def make(kind: str, triangles: int, out: Path) -> Path:
     verts, faces = grid_sphere(triangles, rows_for_bowl=(kind == "bowl"))
     write_ply(out / "mesh.ply", verts, faces)
     two_sided = '<bsdf type="twosided"><ref id="white"/></bsdf>'
-    return room("mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else '<ref id="white"/>')
+    return room(
+        "mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else '<ref id="white"/>'
+    )
 
 
 def make_from(mesh: Path, out: Path) -> Path:
@@ -144,8 +161,12 @@ def make_from(mesh: Path, out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     (out / mesh.name).write_bytes(mesh.read_bytes())
     lo, hi = mesh_bounds(mesh)
-    scale = 0.9 / max(h - l for l, h in zip(lo, hi))
-    offset = [-scale * 0.5 * (lo[0] + hi[0]), -0.999 - scale * lo[1], -scale * 0.5 * (lo[2] + hi[2])]
+    scale = 0.9 / max(top - bottom for bottom, top in zip(lo, hi))
+    offset = [
+        -scale * 0.5 * (lo[0] + hi[0]),
+        -0.999 - scale * lo[1],
+        -scale * 0.5 * (lo[2] + hi[2]),
+    ]
     return room(mesh.name, scale, offset, out, '<bsdf type="twosided"><ref id="white"/></bsdf>')
 
 

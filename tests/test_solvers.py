@@ -139,6 +139,7 @@ def test_every_setting_given_is_the_one_the_stats_report(scene: wavrad.Scene) ->
         "three_point_threshold": 3e-4,
         "three_point_max_level": 1,
         "three_point_receiver_levels": 1,
+        "cluster_ratio": 0.2,
         "refine_passes": 2,
         "tolerance": 1e-4,
         "max_iterations": 50,
