@@ -17,7 +17,7 @@ use crate::scene::Patch;
 /// floor of a furnace missed 2 % of its form factor to each wall, whose
 /// elements it cut near their edge).
 fn outer_is_a(a: &Patch, c: &Patch) -> bool {
-    let straddles = |p: &Patch, q: &Patch| sides_of_plane(q, p) == (true, true);
+    let straddles = |p: &Patch, q: &Patch| sides_of_plane(q, p, 0.0) == (true, true);
     match (straddles(a, c), straddles(c, a)) {
         (true, false) => false,
         (false, true) => true,

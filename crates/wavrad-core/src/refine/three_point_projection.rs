@@ -12,14 +12,14 @@
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
-use crate::kernel::{faces_away, KernelContext};
+use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
 use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
-use crate::scene::{Patch, Rgb, Scene};
+use crate::scene::{Patch, Rgb};
 
 /// A three-point interaction r → p → q: `L_{a→b} += coefficient · L_{c→a}`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -232,12 +232,14 @@ impl<'a> TripleRefiner<'a> {
 }
 
 /// Every (r, p, q) of whole surfaces that needs three-point links: p glossy,
-/// r able to light p, q able to receive from p (r may be q).
-pub fn surface_triples(scene: &Scene) -> Vec<(u32, u32, u32)> {
+/// r able to light p, q able to receive from p (r may be q; pairs that
+/// exchange nothing, [`KernelContext::exchange_nothing`], take no part).
+pub fn surface_triples(ctx: &KernelContext) -> Vec<(u32, u32, u32)> {
+    let scene = ctx.scene;
     let n = scene.surfaces.len() as u32;
     let sees = |x: u32, y: u32| {
         x != y
-            && !faces_away(
+            && !ctx.exchange_nothing(
                 &scene.surfaces[x as usize].patch,
                 &scene.surfaces[y as usize].patch,
             )

@@ -10,13 +10,13 @@
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::two_point_quadrature::OuterSamples;
-use crate::kernel::{self, KernelContext};
+use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
-use crate::scene::{Patch, Scene, Surface};
+use crate::scene::{Patch, Surface};
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
@@ -410,24 +410,26 @@ pub fn refine_links(
     estimate: Option<&LightEstimate>,
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    let pairs = linked_pairs(ctx.scene);
+    let pairs = linked_pairs(ctx);
     project_all("kernels", &pairs, progress, |&pair| {
         refine_pair(ctx, settings, estimate, pair)
     })
 }
 
-/// The surface pairs (p < r) that get two-point links: those not facing
-/// away from each other, at least one of which has a Lambertian lobe
-/// ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a glossy receiver's
-/// reflection goes through three-point links), in order.
-pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
+/// The surface pairs (p < r) that get two-point links: those that can
+/// exchange light (not facing away from each other nor pressed together,
+/// [`KernelContext::exchange_nothing`]), at least one of which has a
+/// Lambertian lobe ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a
+/// glossy receiver's reflection goes through three-point links), in order.
+pub fn linked_pairs(ctx: &KernelContext) -> Vec<(u32, u32)> {
+    let scene = ctx.scene;
     let n = scene.surfaces.len() as u32;
     (0..n)
         .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
         .filter(|&(p, r)| {
             let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
             let lambertian = |s: &Surface| s.brdf.lambertian().is_some();
-            !kernel::faces_away(&sp.patch, &sr.patch) && (lambertian(sp) || lambertian(sr))
+            !ctx.exchange_nothing(&sp.patch, &sr.patch) && (lambertian(sp) || lambertian(sr))
         })
         .collect()
 }
@@ -476,7 +478,7 @@ mod tests {
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
     use crate::refine::refine_further;
-    use crate::scene::{Rgb, Surface};
+    use crate::scene::{Rgb, Scene, Surface};
     use glam::DVec3;
 
     /// Two directly facing squares: the kernel over the four children of one

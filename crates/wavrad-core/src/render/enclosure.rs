@@ -98,7 +98,7 @@ impl EnclosureRadiance {
         let scene = &solution.scene;
         let faces = enclosure_faces(scene);
         let n = scene.surfaces.len() as u32;
-        let triples: Vec<(u32, u32, u32)> = glossy_sources(scene)
+        let triples: Vec<(u32, u32, u32)> = glossy_sources(solution)
             .into_iter()
             .flat_map(|(r, p)| (0..6u32).map(move |k| (r, p, n + k)))
             .filter(|&(_, p, q)| {

@@ -57,8 +57,8 @@ pub fn eye_patch(scene: &Scene, camera: &Camera) -> Patch {
 
 /// The (source r, glossy p) surface pairs through which light reaches a
 /// receiver from a glossy surface, in order.
-pub(crate) fn glossy_sources(scene: &Scene) -> BTreeSet<(u32, u32)> {
-    crate::refine::three_point_projection::surface_triples(scene)
+pub(crate) fn glossy_sources(solution: &Solution) -> BTreeSet<(u32, u32)> {
+    crate::refine::three_point_projection::surface_triples(&solution.kernel_context())
         .into_iter()
         .map(|(r, p, _)| (r, p))
         .collect()
@@ -72,7 +72,7 @@ impl EyeRadiance {
         let eye = eye_patch(scene, camera);
         let eye_index = scene.surfaces.len() as u32;
         let at = eye.centroid();
-        let triples: Vec<(u32, u32, u32)> = glossy_sources(scene)
+        let triples: Vec<(u32, u32, u32)> = glossy_sources(solution)
             .into_iter()
             .filter(|&(_, p)| {
                 let patch = &scene.surfaces[p as usize].patch;

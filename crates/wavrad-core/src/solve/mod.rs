@@ -160,7 +160,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         .is_weighted()
         .then(|| LightEstimate::emission(scene, importance(&[])));
     let mut links = refine_links(&ctx, settings.refine, estimate.as_ref(), progress);
-    let triples = surface_triples(scene);
+    let triples = surface_triples(&ctx);
     let mut three_point = refine_three_point_links(
         &ctx,
         settings.three_point_refine(),
@@ -229,7 +229,7 @@ pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -
         (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
     }
 
-    let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(scene).len();
+    let exchanging_pairs = crate::refine::two_point_projection::linked_pairs(&ctx).len();
     let stats = Stats {
         projections: passes,
         exchanging_pairs,

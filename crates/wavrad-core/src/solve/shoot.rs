@@ -318,7 +318,7 @@ struct Shooting<'a> {
 impl<'a> Shooting<'a> {
     fn new(ctx: KernelContext<'a>, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
         let scene = ctx.scene;
-        let pairs = linked_pairs(scene);
+        let pairs = linked_pairs(&ctx);
         let reflects = |s: u32| {
             let surface = &scene.surfaces[s as usize];
             surface
