@@ -33,10 +33,10 @@
 //! of a `twosided` surface (two coincident triangles facing opposite ways),
 //! a box resting on a floor. A closest-hit query meeting several triangles
 //! within that distance of each other reports the one whose front faces the
-//! ray, since that is the side the ray arrives at; otherwise which of two
-//! coincident triangles is reported would depend on rounding and traversal
-//! order, and a ray reaching a wall from inside a room could read the
-//! wall's outer side.
+//! ray, since that is the side the ray arrives at, then the one of lower
+//! index; otherwise which of two coincident triangles is reported would
+//! depend on rounding and traversal order, and a ray reaching a wall from
+//! inside a room could read the wall's outer side.
 
 use glam::DVec3;
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray, BvhBuildParams};
@@ -335,10 +335,30 @@ impl Occluder {
         clear
     }
 
+    /// The triangles whose bounding boxes meet the box [`lo`, `hi`] (a
+    /// superset of those that meet it), in no particular order.
+    pub fn near_box(&self, lo: DVec3, hi: DVec3) -> Vec<u32> {
+        let Some(BoxTree(boxes)) = &self.boxes else {
+            return Vec::new();
+        };
+        let query = Aabb::new(to_f32_down(lo).into(), to_f32_up(hi).into());
+        let mut found = Vec::new();
+        boxes.aabb_traverse(query, |bvh, node| {
+            let node = &bvh.nodes[node as usize];
+            let first = node.first_index as usize;
+            found.extend(&bvh.primitive_indices[first..first + node.prim_count as usize]);
+            true
+        });
+        found
+    }
+
     /// Closest hit along `origin + t·dir` with `t ∈ (tmin, tmax)` (open
     /// interval; `tmax` may be `f64::INFINITY`). Of triangles hit within
-    /// [`contact_distance`](Self::contact_distance) of each other, the one
-    /// whose front faces the ray wins, then the nearer, then the lower index.
+    /// [`contact_distance`](Self::contact_distance) of each other, one
+    /// contact, the one whose front faces the ray wins, then the one of
+    /// lower index (the two sides of a `twosided` surface, and one of two
+    /// coincident faces facing the same way, as
+    /// [`crate::geometry::tracing::SceneTracer::is_covered`] decides).
     pub fn intersect(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         if tmin.partial_cmp(&tmax) != Some(std::cmp::Ordering::Less) {
@@ -361,7 +381,7 @@ impl Occluder {
             let wins = match best {
                 None => true,
                 Some((b, b_faces)) if (t - b.t).abs() <= band => {
-                    (!faces, t, tri.id) < (!b_faces, b.t, b.primitive)
+                    (!faces, tri.id) < (!b_faces, b.primitive)
                 }
                 Some((b, _)) => t < b.t,
             };
@@ -632,31 +652,30 @@ mod tests {
 
     #[test]
     fn of_coincident_triangles_the_ray_sees_the_side_facing_it() {
-        // The two sides of a two-sided square at z = 1 (front up: ids 0, 1;
-        // front down: 2, 3, triangulated along the other diagonal, as a
-        // flipped parallelogram is), in either order, and a square facing
-        // up 1e-9 below them (4, 5): within the contact distance.
+        // The two sides of a two-sided square at z = 1 (front up, front
+        // down: triangulated along the other diagonal, as a flipped
+        // parallelogram is), and a square facing up 1e-9 below them, within
+        // the contact distance, in several orders. Pairs of ids are squares.
         let up = quad(1.0);
         let down = up.map(|[a, b, c]| [a, c, b]);
         let below = quad(1.0 - 1e-9);
-        for tris in [[up, down, below].concat(), [down, up, below].concat()] {
+        for (squares, from_below, from_above) in [
+            ([up, down, below], 1, 0),
+            ([down, up, below], 0, 1),
+            ([below, down, up], 1, 0),
+        ] {
+            let tris = squares.concat();
             let occ = Occluder::new(&tris);
             assert!(occ.contact_distance() > 1e-9 && occ.contact_distance() < 1e-6);
-            let facing_up = |p: u32| {
-                tris[p as usize][0].z == 1.0 && {
-                    let [a, b, c] = tris[p as usize];
-                    (b - a).cross(c - a).z > 0.0
-                }
-            };
             for k in 0..50 {
                 let r = crate::sampling::hash2(k, 7);
                 let origin = DVec3::new(1.8 * r.x - 0.9, 1.8 * r.y - 0.9, 0.0);
-                let from_below = occ.intersect(origin, DVec3::Z, 0.0, f64::INFINITY).unwrap();
-                assert!(!facing_up(from_below.primitive), "{origin}: {from_below:?}");
+                let hit = |o: DVec3, d| occ.intersect(o, d, 0.0, f64::INFINITY).unwrap();
+                let square = |o, d| hit(o, d).primitive / 2;
+                assert_eq!(square(origin, DVec3::Z), from_below, "{origin}");
                 let above = origin.with_z(2.0);
-                let from_above = occ.intersect(above, -DVec3::Z, 0.0, f64::INFINITY).unwrap();
-                assert!(facing_up(from_above.primitive), "{above}: {from_above:?}");
-                assert!((from_above.t - 1.0).abs() < 1e-12);
+                assert_eq!(square(above, -DVec3::Z), from_above, "{above}");
+                assert!((hit(above, -DVec3::Z).t - 1.0).abs() < 1e-8);
             }
         }
         // Farther apart than the contact distance, the nearer one is hit.
@@ -664,6 +683,12 @@ mod tests {
         let occ = Occluder::new(&tris);
         let hit = occ.intersect(DVec3::ZERO, DVec3::Z, 0.0, f64::INFINITY);
         assert_eq!(hit.map(|h| h.primitive / 2), Some(1));
+        // Box queries find what lies in the box, and not what is far.
+        let near: Vec<u32> = occ.near_box(DVec3::new(0.5, 0.5, 0.99), DVec3::new(0.9, 0.9, 0.9995));
+        assert!(near.contains(&2) || near.contains(&3), "{near:?}");
+        assert!(occ
+            .near_box(DVec3::splat(5.0), DVec3::splat(6.0))
+            .is_empty());
     }
 
     #[test]

@@ -38,10 +38,15 @@ const PROBES: [(f64, f64, f64); 5] = [
 /// some meet the back of one (it is inside a closed solid, under a
 /// one-sided surface, or outside the scene's walls: the part of a box's side
 /// reaching through the floor) or one within the contact distance of it (a
-/// face pressed against it, [`KernelContext::contact_distance`]). A point
+/// face pressed against it, [`KernelContext::contact_distance`]); or a
+/// coincident surface facing the same way covers it
+/// ([`SceneTracer::is_covered`](crate::geometry::tracing::SceneTracer::is_covered)). A point
 /// whose probes all leave the scene is exposed: it may still see an
 /// emitter the probes miss.
 pub fn is_buried(ctx: &KernelContext, surface: u32, x: DVec3, normal: DVec3) -> bool {
+    if ctx.tracer.is_covered(surface, x) {
+        return true;
+    }
     let (t, b) = tangents(normal);
     let coincident = ctx.contact_distance();
     let mut covered = false;
@@ -120,17 +125,25 @@ fn fraction(ctx: &KernelContext, element: KernelElement) -> f64 {
 /// whose Gauss points are all exposed, the buried part a strip along its
 /// edge (a box's side reaching through the floor), is not refined for it:
 /// its form factors are right for its exposed part.
+///
+/// Also true when another surface meets `element` along a line through its
+/// interior ([`SceneTracer::is_crossed`](crate::geometry::tracing::SceneTracer::is_crossed))
+/// and every point of the grid is exposed: the parts on either side are
+/// separate spaces that light reaches separately (the room and the inside
+/// of a `twosided` box standing on the floor, or the space below a
+/// `twosided` floor that a box reaches into), and the element would average
+/// the light of both.
 pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
     const AT: [f64; 4] = [0.01, 1.0 / 3.0, 2.0 / 3.0, 0.99];
     let (surface, element) = (element.surface, element.patch);
     let normal = ctx.scene.surfaces[surface as usize].patch.normal();
     let buried = |x: DVec3| is_buried(ctx, surface, x, normal);
     // The Gauss points first: most elements have none buried.
-    if !element
+    let gauss_buried = element
         .gauss_points(ctx.quadrature.points)
         .iter()
-        .any(|p| buried(p.position))
-    {
+        .any(|p| buried(p.position));
+    if !gauss_buried && !ctx.tracer.is_crossed(surface, element) {
         return false;
     }
     let mut seen = [false; 2];
@@ -138,10 +151,10 @@ pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
         let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
         seen[usize::from(buried(element.point_at(element.square_to_param(uv))))] = true;
         if seen == [true; 2] {
-            return true;
+            return gauss_buried;
         }
     }
-    false
+    !gauss_buried && !seen[1]
 }
 
 /// Exposed fractions of the elements of the directional structures' pairs,

@@ -100,24 +100,30 @@ impl KernelContext<'_> {
     /// weighted by the kernel cosθ_x cosθ_y / r² towards it (as Lambert's
     /// formula weighs the polygon's points, so that an occluder hiding the
     /// polygon's near part hides more than its share of the targets), the
-    /// primitives `skip` accepts never occluding. The targets lie on the
-    /// `polygon` they sample; when none of them is in front of `x` but part of
-    /// the polygon is (a large element straddling `x`'s plane, whose front part
-    /// Lambert's formula still counts), the centroid of that part stands in for
-    /// them. 0 when nothing is in front. With `clear`, the caller knows that
-    /// nothing blocks the shaft between `x`'s element and the polygon
+    /// primitives `skip` accepts never occluding, and targets covered by a
+    /// coincident surface ([`SceneTracer::is_covered`]) never seen. The
+    /// targets lie on the `inner` element they sample; when none of them is
+    /// in front of `x` but part of the element is (a large element straddling
+    /// `x`'s plane, whose front part Lambert's formula still counts), the
+    /// centroid of that part stands in for them. 0 when nothing is in front.
+    /// With `clear`, the caller knows that nothing blocks the shaft between
+    /// `x`'s element and `inner`
     /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)):
     /// no ray is traced, and the result is the same.
     pub fn visible_fraction(
         &self,
         x: DVec3,
         n_x: DVec3,
-        polygon: &[DVec3],
+        inner: KernelElement,
         targets: &[AreaSample],
         skip: impl Fn(u32) -> bool + Copy,
         clear: bool,
     ) -> f64 {
-        let sees = |y: DVec3| clear || !self.tracer.occluder.occluded_except(x, y, skip);
+        let sees = |y: DVec3| {
+            !self.tracer.is_covered(inner.surface, y)
+                && (clear || !self.tracer.occluder.occluded_except(x, y, skip))
+        };
+        let polygon = inner.patch.vertices();
         let n_y = (polygon[1] - polygon[0])
             .cross(polygon[2] - polygon[0])
             .normalize_or_zero();
@@ -137,7 +143,7 @@ impl KernelContext<'_> {
         if total > 0.0 {
             return seen / total;
         }
-        let front = form_factor::front_part(polygon, x, n_x);
+        let front = form_factor::front_part(&polygon, x, n_x);
         if front.len() < 3 {
             return 0.0;
         }
