@@ -24,6 +24,31 @@ pub enum Error {
         /// The most wavrad accepts.
         limit: usize,
     },
+    /// No surface emits: the solution would be black everywhere.
+    #[error(
+        "the scene has no light: no surface emits (only area emitters on shapes, with positive \
+         radiance, light a wavrad scene)"
+    )]
+    NoLight,
+    /// Gauss–Seidel's residual kept growing: the system does not conserve
+    /// energy (a receiver's form factors, or a glossy BRDF's coefficients,
+    /// sum to more than it can reflect).
+    #[error(
+        "the radiance solution diverges: after {sweeps} Gauss–Seidel sweeps its residual has \
+         grown for {growing} sweeps in a row, to {residual:.3e}; growing fastest: {}",
+        surfaces.join(", ")
+    )]
+    Diverged {
+        /// Sweeps done.
+        sweeps: u32,
+        /// Sweeps in a row the residual grew.
+        growing: u32,
+        /// The last sweep's residual.
+        residual: f64,
+        /// The surfaces whose radiance changed most in the last sweep,
+        /// most first: name and index.
+        surfaces: Vec<String>,
+    },
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,

@@ -113,8 +113,9 @@ pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] for a scene with a glossy surface, for the
-/// importance oracle, or for bad settings; [`Error::EmptyScene`] and
-/// [`Error::TooManySurfaces`] as [`super::solve`].
+/// importance oracle, or for bad settings; [`Error::EmptyScene`],
+/// [`Error::TooManySurfaces`], [`Error::NoLight`] and [`Error::Diverged`]
+/// as [`super::solve`].
 pub fn solve_shooting(
     scene: &Scene,
     settings: &SolveSettings,
@@ -123,6 +124,7 @@ pub fn solve_shooting(
 ) -> Result<Solution> {
     settings.validate()?;
     super::check_size(scene)?;
+    super::check_light(scene)?;
     if let Some(s) = scene
         .surfaces
         .iter()
@@ -200,8 +202,11 @@ pub fn solve_shooting(
     let trees = super::element_trees(scene, &links, &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
     let mut system = System::assemble(&ctx, &[], trees, &links, &[], &mut shooting.times);
-    let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
-    solution.stats = shooting.stats(&system.trees, sweeps);
+    let sweeps = system.solve(scene, settings, progress, &mut shooting.times)?;
+    solution.stats = Stats {
+        limited_leaves: system.interactions.limited_leaves,
+        ..shooting.stats(&system.trees, sweeps)
+    };
     solution.trees = system.trees;
     solution.radiance = system.radiance;
     solution.interactions = system.interactions;
@@ -289,7 +294,8 @@ impl SurfaceState {
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
-        let received = push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure));
+        let received =
+            push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure), None);
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             *l += d;
             *u += d;
