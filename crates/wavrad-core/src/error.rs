@@ -49,6 +49,17 @@ pub enum Error {
         /// most first: name and index.
         surfaces: Vec<String>,
     },
+    /// A rendered image has pixels that are not finite numbers.
+    #[error(
+        "{count} of the image's {total} pixels are not finite (infinite or NaN): the solution \
+         is wrong, and no image is written"
+    )]
+    NonFinitePixels {
+        /// Pixels with a channel that is infinite or NaN.
+        count: usize,
+        /// Pixels in the image.
+        total: usize,
+    },
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,

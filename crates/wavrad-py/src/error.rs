@@ -5,7 +5,8 @@
 //! Exception
 //! └── WavradError
 //!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line)
-//!     └── SolveError   wavrad-core: settings, empty scene, missing sensor
+//!     └── SolveError   wavrad-core: settings, empty scene, no light, missing sensor,
+//!                      a diverging solve, an image with pixels not finite
 //! ```
 //! Settings outside their described range or choices, and settings that do
 //! not go together, are `SolveError`s; arguments Python cannot convert (a
@@ -32,7 +33,7 @@ create_exception!(
     wavrad,
     SolveError,
     WavradError,
-    "The solver or renderer refused its input (invalid settings, empty scene, no sensor)."
+    "The solver or renderer refused its input or failed (invalid settings, empty scene, no light, no sensor, a diverging solve, pixels not finite)."
 );
 
 /// Everything the binding can fail with.
