@@ -9,6 +9,7 @@
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
+use crate::kernel::form_factor::point_to_polygon;
 use crate::kernel::two_point_quadrature::OuterSamples;
 use crate::kernel::KernelContext;
 use crate::progress::Progress;
@@ -267,12 +268,30 @@ impl<'a> PairRefiner<'a> {
         Some(means)
     }
 
-    /// The kernel's details one level below those the paper's oracle sees,
-    /// wherever the quadrature already sampled them: over the quadrants of
-    /// each child of `split` (when the child was the point-sampled element),
-    /// and over the quadrants of `other` (when it was, for every child).
+    /// The outer samples `outer`'s Gauss points would give against `inner`
+    /// without occlusion (Lambert's closed form alone, no rays): where
+    /// `outer` was the inner element of its quadrature, how the kernel
+    /// varies over its quadrants, for the look-ahead; `None` unless the rule
+    /// has four points.
+    fn unoccluded(&self, outer: &Part, inner: &Part) -> Option<[f64; 4]> {
+        let (normal, polygon) = (outer.patch.normal(), inner.patch.vertices());
+        let n_inner = inner.patch.normal();
+        let points = outer.patch.gauss_points(self.ctx.quadrature.points);
+        let contributions: Vec<f64> = points
+            .iter()
+            .map(|x| x.weight * point_to_polygon(x.position, normal, &polygon, n_inner))
+            .collect();
+        <[f64; 4]>::try_from(&contributions[..]).ok()
+    }
+
+    /// The kernel's details one level below those the paper's oracle sees:
+    /// over the quadrants of each child of `split` (from its quadrature
+    /// when the child was the point-sampled element, else from Lambert's
+    /// unoccluded factor at the same points, [`Self::unoccluded`]), and over
+    /// the quadrants of `other` (when it was point-sampled for every child).
     /// Returns the verdicts for (children, other). A kernel symmetric over
-    /// the four children (two facing walls) has zero details at the
+    /// the four children (two facing walls; a small square centred under a
+    /// large one, a light's back under the ceiling) has zero details at the
     /// children's level however much it varies inside them; this catches it.
     fn look_ahead(
         &self,
@@ -285,10 +304,15 @@ impl<'a> PairRefiner<'a> {
         let pass = Verdict::PASS;
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
-            if !s.outer_is_a || child.element.id.level >= max {
+            if child.element.id.level >= max {
                 return v;
             }
-            four(s)
+            let contributions = if s.outer_is_a {
+                four(s)
+            } else {
+                self.unoccluded(child, other)
+            };
+            contributions
                 .and_then(|c| self.quadrant_means(c, child, other))
                 .map_or(v, |m| v.and(self.test(m, child, other)))
         });
@@ -540,6 +564,45 @@ mod tests {
                 assert!((t / l.throughput - f64::from(share)).abs() < 1e-6, "{l:?}");
             }
         }
+    }
+
+    /// A small square centred 1 cm under a large one, facing it (a light's
+    /// back under the ceiling): the kernel is the same over the large one's
+    /// four quadrants, each holding a quarter of the small one's shadow, so
+    /// the children's details vanish although the kernel drops from ~1 to
+    /// ~0 inside each. The large square is the inner element of the
+    /// quadrature; the look-ahead must still refine it around the shadow.
+    #[test]
+    fn a_small_square_centred_under_a_large_one_is_refined_below_the_root() {
+        let square = |centre: DVec3, side: f64, up: bool| {
+            let (s, t) = if up {
+                (DVec3::X, DVec3::Y)
+            } else {
+                (DVec3::Y, DVec3::X)
+            };
+            crate::testing::grey(Patch::Parallelogram {
+                origin: centre - 0.5 * side * (s + t),
+                edge_s: s * side,
+                edge_t: t * side,
+            })
+        };
+        let scene = Scene::from_surfaces(vec![
+            square(DVec3::new(0.0, 0.0, 1.0), 2.0, false),
+            square(DVec3::new(0.0, 0.0, 0.99), 0.4, true),
+        ]);
+        let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
+        let settings = RefineSettings {
+            threshold: 1e-3,
+            max_level: 5,
+        };
+        let links = refine_links(&ctx, settings, None, &Silent);
+        // The shadow's outline is resolved to the maximum level.
+        let finest = links.iter().filter(|l| l.a.level == 5).count();
+        assert!(finest > 100, "{} links, {finest} at level 5", links.len());
+        // Almost all the small square's light reaches the large one.
+        let t: f64 = links.iter().map(|l| l.throughput).sum();
+        assert!(t > 0.95 * 0.16 && t <= 0.16, "{t}");
     }
 
     /// An emitter over a dark floor, and a second dark square facing the
