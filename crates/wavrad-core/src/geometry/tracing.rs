@@ -32,6 +32,9 @@ pub struct SceneTracer {
 /// Where other surfaces meet one surface.
 #[derive(Debug, Default)]
 struct Contacts {
+    /// The surfaces lying in its plane (facing either way: the other side
+    /// of a `twosided` surface is one), in order.
+    coplanar: Vec<u32>,
     /// The coplanar surfaces of lower index facing the same way that
     /// overlap it.
     covering: Vec<Patch>,
@@ -90,6 +93,13 @@ impl SceneTracer {
         self.contacts
             .get(&surface)
             .is_some_and(|c| c.covering.iter().any(|p| p.contains_param(p.param_of(x))))
+    }
+
+    /// The surfaces lying in the plane of surface `surface` (within the
+    /// contact distance), facing either way: a segment leaving it towards
+    /// a surface in front of it cannot cross them.
+    pub fn coplanar(&self, surface: u32) -> &[u32] {
+        self.contacts.get(&surface).map_or(&[], |c| &c.coplanar[..])
     }
 
     /// True when another surface meets `element`, a part of surface
@@ -155,6 +165,7 @@ fn contacts(scene: &Scene, occluder: &Occluder, prim_surface: &[u32]) -> BTreeMa
                 .map(|h| if h.abs() <= contact { 0.0 } else { h })
                 .collect();
             if heights.iter().all(|&h| h == 0.0) {
+                found.coplanar.push(r);
                 if (r as usize) < s
                     && other.normal().dot(normal) > 0.0
                     && overlap(&vertices, &others, normal, contact)
@@ -167,7 +178,7 @@ fn contacts(scene: &Scene, occluder: &Occluder, prim_surface: &[u32]) -> BTreeMa
                 }
             }
         }
-        if !found.covering.is_empty() || !found.crossing.is_empty() {
+        if !found.coplanar.is_empty() || !found.crossing.is_empty() {
             out.insert(s as u32, found);
         }
     }
@@ -303,6 +314,8 @@ mod tests {
             !tracer.is_covered(4, DVec3::new(2.0, 1.0, 0.0)),
             "it only touches"
         );
+        // All lie in one plane, whichever way they face.
+        assert_eq!(tracer.coplanar(2), &[0, 1, 3, 4]);
         // What a ray arriving from above sees is what covers the others.
         let hit = tracer.trace(inside + DVec3::Z, -DVec3::Z, 0.0, f64::INFINITY);
         assert_eq!(hit.map(|h| h.surface), Some(0));

@@ -88,11 +88,17 @@ impl KernelContext<'_> {
     }
 
     /// The occlusion test of an interaction between surfaces `a` and `c`:
-    /// true for the primitives of either, which never occlude it.
+    /// true for the primitives of either, which never occlude it, and of
+    /// the surfaces lying in the plane of either
+    /// ([`SceneTracer::coplanar`]: the other side of a `twosided` surface),
+    /// which a segment between them cannot cross; shafts next to a
+    /// `twosided` surface are clear again
+    /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)).
     pub fn skipping(&self, a: u32, c: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+        let (in_a, in_c) = (self.tracer.coplanar(a), self.tracer.coplanar(c));
         move |prim: u32| {
             let s = self.tracer.surface_of(prim);
-            s == a || s == c
+            s == a || s == c || in_a.contains(&s) || in_c.contains(&s)
         }
     }
 
