@@ -365,14 +365,6 @@ fn report(solution: &Solution, output: Option<&Path>) {
             s.residual, s.iterations, solution.settings.tolerance
         );
     }
-    if s.limited_leaves > 0 {
-        eprintln!(
-            "wavrad: warning: {} elements' form factors summed so far above one that they \
-             would reflect more light than reaches them (surfaces closer together than their \
-             elements resolve?); their reflection was scaled down",
-            s.limited_leaves
-        );
-    }
     if s.shooting_steps > 0 {
         eprintln!(
             "wavrad: {} shooting steps (unshot {:.2e} of the emitted power); kernels projected for \
