@@ -13,7 +13,7 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use support::{stderr, wavrad, write};
+use support::{small_scene, stderr, wavrad, write};
 
 /// The bundled Cornell box's XML.
 fn cornell_box() -> String {
@@ -105,9 +105,8 @@ fn boxes_resting_on_the_floor_render_as_lifted_ones() {
 #[test]
 fn a_scene_without_light_is_an_error_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let dark = cornell_box()
-        .replace("<emitter type=\"area\">", "<!--")
-        .replace("</emitter>", "-->");
+    let emitter = "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter>";
+    let dark = replaced(&small_scene(""), emitter, "");
     let scene = write(dir.path(), "dark.xml", &dark);
     let out = dir.path().join("dark.exr");
     let o = wavrad(&["render", &scene, "-o", out.to_str().unwrap()]);
