@@ -752,11 +752,7 @@ mod tests {
         let scene = facing_squares(0.7);
         let tracer = SceneTracer::new(&scene);
         let settings = SolveSettings::default();
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: settings.quadrature,
-        };
+        let ctx = crate::kernel::default_context(&scene, &tracer);
         let mut system = doubled_links(&ctx, &settings);
         assert!(system.interactions.limited_leaves > 0);
         let sweeps = system
