@@ -56,8 +56,9 @@ class SceneError(WavradError):
     plan."""
 
 class SolveError(WavradError):
-    """The solver or renderer refused its input (invalid settings, empty scene,
-    no sensor)."""
+    """The solver or renderer refused its input or failed (invalid settings,
+    empty scene, no light, no sensor, a diverging solve, pixels not
+    finite)."""
 
 @final
 class Scene:
@@ -126,8 +127,9 @@ class Solution:
         interior pixel's camera rays also final-gather (default ``spp`` / 32).
         Raises ``SolveError`` for an unknown mode, a value out of range, an
         option the mode has no use for (``eye=False`` with ``"gather"``,
-        ``gather_cache=True`` with any other mode) and a scene without a
-        sensor; ``TypeError`` for an unknown keyword.
+        ``gather_cache=True`` with any other mode), a scene without a
+        sensor and an image with pixels that are not finite (never returned);
+        ``TypeError`` for an unknown keyword.
         """
     @property
     def radiance(self) -> npt.NDArray[np.float64]:
@@ -151,7 +153,10 @@ class Solution:
         weighted oracles' refine-solve loop, at most ``refine_passes``),
         ``shooting_steps`` and
         ``unshot_fraction`` (0 when gathering), ``kernel_pairs`` (surface
-        pairs whose kernels were projected) and ``exchanging_pairs``."""
+        pairs whose kernels were projected) and ``exchanging_pairs``; and
+        ``limited_leaves``, the leaves whose form factors summed so far
+        above one that they would reflect more light than reached them,
+        and whose reflection was scaled down."""
 
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
@@ -224,8 +229,10 @@ def solve(
     of the wrong type or an ``on_step`` without ``solver="shoot"``, and
     ``SolveError`` for a value outside its range (the message names the
     setting and the range), an unknown ``oracle`` or ``solver``, the
-    importance oracle on a scene without a sensor, and the shooting solver
-    on a glossy scene or with the importance oracle."""
+    importance oracle on a scene without a sensor, the shooting solver
+    on a glossy scene or with the importance oracle, a scene where no
+    surface emits (before any kernel work), and a solve whose Gauss-Seidel
+    residual keeps growing (the message names the surfaces)."""
 
 class Plan:
     """A gathering solve planned up to its kernel projection (:func:`plan`):

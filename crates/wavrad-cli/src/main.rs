@@ -362,6 +362,13 @@ fn report(solution: &Solution, output: Option<&Path>) {
         t.solve_s,
         t.render_s
     );
+    if !s.converged {
+        eprintln!(
+            "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \
+             {:.0e}); more --max-iterations may help",
+            s.residual, s.iterations, solution.settings.tolerance
+        );
+    }
     if s.shooting_steps > 0 {
         eprintln!(
             "wavrad: {} shooting steps (unshot {:.2e} of the emitted power); kernels projected for \

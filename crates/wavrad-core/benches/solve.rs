@@ -19,7 +19,8 @@ fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
         let read = (&radiance[..], &s.directional[..]);
         let gathered = s.interactions.gather(p, rho, &s.trees[p], read, &far);
         let exposure = Some(&s.interactions.exposure[p][..]);
-        radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure);
+        let limit = Some(&s.interactions.limit[p][..]);
+        radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure, limit);
     }
 }
 
@@ -63,7 +64,8 @@ fn gauss_seidel(c: &mut Criterion) {
     group.bench_function("push_pull (busiest surface)", |b| {
         let exposure = Some(&s.interactions.exposure[busiest][..]);
         let emission = scene.surfaces[busiest].emission;
-        b.iter(|| push_pull(tree, black_box(&gathered), emission, exposure))
+        let limit = Some(&s.interactions.limit[busiest][..]);
+        b.iter(|| push_pull(tree, black_box(&gathered), emission, exposure, limit))
     });
     group.finish();
 }

@@ -33,6 +33,42 @@ pub enum Error {
         /// What does not fit.
         problem: String,
     },
+    /// No surface emits: the solution would be black everywhere.
+    #[error(
+        "the scene has no light: no surface emits (only area emitters on shapes, with positive \
+         radiance, light a wavrad scene)"
+    )]
+    NoLight,
+    /// Gauss–Seidel's residual kept growing: the system does not conserve
+    /// energy (a receiver's form factors, or a glossy BRDF's coefficients,
+    /// sum to more than it can reflect).
+    #[error(
+        "the radiance solution diverges: after {sweeps} Gauss–Seidel sweeps its residual has \
+         grown for {growing} sweeps in a row, to {residual:.3e}; growing fastest: {}",
+        surfaces.join(", ")
+    )]
+    Diverged {
+        /// Sweeps done.
+        sweeps: u32,
+        /// Sweeps in a row the residual grew.
+        growing: u32,
+        /// The last sweep's residual.
+        residual: f64,
+        /// The surfaces whose radiance changed most in the last sweep,
+        /// most first: name and index.
+        surfaces: Vec<String>,
+    },
+    /// A rendered image has pixels that are not finite numbers.
+    #[error(
+        "{count} of the image's {total} pixels are not finite (infinite or NaN): the solution \
+         is wrong, and no image is written"
+    )]
+    NonFinitePixels {
+        /// Pixels with a channel that is infinite or NaN.
+        count: usize,
+        /// Pixels in the image.
+        total: usize,
+    },
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,

@@ -20,7 +20,7 @@ fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
         tracer: &tracer,
         quadrature: settings.quadrature,
     };
-    let links = refine_links(&ctx, settings.refine, None, &root_pairs(&scene), &Silent);
+    let links = refine_links(&ctx, settings.refine, None, &root_pairs(&ctx), &Silent);
     let t: f64 = links.iter().map(|l| l.throughput).sum();
     (t / a.area(), t / c.area())
 }

@@ -6,7 +6,8 @@
 //! └── WavradError
 //!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line),
 //!     │                blocks of links (wavrad.Plan)
-//!     └── SolveError   wavrad-core: settings, empty scene, missing sensor,
+//!     └── SolveError   wavrad-core: settings, empty scene, no light, missing sensor,
+//!                      a diverging solve, an image with pixels not finite,
 //!                      blocks that do not cover a plan
 //! ```
 //! Settings outside their described range or choices, and settings that do
@@ -34,7 +35,7 @@ create_exception!(
     wavrad,
     SolveError,
     WavradError,
-    "The solver or renderer refused its input (invalid settings, empty scene, no sensor)."
+    "The solver or renderer refused its input or failed (invalid settings, empty scene, no light, no sensor, a diverging solve, pixels not finite)."
 );
 
 /// Everything the binding can fail with.

@@ -130,7 +130,7 @@ impl Solution {
                 })
             })?;
         }
-        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings));
+        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings))?;
         Ok(pixels(py, image.width, image.height, image.rgb))
     }
 

@@ -26,6 +26,17 @@
 //! closer than 1e-4 along the ray.
 //!
 //! Occlusion queries stop at the first blocking triangle (any-hit early exit).
+//!
+//! # Contact
+//!
+//! Surfaces closer than [`Occluder::contact_distance`] touch: the two sides
+//! of a `twosided` surface (two coincident triangles facing opposite ways),
+//! a box resting on a floor. A closest-hit query meeting several triangles
+//! within that distance of each other reports the one whose front faces the
+//! ray, since that is the side the ray arrives at, then the one of lower
+//! index; otherwise which of two coincident triangles is reported would
+//! depend on rounding and traversal order, and a ray reaching a wall from
+//! inside a room could read the wall's outer side.
 
 use glam::DVec3;
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray, BvhBuildParams};
@@ -38,6 +49,11 @@ pub const SEGMENT_EPSILON: f64 = 1e-6;
 
 /// Relative padding of the `f32` bounding boxes (times the scene's size).
 const BOX_PAD: f64 = 1e-5;
+
+/// Contact distance relative to the scene's size
+/// ([`Occluder::contact_distance`]): far above the rounding of `f64`
+/// coordinates (1e-16), far below any gap a scene models on purpose.
+const CONTACT: f64 = 1e-7;
 
 /// A closest hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -121,6 +137,8 @@ pub struct Occluder {
     /// How far (world units) the f32 ray starts behind the real origin and
     /// overshoots the real end.
     slack: f64,
+    /// Surfaces closer than this (world units) touch.
+    contact: f64,
 }
 
 impl Occluder {
@@ -135,6 +153,7 @@ impl Occluder {
                 slot_of: Vec::new(),
                 pad: 0.0,
                 slack: 0.0,
+                contact: 0.0,
             };
         }
         let mut lo = DVec3::splat(f64::INFINITY);
@@ -194,7 +213,19 @@ impl Occluder {
             pad,
             // obvhs skips boxes closer than 1e-4 along the (unit) f32 ray.
             slack: 2e-4 + 4.0 * pad,
+            contact: CONTACT * scale.max(f64::MIN_POSITIVE),
         }
+    }
+
+    /// The distance (world units) below which two surfaces touch: 1e-7 of
+    /// the scene's size (the larger of its extent and its largest
+    /// coordinate). Hits closer together along a ray than this are one
+    /// contact, and the side facing the ray is reported
+    /// ([`intersect`](Self::intersect)); faces closer than this are pressed
+    /// together and exchange no light
+    /// ([`crate::kernel::exposure`]).
+    pub fn contact_distance(&self) -> f64 {
+        self.contact
     }
 
     /// Number of triangles.
@@ -318,35 +349,71 @@ impl Occluder {
         clear
     }
 
+    /// The triangles whose bounding boxes meet the box [`lo`, `hi`] (a
+    /// superset of those that meet it), in no particular order.
+    pub fn near_box(&self, lo: DVec3, hi: DVec3) -> Vec<u32> {
+        let Some(BoxTree(boxes)) = &self.boxes else {
+            return Vec::new();
+        };
+        let query = Aabb::new(to_f32_down(lo).into(), to_f32_up(hi).into());
+        let mut found = Vec::new();
+        boxes.aabb_traverse(query, |bvh, node| {
+            let node = &bvh.nodes[node as usize];
+            let first = node.first_index as usize;
+            found.extend(&bvh.primitive_indices[first..first + node.prim_count as usize]);
+            true
+        });
+        found
+    }
+
     /// Closest hit along `origin + t·dir` with `t ∈ (tmin, tmax)` (open
-    /// interval; `tmax` may be `f64::INFINITY`).
+    /// interval; `tmax` may be `f64::INFINITY`). Of triangles hit within
+    /// [`contact_distance`](Self::contact_distance) of each other, one
+    /// contact, the one whose front faces the ray wins, then the one of
+    /// lower index (the two sides of a `twosided` surface, and one of two
+    /// coincident faces facing the same way, as
+    /// [`crate::geometry::tracing::SceneTracer::is_covered`] decides).
     pub fn intersect(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         if tmin.partial_cmp(&tmax) != Some(std::cmp::Ordering::Less) {
             return None;
         }
         let (ray, len) = self.cull_ray(origin, dir, tmax)?;
-        let mut best: Option<Hit> = None;
-        let mut best_t = tmax;
+        // The contact distance in units of the ray parameter.
+        let band = self.contact / len;
+        let mut best: Option<(Hit, bool)> = None;
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |_, slot| {
             let tri = &self.tris[slot];
-            match tri.intersect(origin, dir) {
-                Some((t, u, v)) if t > tmin && t < best_t => {
-                    best_t = t;
-                    best = Some(Hit {
-                        t,
-                        primitive: tri.id,
-                        u,
-                        v,
-                    });
-                    // Shrink the f32 ray conservatively (see `cull_ray`).
-                    self.cull_tmax(t, len)
-                }
-                _ => f32::INFINITY,
+            let Some((t, u, v)) = tri.intersect(origin, dir) else {
+                return f32::INFINITY;
+            };
+            if t <= tmin || t >= tmax {
+                return f32::INFINITY;
             }
+            let faces = tri.e1.cross(tri.e2).dot(dir) < 0.0;
+            let wins = match best {
+                None => true,
+                Some((b, b_faces)) if (t - b.t).abs() <= band => {
+                    (!faces, tri.id) < (!b_faces, b.primitive)
+                }
+                Some((b, _)) => t < b.t,
+            };
+            if !wins {
+                return f32::INFINITY;
+            }
+            let found = Hit {
+                t,
+                primitive: tri.id,
+                u,
+                v,
+            };
+            best = Some((found, faces));
+            // Shrink the f32 ray conservatively (see `cull_ray`), keeping
+            // the triangles in contact with this one.
+            self.cull_tmax(t + band, len)
         });
-        best
+        best.map(|(hit, _)| hit)
     }
 
     /// The f32 ray that obvhs traverses for `origin + t·dir`, `t ≤ tmax`:
@@ -595,6 +662,47 @@ mod tests {
         assert_eq!(occ.intersect(origin, dir, 0.0, 0.5), None);
         // Backwards: nothing.
         assert_eq!(occ.intersect(origin, -dir, 0.0, f64::INFINITY), None);
+    }
+
+    #[test]
+    fn of_coincident_triangles_the_ray_sees_the_side_facing_it() {
+        // The two sides of a two-sided square at z = 1 (front up, front
+        // down: triangulated along the other diagonal, as a flipped
+        // parallelogram is), and a square facing up 1e-9 below them, within
+        // the contact distance, in several orders. Pairs of ids are squares.
+        let up = quad(1.0);
+        let down = up.map(|[a, b, c]| [a, c, b]);
+        let below = quad(1.0 - 1e-9);
+        for (squares, from_below, from_above) in [
+            ([up, down, below], 1, 0),
+            ([down, up, below], 0, 1),
+            ([below, down, up], 1, 0),
+        ] {
+            let tris = squares.concat();
+            let occ = Occluder::new(&tris);
+            assert!(occ.contact_distance() > 1e-9 && occ.contact_distance() < 1e-6);
+            for k in 0..50 {
+                let r = crate::sampling::hash2(k, 7);
+                let origin = DVec3::new(1.8 * r.x - 0.9, 1.8 * r.y - 0.9, 0.0);
+                let hit = |o: DVec3, d| occ.intersect(o, d, 0.0, f64::INFINITY).unwrap();
+                let square = |o, d| hit(o, d).primitive / 2;
+                assert_eq!(square(origin, DVec3::Z), from_below, "{origin}");
+                let above = origin.with_z(2.0);
+                assert_eq!(square(above, -DVec3::Z), from_above, "{above}");
+                assert!((hit(above, -DVec3::Z).t - 1.0).abs() < 1e-8);
+            }
+        }
+        // Farther apart than the contact distance, the nearer one is hit.
+        let tris = [quad(1.0), quad(1.0 - 1e-3)].concat();
+        let occ = Occluder::new(&tris);
+        let hit = occ.intersect(DVec3::ZERO, DVec3::Z, 0.0, f64::INFINITY);
+        assert_eq!(hit.map(|h| h.primitive / 2), Some(1));
+        // Box queries find what lies in the box, and not what is far.
+        let near: Vec<u32> = occ.near_box(DVec3::new(0.5, 0.5, 0.99), DVec3::new(0.9, 0.9, 0.9995));
+        assert!(near.contains(&2) || near.contains(&3), "{near:?}");
+        assert!(occ
+            .near_box(DVec3::splat(5.0), DVec3::splat(6.0))
+            .is_empty());
     }
 
     #[test]

@@ -37,17 +37,18 @@ const PROBES: [(f64, f64, f64); 5] = [
 /// buried: no probe ray from it meets the front of another surface, and
 /// some meet the back of one (it is inside a closed solid, under a
 /// one-sided surface, or outside the scene's walls: the part of a box's side
-/// reaching through the floor) or one within `coincident` of it (a face
-/// lying on it). A point whose probes all leave the scene is exposed: it
-/// may still see an emitter the probes miss.
-pub fn is_buried(
-    ctx: &KernelContext,
-    surface: u32,
-    x: DVec3,
-    normal: DVec3,
-    coincident: f64,
-) -> bool {
+/// reaching through the floor) or one within the contact distance of it (a
+/// face pressed against it, [`KernelContext::contact_distance`]); or a
+/// coincident surface facing the same way covers it
+/// ([`SceneTracer::is_covered`](crate::geometry::tracing::SceneTracer::is_covered)). A point
+/// whose probes all leave the scene is exposed: it may still see an
+/// emitter the probes miss.
+pub fn is_buried(ctx: &KernelContext, surface: u32, x: DVec3, normal: DVec3) -> bool {
+    if ctx.tracer.is_covered(surface, x) {
+        return true;
+    }
     let (t, b) = tangents(normal);
+    let coincident = ctx.contact_distance();
     let mut covered = false;
     for &(u, v, w) in &PROBES {
         let dir = (u * t + v * b + w * normal).normalize();
@@ -101,13 +102,12 @@ pub fn exposed_fractions(
 /// `ctx`.
 fn fraction(ctx: &KernelContext, element: KernelElement) -> f64 {
     let surface = element.surface;
-    let root = &ctx.scene.surfaces[surface as usize].patch;
-    let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
+    let normal = ctx.scene.surfaces[surface as usize].patch.normal();
     let points = element.patch.gauss_points(ctx.quadrature.points);
     let total: f64 = points.iter().map(|p| p.weight).sum();
     let exposed: f64 = points
         .iter()
-        .filter(|p| !is_buried(ctx, surface, p.position, normal, coincident))
+        .filter(|p| !is_buried(ctx, surface, p.position, normal))
         .map(|p| p.weight)
         .sum();
     exposed / total
@@ -125,18 +125,25 @@ fn fraction(ctx: &KernelContext, element: KernelElement) -> f64 {
 /// whose Gauss points are all exposed, the buried part a strip along its
 /// edge (a box's side reaching through the floor), is not refined for it:
 /// its form factors are right for its exposed part.
+///
+/// Also true when another surface meets `element` along a line through its
+/// interior ([`SceneTracer::is_crossed`](crate::geometry::tracing::SceneTracer::is_crossed))
+/// and every point of the grid is exposed: the parts on either side are
+/// separate spaces that light reaches separately (the room and the inside
+/// of a `twosided` box standing on the floor, or the space below a
+/// `twosided` floor that a box reaches into), and the element would average
+/// the light of both.
 pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
     const AT: [f64; 4] = [0.01, 1.0 / 3.0, 2.0 / 3.0, 0.99];
     let (surface, element) = (element.surface, element.patch);
-    let root = &ctx.scene.surfaces[surface as usize].patch;
-    let (normal, coincident) = (root.normal(), 1e-7 * root.area().sqrt());
-    let buried = |x: DVec3| is_buried(ctx, surface, x, normal, coincident);
+    let normal = ctx.scene.surfaces[surface as usize].patch.normal();
+    let buried = |x: DVec3| is_buried(ctx, surface, x, normal);
     // The Gauss points first: most elements have none buried.
-    if !element
+    let gauss_buried = element
         .gauss_points(ctx.quadrature.points)
         .iter()
-        .any(|p| buried(p.position))
-    {
+        .any(|p| buried(p.position));
+    if !gauss_buried && !ctx.tracer.is_crossed(surface, element) {
         return false;
     }
     let mut seen = [false; 2];
@@ -144,10 +151,10 @@ pub fn straddles(ctx: &KernelContext, element: KernelElement) -> bool {
         let uv = glam::DVec2::new(AT[k % 4], AT[k / 4]);
         seen[usize::from(buried(element.point_at(element.square_to_param(uv))))] = true;
         if seen == [true; 2] {
-            return true;
+            return gauss_buried;
         }
     }
-    false
+    !gauss_buried && !seen[1]
 }
 
 /// Exposed fractions of the elements of the directional structures' pairs,
@@ -235,7 +242,7 @@ mod tests {
         let gauss_buried = thin
             .gauss_points(2)
             .iter()
-            .all(|p| is_buried(&ctx, 0, p.position, DVec3::Z, 1e-7));
+            .all(|p| is_buried(&ctx, 0, p.position, DVec3::Z));
         assert!(gauss_buried);
         let floor_straddles = |patch: Patch| {
             let element = KernelElement {
@@ -267,11 +274,11 @@ mod tests {
             (DVec3::new(0.45, 1.0, 0.0), false),
             (DVec3::new(1.9, 0.1, 0.0), false),
         ] {
-            assert_eq!(is_buried(&ctx, 0, x, up, 1e-7), buried, "{x}");
+            assert_eq!(is_buried(&ctx, 0, x, up), buried, "{x}");
         }
         // The cube's top is exposed; its bottom lies on the floor.
         let top = scene.surfaces[2].patch;
-        assert!(!is_buried(&ctx, 2, top.centroid(), top.normal(), 1e-7));
+        assert!(!is_buried(&ctx, 2, top.centroid(), top.normal()));
     }
 
     #[test]
@@ -294,13 +301,13 @@ mod tests {
         assert!(normal.dot(-DVec3::Y) > 0.99);
         for (z, buried) in [(-0.05, true), (0.05, false), (0.5, false)] {
             let x = DVec3::new(1.0, 0.5, z);
-            assert_eq!(is_buried(&ctx, side as u32, x, normal, 1e-7), buried, "{z}");
+            assert_eq!(is_buried(&ctx, side as u32, x, normal), buried, "{z}");
         }
         // A floor with nothing on it, in the open: exposed.
         let alone = Scene::from_surfaces(vec![grey(floor)]);
         let tracer = SceneTracer::new(&alone);
         let ctx = context(&alone, &tracer);
-        assert!(!is_buried(&ctx, 0, DVec3::ONE.with_z(0.0), DVec3::Z, 1e-7));
+        assert!(!is_buried(&ctx, 0, DVec3::ONE.with_z(0.0), DVec3::Z));
     }
 
     #[test]

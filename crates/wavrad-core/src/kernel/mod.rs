@@ -59,17 +59,46 @@ pub struct KernelElement<'a> {
 /// True when the two planar elements cannot exchange light at all: one lies
 /// entirely behind (or in the plane of) the other's front side.
 pub fn faces_away(a: &Patch, c: &Patch) -> bool {
-    let behind = |p: &Patch, q: &Patch| !sides_of_plane(p, q).0;
+    faces_away_within(a, c, 0.0)
+}
+
+/// [`faces_away`], with the vertices within `contact` of a plane counted
+/// as lying in it.
+fn faces_away_within(a: &Patch, c: &Patch, contact: f64) -> bool {
+    let behind = |p: &Patch, q: &Patch| !sides_of_plane(p, q, contact).0;
     behind(a, c) || behind(c, a)
 }
 
 impl KernelContext<'_> {
+    /// The distance below which surfaces touch
+    /// ([`Occluder::contact_distance`](crate::geometry::visibility::Occluder::contact_distance)).
+    pub fn contact_distance(&self) -> f64 {
+        self.tracer.occluder.contact_distance()
+    }
+
+    /// True when the planar elements `a` and `c` exchange no light: they
+    /// face away from each other ([`faces_away`]), or one lies within the
+    /// contact distance of the other's plane, pressed against its front (a
+    /// box's base on the floor it rests on, a wall inside a wall). The
+    /// parts of surfaces pressed together are buried
+    /// ([`exposure::is_buried`]): they neither receive nor send light, so
+    /// no link may join them.
+    pub fn exchange_nothing(&self, a: &Patch, c: &Patch) -> bool {
+        faces_away_within(a, c, self.contact_distance())
+    }
+
     /// The occlusion test of an interaction between surfaces `a` and `c`:
-    /// true for the primitives of either, which never occlude it.
+    /// true for the primitives of either, which never occlude it, and of
+    /// the surfaces lying in the plane of either
+    /// ([`SceneTracer::coplanar`]: the other side of a `twosided` surface),
+    /// which a segment between them cannot cross; shafts next to a
+    /// `twosided` surface are clear again
+    /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)).
     pub fn skipping(&self, a: u32, c: u32) -> impl Fn(u32) -> bool + Copy + '_ {
+        let (in_a, in_c) = (self.tracer.coplanar(a), self.tracer.coplanar(c));
         move |prim: u32| {
             let s = self.tracer.surface_of(prim);
-            s == a || s == c
+            s == a || s == c || in_a.contains(&s) || in_c.contains(&s)
         }
     }
 
@@ -77,24 +106,30 @@ impl KernelContext<'_> {
     /// weighted by the kernel cosθ_x cosθ_y / r² towards it (as Lambert's
     /// formula weighs the polygon's points, so that an occluder hiding the
     /// polygon's near part hides more than its share of the targets), the
-    /// primitives `skip` accepts never occluding. The targets lie on the
-    /// `polygon` they sample; when none of them is in front of `x` but part of
-    /// the polygon is (a large element straddling `x`'s plane, whose front part
-    /// Lambert's formula still counts), the centroid of that part stands in for
-    /// them. 0 when nothing is in front. With `clear`, the caller knows that
-    /// nothing blocks the shaft between `x`'s element and the polygon
+    /// primitives `skip` accepts never occluding, and targets covered by a
+    /// coincident surface ([`SceneTracer::is_covered`]) never seen. The
+    /// targets lie on the `inner` element they sample; when none of them is
+    /// in front of `x` but part of the element is (a large element straddling
+    /// `x`'s plane, whose front part Lambert's formula still counts), the
+    /// centroid of that part stands in for them. 0 when nothing is in front.
+    /// With `clear`, the caller knows that nothing blocks the shaft between
+    /// `x`'s element and `inner`
     /// ([`Occluder::clear_between`](crate::geometry::visibility::Occluder::clear_between)):
     /// no ray is traced, and the result is the same.
     pub fn visible_fraction(
         &self,
         x: DVec3,
         n_x: DVec3,
-        polygon: &[DVec3],
+        inner: KernelElement,
         targets: &[AreaSample],
         skip: impl Fn(u32) -> bool + Copy,
         clear: bool,
     ) -> f64 {
-        let sees = |y: DVec3| clear || !self.tracer.occluder.occluded_except(x, y, skip);
+        let sees = |y: DVec3| {
+            !self.tracer.is_covered(inner.surface, y)
+                && (clear || !self.tracer.occluder.occluded_except(x, y, skip))
+        };
+        let polygon = inner.patch.vertices();
         let n_y = (polygon[1] - polygon[0])
             .cross(polygon[2] - polygon[0])
             .normalize_or_zero();
@@ -114,7 +149,7 @@ impl KernelContext<'_> {
         if total > 0.0 {
             return seen / total;
         }
-        let front = form_factor::front_part(polygon, x, n_x);
+        let front = form_factor::front_part(&polygon, x, n_x);
         if front.len() < 3 {
             return 0.0;
         }
@@ -124,8 +159,9 @@ impl KernelContext<'_> {
 }
 
 /// Whether some vertex of `q` lies in front of the plane of `p`, and
-/// whether some lies behind it (vertices in the plane count as neither).
-pub(super) fn sides_of_plane(p: &Patch, q: &Patch) -> (bool, bool) {
+/// whether some lies behind it: farther from it than `contact` and than
+/// the rounding of their coordinates (vertices nearer count as neither).
+pub(super) fn sides_of_plane(p: &Patch, q: &Patch, contact: f64) -> (bool, bool) {
     let first = |p: &Patch| match *p {
         Patch::Parallelogram { origin, .. } => origin,
         Patch::Triangle([a, _, _]) => a,
@@ -147,7 +183,7 @@ pub(super) fn sides_of_plane(p: &Patch, q: &Patch) -> (bool, bool) {
         Patch::Triangle([a, b, c]) => [a, b, c, c],
     };
     corners.iter().fold((false, false), |(front, back), v| {
-        let (h, tolerance) = (n.dot(*v - o), 1e-12 * (1.0 + v.length()));
+        let (h, tolerance) = (n.dot(*v - o), contact.max(1e-12 * (1.0 + v.length())));
         (front || h > tolerance, back || h < -tolerance)
     })
 }
@@ -186,6 +222,31 @@ pub(crate) fn default_context<'a>(scene: &'a Scene, tracer: &'a SceneTracer) -> 
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    #[test]
+    fn faces_pressed_together_exchange_nothing_and_a_gap_does() {
+        use crate::geometry::tracing::SceneTracer;
+        use crate::testing::{grey, inward_box};
+        // A unit cube's base (facing down) at height `lift` over a 2×2
+        // floor (facing up).
+        let exchange = |lift: f64| {
+            let floor = Patch::Parallelogram {
+                origin: DVec3::ZERO,
+                edge_s: DVec3::X * 2.0,
+                edge_t: DVec3::Y * 2.0,
+            };
+            let cube = inward_box(DVec3::new(0.5, 0.5, lift), DVec3::new(1.5, 1.5, 1.0 + lift));
+            let base = cube[0].flipped();
+            let scene = Scene::from_surfaces(vec![grey(floor), grey(base)]);
+            let tracer = SceneTracer::new(&scene);
+            let ctx = default_context(&scene, &tracer);
+            assert_eq!(faces_away(&floor, &base), lift == 0.0);
+            !ctx.exchange_nothing(&floor, &base)
+        };
+        assert!(!exchange(0.0));
+        assert!(!exchange(1e-8));
+        assert!(exchange(1e-4));
+    }
 
     #[test]
     fn interleaved_targets_of_all_points_fill_the_grid_once() {

@@ -83,11 +83,11 @@ impl<'a> IncidentLight<'a> {
             .enumerate()
         {
             let ff = form_factor::point_to_polygon(xp.position, n_a, &polygon, n_c);
-            if ff <= 0.0 {
+            if ff <= 0.0 || ctx.tracer.is_covered(a.element.surface, xp.position) {
                 continue;
             }
             let targets = interleaved_targets(c.patch, q.rays, q.points, i);
-            let v = ctx.visible_fraction(xp.position, n_a, &polygon, &targets, skip, clear);
+            let v = ctx.visible_fraction(xp.position, n_a, c, &targets, skip, clear);
             if v == 0.0 {
                 continue;
             }

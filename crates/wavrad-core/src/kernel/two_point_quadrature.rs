@@ -17,7 +17,7 @@ use crate::scene::Patch;
 /// floor of a furnace missed 2 % of its form factor to each wall, whose
 /// elements it cut near their edge).
 fn outer_is_a(a: &Patch, c: &Patch) -> bool {
-    let straddles = |p: &Patch, q: &Patch| sides_of_plane(q, p) == (true, true);
+    let straddles = |p: &Patch, q: &Patch| sides_of_plane(q, p, 0.0) == (true, true);
     match (straddles(a, c), straddles(c, a)) {
         (true, false) => false,
         (false, true) => true,
@@ -78,6 +78,9 @@ impl KernelContext<'_> {
             .into_iter()
             .enumerate()
             .map(|(i, x)| {
+                if self.tracer.is_covered(outer.surface, x.position) {
+                    return 0.0;
+                }
                 let unoccluded_ff =
                     form_factor::point_to_polygon(x.position, n_outer, &polygon, n_inner);
                 if unoccluded_ff <= 0.0 {
@@ -86,7 +89,7 @@ impl KernelContext<'_> {
                 let targets = interleaved_targets(inner.patch, q.rays, q.points, i);
                 x.weight
                     * unoccluded_ff
-                    * self.visible_fraction(x.position, n_outer, &polygon, &targets, skip, clear)
+                    * self.visible_fraction(x.position, n_outer, inner, &targets, skip, clear)
             })
             .collect();
         OuterSamples {

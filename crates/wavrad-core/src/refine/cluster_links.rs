@@ -24,7 +24,7 @@
 
 use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::ElementRef;
-use crate::kernel::{faces_away, KernelContext};
+use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::sampling::hash2;
 use crate::scene::Patch;
@@ -60,7 +60,8 @@ pub struct ClusterLink {
 /// What linking from the top makes.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Linking {
-    /// Element pairs that can exchange light (neither behind the other),
+    /// Element pairs that can exchange light (neither behind the other nor
+    /// pressed together, [`KernelContext::exchange_nothing`]),
     /// for the adaptive projection, in a fixed order.
     pub element_pairs: Vec<[ElementRef; 2]>,
     /// Links between ends small against their distance.
@@ -206,7 +207,8 @@ impl Linker<'_> {
     /// Link two distinct ends, or split one of them and link its parts.
     fn pair(&self, x: End, y: End, out: &mut Linking) {
         if let (End::Element(a), End::Element(c)) = (x, y) {
-            if a.surface != c.surface && !faces_away(&self.patch(a), &self.patch(c)) {
+            if a.surface != c.surface && !self.ctx.exchange_nothing(&self.patch(a), &self.patch(c))
+            {
                 // In surface order, as the projection of every pair of
                 // surfaces from their roots takes them.
                 out.element_pairs.push(if a.surface < c.surface {
@@ -411,7 +413,7 @@ mod tests {
                 let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
                 let c = covered.get(&(p, r)).copied().unwrap_or(0.0);
                 assert!(c <= 1.0 + 1e-9, "surfaces {p} and {r} linked {c} times");
-                if !faces_away(&sp.patch, &sr.patch) {
+                if !ctx.exchange_nothing(&sp.patch, &sr.patch) {
                     assert!((c - 1.0).abs() < 1e-9, "surfaces {p} and {r} covered {c}");
                 }
             }

@@ -215,7 +215,7 @@ mod tests {
             threshold: 1e-2,
             max_level: 3,
         };
-        let links = refine_links(&ctx, settings, None, &root_pairs(&scene), &Silent);
+        let links = refine_links(&ctx, settings, None, &root_pairs(&ctx), &Silent);
         let spread = Importance::new(&ctx, camera, &scene.film, &links);
         let ceiling = whole(&spread, 1);
         assert!(

@@ -9,14 +9,15 @@
 //! each child pair is refined in turn. Elements never go below `max_level`.
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
+use crate::kernel::form_factor::point_to_polygon;
 use crate::kernel::two_point_quadrature::OuterSamples;
-use crate::kernel::{self, KernelContext};
+use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::{project_all, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
-use crate::scene::{Patch, Scene, Surface};
+use crate::scene::{Patch, Surface};
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
@@ -267,12 +268,30 @@ impl<'a> PairRefiner<'a> {
         Some(means)
     }
 
-    /// The kernel's details one level below those the paper's oracle sees,
-    /// wherever the quadrature already sampled them: over the quadrants of
-    /// each child of `split` (when the child was the point-sampled element),
-    /// and over the quadrants of `other` (when it was, for every child).
+    /// The outer samples `outer`'s Gauss points would give against `inner`
+    /// without occlusion (Lambert's closed form alone, no rays): where
+    /// `outer` was the inner element of its quadrature, how the kernel
+    /// varies over its quadrants, for the look-ahead; `None` unless the rule
+    /// has four points.
+    fn unoccluded(&self, outer: &Part, inner: &Part) -> Option<[f64; 4]> {
+        let (normal, polygon) = (outer.patch.normal(), inner.patch.vertices());
+        let n_inner = inner.patch.normal();
+        let points = outer.patch.gauss_points(self.ctx.quadrature.points);
+        let contributions: Vec<f64> = points
+            .iter()
+            .map(|x| x.weight * point_to_polygon(x.position, normal, &polygon, n_inner))
+            .collect();
+        <[f64; 4]>::try_from(&contributions[..]).ok()
+    }
+
+    /// The kernel's details one level below those the paper's oracle sees:
+    /// over the quadrants of each child of `split` (from its quadrature
+    /// when the child was the point-sampled element, else from Lambert's
+    /// unoccluded factor at the same points, [`Self::unoccluded`]), and over
+    /// the quadrants of `other` (when it was point-sampled for every child).
     /// Returns the verdicts for (children, other). A kernel symmetric over
-    /// the four children (two facing walls) has zero details at the
+    /// the four children (two facing walls; a small square centred under a
+    /// large one, a light's back under the ceiling) has zero details at the
     /// children's level however much it varies inside them; this catches it.
     fn look_ahead(
         &self,
@@ -285,10 +304,15 @@ impl<'a> PairRefiner<'a> {
         let pass = Verdict::PASS;
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
-            if !s.outer_is_a || child.element.id.level >= max {
+            if child.element.id.level >= max {
                 return v;
             }
-            four(s)
+            let contributions = if s.outer_is_a {
+                four(s)
+            } else {
+                self.unoccluded(child, other)
+            };
+            contributions
                 .and_then(|c| self.quadrant_means(c, child, other))
                 .map_or(v, |m| v.and(self.test(m, child, other)))
         });
@@ -432,27 +456,28 @@ pub fn refine_links(
     })
 }
 
-/// The surface pairs (p < r) that get two-point links when every pair is
-/// linked from the surfaces' roots: those not facing away from each other,
-/// at least one of which has a Lambertian lobe
-/// ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a glossy
-/// receiver's reflection goes through three-point links), in order.
-pub fn linked_pairs(scene: &Scene) -> Vec<(u32, u32)> {
+/// The surface pairs (p < r) that get two-point links: those that can
+/// exchange light (not facing away from each other nor pressed together,
+/// [`KernelContext::exchange_nothing`]), at least one of which has a
+/// Lambertian lobe ([`crate::scene::brdf::Brdf::lambertian`]; the rest of a
+/// glossy receiver's reflection goes through three-point links), in order.
+pub fn linked_pairs(ctx: &KernelContext) -> Vec<(u32, u32)> {
+    let scene = ctx.scene;
     let n = scene.surfaces.len() as u32;
     (0..n)
         .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
         .filter(|&(p, r)| {
             let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
             let lambertian = |s: &Surface| s.brdf.lambertian().is_some();
-            !kernel::faces_away(&sp.patch, &sr.patch) && (lambertian(sp) || lambertian(sr))
+            !ctx.exchange_nothing(&sp.patch, &sr.patch) && (lambertian(sp) || lambertian(sr))
         })
         .collect()
 }
 
 /// [`linked_pairs`] as pairs of root elements: the starts of
 /// [`refine_links`] when every pair of surfaces is linked from its roots.
-pub fn root_pairs(scene: &Scene) -> Vec<[ElementRef; 2]> {
-    linked_pairs(scene)
+pub fn root_pairs(ctx: &KernelContext) -> Vec<[ElementRef; 2]> {
+    linked_pairs(ctx)
         .into_iter()
         .map(|(p, r)| [ElementRef::root(p), ElementRef::root(r)])
         .collect()
@@ -516,7 +541,7 @@ mod tests {
     use crate::kernel::{default_context as context, KernelElement};
     use crate::progress::Silent;
     use crate::refine::refine_further;
-    use crate::scene::{Rgb, Surface};
+    use crate::scene::{Rgb, Scene, Surface};
     use glam::DVec3;
 
     /// Two directly facing squares: the kernel over the four children of one
@@ -542,7 +567,7 @@ mod tests {
             threshold: 1e-3,
             max_level: 4,
         };
-        let links = refine_links(&ctx, settings, None, &root_pairs(&scene), &Silent);
+        let links = refine_links(&ctx, settings, None, &root_pairs(&ctx), &Silent);
         assert!(links.len() > 16, "{} links", links.len());
         assert!(links.iter().all(|l| l.a.level + l.c.level >= 2));
         // The links partition the pair: they add up to Howell's closed form
@@ -578,6 +603,45 @@ mod tests {
                 assert!((t / l.throughput - f64::from(share)).abs() < 1e-6, "{l:?}");
             }
         }
+    }
+
+    /// A small square centred 1 cm under a large one, facing it (a light's
+    /// back under the ceiling): the kernel is the same over the large one's
+    /// four quadrants, each holding a quarter of the small one's shadow, so
+    /// the children's details vanish although the kernel drops from ~1 to
+    /// ~0 inside each. The large square is the inner element of the
+    /// quadrature; the look-ahead must still refine it around the shadow.
+    #[test]
+    fn a_small_square_centred_under_a_large_one_is_refined_below_the_root() {
+        let square = |centre: DVec3, side: f64, up: bool| {
+            let (s, t) = if up {
+                (DVec3::X, DVec3::Y)
+            } else {
+                (DVec3::Y, DVec3::X)
+            };
+            crate::testing::grey(Patch::Parallelogram {
+                origin: centre - 0.5 * side * (s + t),
+                edge_s: s * side,
+                edge_t: t * side,
+            })
+        };
+        let scene = Scene::from_surfaces(vec![
+            square(DVec3::new(0.0, 0.0, 1.0), 2.0, false),
+            square(DVec3::new(0.0, 0.0, 0.99), 0.4, true),
+        ]);
+        let tracer = SceneTracer::new(&scene);
+        let ctx = context(&scene, &tracer);
+        let settings = RefineSettings {
+            threshold: 1e-3,
+            max_level: 5,
+        };
+        let links = refine_links(&ctx, settings, None, &root_pairs(&ctx), &Silent);
+        // The shadow's outline is resolved to the maximum level.
+        let finest = links.iter().filter(|l| l.a.level == 5).count();
+        assert!(finest > 100, "{} links, {finest} at level 5", links.len());
+        // Almost all the small square's light reaches the large one.
+        let t: f64 = links.iter().map(|l| l.throughput).sum();
+        assert!(t > 0.95 * 0.16 && t <= 0.16, "{t}");
     }
 
     /// An emitter over a dark floor, and a second dark square facing the
@@ -621,7 +685,7 @@ mod tests {
             &context(&dark, &tracer),
             settings,
             Some(&none),
-            &root_pairs(&dark),
+            &root_pairs(&context(&dark, &tracer)),
             &Silent,
         );
         assert_eq!(coarse.len(), 1);
@@ -631,7 +695,7 @@ mod tests {
         );
         // The emitter's light is refined over the floor.
         let lit = LightEstimate::emission(&scene, None);
-        let links = refine_links(&ctx, settings, Some(&lit), &root_pairs(&scene), &Silent);
+        let links = refine_links(&ctx, settings, Some(&lit), &root_pairs(&ctx), &Silent);
         assert!(links.len() > 4, "{} links", links.len());
         // Re-testing against the same estimate changes nothing; a stricter
         // test refines further from the stored details. Both keep the
@@ -708,13 +772,7 @@ mod tests {
             let (scene, estimate) = glossy_floor_lighting(quadrants);
             let tracer = SceneTracer::new(&scene);
             let ctx = context(&scene, &tracer);
-            let links = refine_links(
-                &ctx,
-                settings,
-                Some(&estimate),
-                &root_pairs(&scene),
-                &Silent,
-            );
+            let links = refine_links(&ctx, settings, Some(&estimate), &root_pairs(&ctx), &Silent);
             let (again, changed) =
                 refine_further(&ctx, settings, &estimate, links.clone(), &Silent);
             assert_eq!((&again, changed), (&links, 0));

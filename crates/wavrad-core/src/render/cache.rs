@@ -108,9 +108,8 @@ impl GatherCache {
                     ((t / side) as f64 + 0.5) / side as f64,
                 );
                 let (position, normal) = (surface.patch.point_at(uv), surface.patch.normal());
-                let coincident = 1e-7 * surface.patch.area().sqrt();
                 let ctx = solution.kernel_context();
-                if is_buried(&ctx, s as u32, position, normal, coincident) {
+                if is_buried(&ctx, s as u32, position, normal) {
                     return None;
                 }
                 let gathers = settings

@@ -144,7 +144,7 @@ impl EnclosureRadiance {
                         exposure.of(ElementRef::new(p, node.a), ElementRef::new(n + k, node.b))
                     })
                     .collect();
-                let values = push_pull(&tree, &gathered[&(p, k)], Rgb::ZERO, Some(&weights));
+                let values = push_pull(&tree, &gathered[&(p, k)], Rgb::ZERO, Some(&weights), None);
                 ((p, k), (tree, values))
             })
             .collect();

@@ -218,7 +218,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     pub fn render(&self, settings: &RenderSettings) -> Result<Image> {
         let scene = &self.solution().scene;
         let camera = scene.camera.as_ref().ok_or(Error::NoSensor)?;
-        Ok(self.render_view(camera, &scene.film, settings))
+        self.render_view(camera, &scene.film, settings)
     }
 
     /// A quick image of the scene's sensor: the smooth reconstruction with 4
@@ -236,7 +236,16 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     }
 
     /// Render any view of the solution (it is view-independent).
-    pub fn render_view(&self, camera: &Camera, film: &Film, settings: &RenderSettings) -> Image {
+    ///
+    /// # Errors
+    /// [`Error::NonFinitePixels`] when a pixel is infinite or NaN: no image
+    /// is better than a wrong one.
+    pub fn render_view(
+        &self,
+        camera: &Camera,
+        film: &Film,
+        settings: &RenderSettings,
+    ) -> Result<Image> {
         let estimator = self.estimator_for(camera, settings);
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
@@ -249,13 +258,24 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 None => Rgb::ZERO,
             }
         });
+        let count = image
+            .rgb
+            .chunks(3)
+            .filter(|px| px.iter().any(|v| !v.is_finite()))
+            .count();
+        if count > 0 {
+            return Err(Error::NonFinitePixels {
+                count,
+                total: image.rgb.len() / 3,
+            });
+        }
         // The control variate is unbiased but, with few gathering rays in a
         // pixel, can undershoot below zero; radiance cannot, so such pixels
         // are clamped (a bias confined to those pixels, vanishing with spp).
         for v in &mut image.rgb {
             *v = v.max(0.0);
         }
-        image
+        Ok(image)
     }
 
     /// The enclosure receiver's radiance, gathered on first use.
@@ -487,6 +507,50 @@ mod tests {
         assert_eq!(
             camera_rays(&walls, &film, (1, 1), &settings),
             settings.samples_per_pixel
+        );
+    }
+
+    #[test]
+    fn an_image_with_pixels_that_are_not_finite_is_an_error() {
+        // A lit floor seen from above, solved, then its radiance spoilt.
+        let mut scene = crate::testing::light_over_a_corner(0.5);
+        scene.film = Film {
+            width: 4,
+            height: 4,
+            filter: crate::scene::PixelFilter::Box,
+        };
+        scene.camera = Some(Camera {
+            world_from_camera: Camera::look_at(
+                DVec3::new(0.5, 0.5, 2.0),
+                DVec3::new(0.5, 0.5, 0.0),
+                DVec3::Y,
+            )
+            .unwrap(),
+            projection: crate::scene::Projection::Perspective {
+                fov_x_degrees: 30.0,
+                fov_axis: crate::scene::FovAxis::X,
+            },
+            near_clip: 1e-3,
+            far_clip: 100.0,
+        });
+        let mut solution =
+            crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap();
+        let smooth = RenderSettings {
+            estimator: Estimator::Solution {
+                reconstruction: Reconstruction::Smooth,
+                glossy: GlossyView::Eye(Reconstruction::Smooth),
+            },
+            ..RenderSettings::default().with_samples_per_pixel(4)
+        };
+        assert!(Renderer::new(&solution).render(&smooth).is_ok());
+        solution.radiance[0].fill(Rgb::splat(f64::INFINITY));
+        let error = Renderer::new(&solution).render(&smooth).err();
+        assert_eq!(
+            error,
+            Some(Error::NonFinitePixels {
+                count: 16,
+                total: 16
+            })
         );
     }
 

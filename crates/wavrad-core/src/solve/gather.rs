@@ -30,7 +30,7 @@ use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::cluster_gather::{ClusterTransfers, FarField};
-use crate::solve::push_pull::Gathered;
+use crate::solve::push_pull::{reflection_limits, Gathered};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -141,6 +141,12 @@ pub struct Interactions {
     /// The links made above the elements, between clusters of surfaces
     /// and elements ([`crate::solve::cluster_gather`]).
     pub clusters: ClusterTransfers,
+    /// Factor of the reflected light reaching every node of every element
+    /// tree, below 1 at leaves whose form factors sum above 1/ρ
+    /// ([`Interactions::limit_reflection`]).
+    pub limit: Vec<Vec<f64>>,
+    /// Leaves with a factor below 1.
+    pub limited_leaves: usize,
 }
 
 impl Source {
@@ -233,6 +239,8 @@ impl Interactions {
             exposure,
             pair_exposure: Vec::new(),
             clusters: ClusterTransfers::default(),
+            limit: Vec::new(),
+            limited_leaves: 0,
         };
         out.pair_exposure = out
             .directional
@@ -303,6 +311,38 @@ impl Interactions {
             list.sort_by_key(|t| t.receiver);
         }
         out
+    }
+
+    /// Set every leaf's reflection limit ([`reflection_limits`]) from the
+    /// sum of the form factors of everything it gathers from (its gather of
+    /// a unit radiance everywhere, with unit reflectance) and its surface's
+    /// reflectance in `scene`. Cluster links count too: call it once
+    /// [`Interactions::clusters`] is set.
+    pub fn limit_reflection(&mut self, scene: &Scene, trees: &[ElementTree]) {
+        let unit: Vec<Vec<Rgb>> = trees
+            .iter()
+            .map(|t| vec![Rgb::splat(1.0); t.nodes.len()])
+            .collect();
+        let none: Vec<Vec<Rgb>> = self
+            .directional
+            .iter()
+            .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
+            .collect();
+        let far = self.clusters.far_field(&unit);
+        let limits: Vec<(Vec<f64>, usize)> = trees
+            .par_iter()
+            .enumerate()
+            .map(|(p, tree)| {
+                let sums = self.gather(p, Rgb::splat(1.0), tree, (&unit, &none), &far);
+                let rho = scene.surfaces[p]
+                    .brdf
+                    .lambertian()
+                    .map_or(0.0, |r| r.max_channel());
+                reflection_limits(tree, &sums, rho)
+            })
+            .collect();
+        self.limited_leaves = limits.iter().map(|(_, n)| n).sum();
+        self.limit = limits.into_iter().map(|(l, _)| l).collect();
     }
 
     fn push_cover(&mut self, cover: Vec<(u32, f64)>) -> Range<u32> {

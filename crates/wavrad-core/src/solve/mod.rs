@@ -140,6 +140,12 @@ pub struct Solution {
 ///
 /// The steps of a [`Plan`] in one process: [`plan`], the projection of all
 /// its items, [`Plan::finish`].
+///
+/// # Errors
+/// [`Error::InvalidSetting`] for bad settings (or the importance oracle
+/// without a sensor), [`Error::EmptyScene`], [`Error::NoLight`] for a scene
+/// where nothing emits, all before any kernel work; [`Error::Diverged`]
+/// when Gauss–Seidel's residual keeps growing.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     let plan = plan(scene, settings, progress)?;
     let links = plan.project(plan.items(), progress)?;
@@ -256,6 +262,7 @@ impl Projector {
     fn timed(scene: &Scene, settings: &SolveSettings, times: &mut PhaseTimes) -> Result<Projector> {
         settings.validate()?;
         check_size(scene)?;
+        check_light(scene)?;
         if settings.oracle == Oracle::Importance && scene.camera.is_none() {
             return Err(Error::InvalidSetting(
                 "the importance oracle needs a sensor in the scene".into(),
@@ -486,12 +493,12 @@ impl Plan {
                 clusters: (clusters, &linking.cluster_links),
             };
             let mut system = System::assemble(&ctx, triples, trees, links, times);
-            let sweeps = system.solve(scene, settings, progress, times);
-            (system, sweeps, resolved)
+            let sweeps = system.solve(scene, settings, progress, times)?;
+            Ok::<_, Error>((system, sweeps, resolved))
         };
         let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
         let (mut system, mut sweeps, mut resolved) =
-            assemble_and_solve(&links, &three_point, !looping, &mut times);
+            assemble_and_solve(&links, &three_point, !looping, &mut times)?;
         let mut passes = 1;
         let mut final_system = !looping;
         while looping && passes < settings.max_refine_passes {
@@ -522,14 +529,16 @@ impl Plan {
             passes += 1;
             final_system = passes == settings.max_refine_passes;
             (system, sweeps, resolved) =
-                assemble_and_solve(&links, &three_point, final_system, &mut times);
+                assemble_and_solve(&links, &three_point, final_system, &mut times)?;
         }
         if !final_system {
-            (system, sweeps, resolved) = assemble_and_solve(&links, &three_point, true, &mut times);
+            (system, sweeps, resolved) =
+                assemble_and_solve(&links, &three_point, true, &mut times)?;
         }
 
         let stats = Stats {
             projections: passes,
+            limited_leaves: system.interactions.limited_leaves,
             exchanging_pairs: pairs.len(),
             kernel_pairs: pairs.len(),
             cluster_links: linking.cluster_links.len(),
@@ -609,7 +618,8 @@ impl Solution {
                     self.interactions
                         .gather(p, rho, tree, (&emission, &directional), &far);
                 let exposure = Some(&self.interactions.exposure[p][..]);
-                push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure)
+                let limit = Some(&self.interactions.limit[p][..]);
+                push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, limit)
             })
             .collect();
         Some(bounce)
@@ -622,6 +632,18 @@ fn check_size(scene: &Scene) -> Result<()> {
         return Err(Error::EmptyScene);
     }
     Ok(())
+}
+
+/// A scene with light: some surface emits. Without any the solution is
+/// black whatever the solve does, so it is refused before any kernel work
+/// (whether the scene has no emitters or only ones of zero radiance: either
+/// way nothing would be lit).
+fn check_light(scene: &Scene) -> Result<()> {
+    if scene.surfaces.iter().any(|s| s.is_emitter()) {
+        Ok(())
+    } else {
+        Err(Error::NoLight)
+    }
 }
 
 /// Every link of one projection, as the system is assembled from them.
@@ -738,6 +760,7 @@ impl System {
         );
         interactions.clusters =
             ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, cluster_links);
+        interactions.limit_reflection(ctx.scene, &trees);
         let radiance = ctx
             .scene
             .surfaces
@@ -762,14 +785,15 @@ impl System {
     }
 
     /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
-    /// until no coarsest coefficient changes by more than the tolerance.
+    /// until no coarsest coefficient changes by more than the tolerance; an
+    /// error when the changes keep growing ([`Divergence`]).
     fn solve(
         &mut self,
         scene: &Scene,
         settings: &SolveSettings,
         progress: &dyn Progress,
         times: &mut PhaseTimes,
-    ) -> Sweeps {
+    ) -> Result<Sweeps> {
         let clock = Instant::now();
         let System {
             trees,
@@ -787,41 +811,109 @@ impl System {
             .map(|s| s.emission.max_channel())
             .fold(0.0f64, f64::max);
         let scale = if brightest > 0.0 { brightest } else { 1.0 };
-        let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel();
+        let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel() / scale;
         let (mut iterations, mut residual) = (0u32, f64::INFINITY);
+        let mut divergence = Divergence::default();
+        // Each surface's largest change in the last sweep.
+        let mut changes = vec![0.0f64; scene.surfaces.len()];
         progress.start("solving", u64::from(settings.max_iterations));
         while iterations < settings.max_iterations && residual > settings.tolerance {
-            residual = 0.0;
             let far = interactions.clusters.far_field(radiance);
             for (p, surface) in scene.surfaces.iter().enumerate() {
+                changes[p] = 0.0;
                 if let Some(rho) = surface.brdf.lambertian() {
                     let read = (&radiance[..], &directional[..]);
                     let gathered = interactions.gather(p, rho, &trees[p], read, &far);
                     let exposure = Some(&interactions.exposure[p][..]);
-                    let updated =
-                        push_pull::push_pull(&trees[p], &gathered, surface.emission, exposure);
-                    residual = residual.max(change(updated[0], radiance[p][0]) / scale);
+                    let limit = Some(&interactions.limit[p][..]);
+                    let updated = push_pull::push_pull(
+                        &trees[p],
+                        &gathered,
+                        surface.emission,
+                        exposure,
+                        limit,
+                    );
+                    changes[p] = change(updated[0], radiance[p][0]);
                     radiance[p] = updated;
                 }
                 for &s in &structures_of[p] {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
-                    let updated = push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure);
-                    residual = residual.max(change(updated[0], directional[s][0]) / scale);
+                    let updated = push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, None);
+                    changes[p] = changes[p].max(change(updated[0], directional[s][0]));
                     directional[s] = updated;
                 }
             }
+            residual = changes.iter().copied().fold(0.0, f64::max);
             iterations += 1;
             progress.advance(1);
+            if let Some(growing) = divergence.record(residual) {
+                progress.finish();
+                return Err(Error::Diverged {
+                    sweeps: iterations,
+                    growing,
+                    residual,
+                    surfaces: fastest_changing(scene, &changes),
+                });
+            }
         }
         progress.finish();
         times.solve_s += clock.elapsed().as_secs_f64();
-        Sweeps {
+        Ok(Sweeps {
             iterations,
             residual,
-        }
+        })
     }
+}
+
+/// Sweeps in a row that Gauss–Seidel's residual may grow, past its first
+/// sweep's, before the solve is called divergent. A converging solve's
+/// residual shrinks by about the scene's mean reflectance each sweep; one
+/// that keeps growing reflects more light than it receives somewhere.
+const GROWING_SWEEPS: u32 = 5;
+
+/// Watches Gauss–Seidel's residuals for divergence: a residual that is not
+/// finite, or one that has grown for [`GROWING_SWEEPS`] sweeps in a row to
+/// above the first sweep's (emission to first bounce, the largest change a
+/// converging solve makes).
+#[derive(Debug, Clone, Copy, Default)]
+struct Divergence {
+    first: Option<f64>,
+    previous: f64,
+    growing: u32,
+}
+
+impl Divergence {
+    /// Record one sweep's residual; `Some(sweeps grown in a row)` when the
+    /// solve diverges.
+    fn record(&mut self, residual: f64) -> Option<u32> {
+        match self.first {
+            None => self.first = Some(residual),
+            Some(_) if residual > self.previous => self.growing += 1,
+            Some(_) => self.growing = 0,
+        }
+        self.previous = residual;
+        let first = self.first.unwrap_or(residual);
+        let diverges =
+            !residual.is_finite() || (self.growing >= GROWING_SWEEPS && residual > first);
+        diverges.then_some(self.growing)
+    }
+}
+
+/// The (at most three) surfaces of `scene` with the largest `changes`,
+/// largest first, by name and index.
+fn fastest_changing(scene: &Scene, changes: &[f64]) -> Vec<String> {
+    let mut order: Vec<usize> = (0..changes.len()).collect();
+    order.sort_by(|&a, &b| changes[b].total_cmp(&changes[a]));
+    order
+        .into_iter()
+        .take(3)
+        .map(|s| match scene.surfaces[s].name.as_str() {
+            "" => format!("surface {s}"),
+            name => format!("{name} (surface {s})"),
+        })
+        .collect()
 }
 
 impl SolveSettings {
@@ -952,5 +1044,113 @@ impl Default for SolveSettings {
             max_refine_passes: 4,
             cluster_ratio: 0.25,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+    use crate::refine::two_point_projection::root_pairs;
+    use crate::scene::brdf::Brdf;
+    use crate::scene::{Patch, Surface};
+    use glam::DVec3;
+
+    /// Two facing unit squares 0.1 apart reflecting `rho`, named "lower"
+    /// and "upper"; the lower one emits 1.
+    fn facing_squares(rho: f64) -> Scene {
+        let square = |z: f64, up: bool| Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.0, z),
+            edge_s: if up { DVec3::X } else { DVec3::Y },
+            edge_t: if up { DVec3::Y } else { DVec3::X },
+        };
+        let surface = |name: &str, patch, emission| Surface {
+            name: name.into(),
+            patch,
+            brdf: Brdf::diffuse(Rgb::splat(rho)),
+            emission: Rgb::splat(emission),
+        };
+        Scene::from_surfaces(vec![
+            surface("lower", square(0.0, true), 1.0),
+            surface("upper", square(0.1, false), 0.0),
+        ])
+    }
+
+    /// The system of the squares' links, each given twice: links that
+    /// overlap, every form factor counted double (ΣF up to 1.9).
+    fn doubled_links(ctx: &KernelContext, settings: &SolveSettings) -> System {
+        let links = refine_links(ctx, settings.refine, None, &root_pairs(ctx), &Silent);
+        let doubled: Vec<Link> = links.iter().chain(&links).copied().collect();
+        let trees = element_trees(ctx.scene, &doubled, &[], &[]);
+        let links = Links {
+            two_point: &doubled,
+            three_point: &[],
+            clusters: (&ClusterTree::default(), &[]),
+        };
+        System::assemble(ctx, &[], trees, links, &mut PhaseTimes::default())
+    }
+
+    #[test]
+    fn overlapping_links_are_limited_so_that_gauss_seidel_converges() {
+        let scene = facing_squares(0.7);
+        let tracer = SceneTracer::new(&scene);
+        let settings = SolveSettings::default();
+        let ctx = crate::kernel::default_context(&scene, &tracer);
+        let mut system = doubled_links(&ctx, &settings);
+        assert!(system.interactions.limited_leaves > 0);
+        let sweeps = system
+            .solve(&scene, &settings, &Silent, &mut PhaseTimes::default())
+            .unwrap();
+        assert!(sweeps.residual <= settings.tolerance, "{sweeps:?}");
+        // No leaf reflects more than reaches it: the upper square, lit by
+        // the lower alone, stays below the lower's radiance.
+        let brightest = system.radiance[0].iter().map(|l| l[0]).fold(0.0, f64::max);
+        assert!(system.radiance[1].iter().all(|l| l[0] <= brightest));
+
+        // Without the limits the same sweeps diverge, and the error says
+        // so, naming the squares.
+        let mut system = doubled_links(&ctx, &settings);
+        for limit in &mut system.interactions.limit {
+            limit.fill(1.0);
+        }
+        let error = system
+            .solve(&scene, &settings, &Silent, &mut PhaseTimes::default())
+            .unwrap_err();
+        assert!(matches!(error, Error::Diverged { .. }), "{error}");
+        let message = error.to_string();
+        assert!(message.contains("lower (surface 0)"), "{message}");
+        assert!(message.contains("upper (surface 1)"), "{message}");
+    }
+
+    #[test]
+    fn divergence_is_a_residual_growing_past_the_first_sweeps() {
+        let diverges = |residuals: &[f64]| {
+            let mut watch = Divergence::default();
+            residuals.iter().any(|&r| watch.record(r).is_some())
+        };
+        // Converging, with a bump; growing for five sweeps but still below
+        // the first sweep's change (light spreading through a dark scene).
+        assert!(!diverges(&[1.0, 0.5, 0.6, 0.3, 0.1, 0.05]));
+        assert!(!diverges(&[1.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]));
+        // Growing for five sweeps past it, or not a number.
+        assert!(diverges(&[1.0, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4]));
+        assert!(!diverges(&[1.0, 0.9, 1.0, 1.1, 1.2, 1.3]));
+        assert!(diverges(&[1.0, f64::INFINITY]));
+        assert!(diverges(&[1.0, f64::NAN]));
+    }
+
+    #[test]
+    fn a_scene_without_light_is_refused_before_any_kernel_work() {
+        let mut scene = facing_squares(0.5);
+        scene.surfaces[0].emission = Rgb::ZERO;
+        let settings = SolveSettings::default();
+        assert_eq!(
+            solve(&scene, &settings, &Silent).err(),
+            Some(Error::NoLight)
+        );
+        let shooting = shoot::solve_shooting(&scene, &settings, &Silent, None);
+        assert_eq!(shooting.err(), Some(Error::NoLight));
+        scene.surfaces[1].emission = Rgb([0.0, 0.0, 0.1]);
+        assert!(solve(&scene, &settings, &Silent).is_ok());
     }
 }

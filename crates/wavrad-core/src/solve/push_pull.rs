@@ -13,12 +13,15 @@ use glam::DVec3;
 ///
 /// `exposure`, the exposed fraction of each node's area
 /// ([`crate::kernel::exposure`]), makes the averages over exposed areas; without it
-/// they are over whole elements.
+/// they are over whole elements. `limit`, a factor per node
+/// ([`reflection_limits`]), scales the reflected light that reaches each
+/// leaf (its own and its ancestors'), never the emission.
 pub fn push_pull(
     tree: &impl Hierarchy,
     gathered: &[Rgb],
     emission: Rgb,
     exposure: Option<&[f64]>,
+    limit: Option<&[f64]>,
 ) -> Vec<Rgb> {
     let mut radiance = vec![Rgb::ZERO; tree.node_count()];
     let mut pass = Pass {
@@ -26,10 +29,45 @@ pub fn push_pull(
         gathered,
         emission,
         exposure,
+        limit,
         out: &mut radiance,
     };
     pass.visit(0, Rgb::ZERO);
     radiance
+}
+
+/// The factor that keeps each leaf of `tree` from reflecting more light
+/// than reaches it, for a surface of `reflectance` (its largest channel).
+/// `form_factors` holds at each node the sum of the form factors of the
+/// links gathered there; ΣF, the sum over a leaf and its ancestors, is that
+/// of everything the leaf receives from. ΣF is at most 1 in any scene
+/// (Cohen & Wallace 1993, §2.5), but quadrature error scatters it by a few
+/// per cent either side, and links that overlap (surfaces closer together
+/// than their elements resolve) push it far above. Where ρ·ΣF exceeds 1
+/// the leaf would give out more light than it gets, and Gauss–Seidel could
+/// diverge: its factor, 1/ΣF, brings its form factors back to their bound.
+/// Elsewhere it is 1 (and at inner nodes): clipping the scatter's high
+/// side alone would darken closed scenes for nothing (the furnace tests).
+/// Returns the factors and how many leaves needed one below 1.
+pub fn reflection_limits(
+    tree: &impl Hierarchy,
+    form_factors: &[Rgb],
+    reflectance: f64,
+) -> (Vec<f64>, usize) {
+    let sums = push_pull(tree, form_factors, Rgb::ZERO, None, None);
+    let mut limited = 0;
+    let limits = (0..tree.node_count())
+        .map(|node| {
+            let sum = sums[node][0];
+            if tree.first_child(node).is_some() || reflectance * sum <= 1.0 {
+                1.0
+            } else {
+                limited += 1;
+                1.0 / sum
+            }
+        })
+        .collect();
+    (limits, limited)
 }
 
 struct Pass<'a, T> {
@@ -37,6 +75,7 @@ struct Pass<'a, T> {
     gathered: &'a [Rgb],
     emission: Rgb,
     exposure: Option<&'a [f64]>,
+    limit: Option<&'a [f64]>,
     out: &'a mut [Rgb],
 }
 
@@ -44,7 +83,7 @@ impl<T: Hierarchy> Pass<'_, T> {
     fn visit(&mut self, node: usize, above: Rgb) -> Rgb {
         let down = above + self.gathered[node];
         let value = match self.tree.first_child(node) {
-            None => self.emission + down,
+            None => self.emission + down * self.limit.map_or(1.0, |l| l[node]),
             Some(first) => {
                 // Children have equal areas: weigh them by their exposed
                 // fractions, or equally when none is exposed.
@@ -148,9 +187,39 @@ mod tests {
         gathered[0] = Rgb([1.0, 2.0, 3.0]); // at the root: reaches every leaf
         let deep = tree.index_of(ElementId::ROOT.child(2).child(1)).unwrap() as usize;
         gathered[deep] = Rgb([16.0, 0.0, 0.0]); // 1/16 of the area
-        let l = push_pull(&tree, &gathered, Rgb::splat(0.5), None);
+        let l = push_pull(&tree, &gathered, Rgb::splat(0.5), None, None);
         assert_eq!(l[deep], Rgb([17.5, 2.5, 3.5]));
         assert_eq!(l[0], Rgb([2.5, 2.5, 3.5]));
+    }
+
+    #[test]
+    fn leaves_that_would_reflect_more_than_they_receive_are_limited() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ids: BTreeSet<_> = [ElementId::ROOT.child(1)].into_iter().collect();
+        let tree = ElementTree::build(&root, &ids);
+        let over = tree.index_of(ElementId::ROOT.child(1)).unwrap() as usize;
+        // Form factors 0.6 at the root, 0.9 more at child 1: ΣF 1.5 there.
+        let mut sums = vec![Rgb::ZERO; tree.nodes.len()];
+        sums[0] = Rgb::splat(0.6);
+        sums[over] = Rgb::splat(0.9);
+        let (limits, limited) = reflection_limits(&tree, &sums, 0.8);
+        assert_eq!(limited, 1);
+        for (node, limit) in limits.iter().enumerate() {
+            let expect = if node == over { 1.0 / 1.5 } else { 1.0 };
+            assert!((limit - expect).abs() < 1e-12, "{node}: {limit}");
+        }
+        // A darker surface reflects less than it receives as it is.
+        assert_eq!(reflection_limits(&tree, &sums, 0.6).1, 0);
+        // The limit scales what reaches the leaf, never its emission.
+        let mut gathered = vec![Rgb::ZERO; tree.nodes.len()];
+        gathered[0] = Rgb::splat(3.0);
+        let l = push_pull(&tree, &gathered, Rgb::splat(1.0), None, Some(&limits));
+        assert!((l[over][0] - 3.0).abs() < 1e-12, "{l:?}");
+        assert!((l[over - 1][0] - 4.0).abs() < 1e-12, "{l:?}");
     }
 
     #[test]
@@ -169,7 +238,7 @@ mod tests {
         gathered.add(child, Rgb([0.0, 0.0, 4.0]), -g);
         let averages = gathered.into_averages(&tree);
         assert_eq!(averages[0], Rgb([1.0, 2.0, 0.0])); // the constant stays put
-        let l = push_pull(&tree, &averages, Rgb::ZERO, None);
+        let l = push_pull(&tree, &averages, Rgb::ZERO, None, None);
         // Each leaf holds the linear functions over it at its centroid.
         let leaf = tree.index_of(deep).unwrap() as usize;
         let x = DVec3::new(0.625, 0.625, 0.0);

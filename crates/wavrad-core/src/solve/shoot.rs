@@ -123,8 +123,9 @@ pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
 ///
 /// # Errors
 /// [`Error::InvalidSetting`] for a scene with a glossy surface, for the
-/// importance oracle, or for bad settings; [`Error::EmptyScene`] and
-/// [`Error::TooManySurfaces`] as [`super::solve`].
+/// importance oracle, or for bad settings; [`Error::EmptyScene`],
+/// [`Error::TooManySurfaces`], [`Error::NoLight`] and [`Error::Diverged`]
+/// as [`super::solve`].
 pub fn solve_shooting(
     scene: &Scene,
     settings: &SolveSettings,
@@ -139,6 +140,7 @@ pub fn solve_shooting(
             limit: MAX_SHOOTING_SURFACES,
         });
     }
+    super::check_light(scene)?;
     if let Some(s) = scene
         .surfaces
         .iter()
@@ -222,8 +224,11 @@ pub fn solve_shooting(
         clusters: (&ClusterTree::default(), &[]),
     };
     let mut system = System::assemble(&ctx, &[], trees, links, &mut shooting.times);
-    let sweeps = system.solve(scene, settings, progress, &mut shooting.times);
-    solution.stats = shooting.stats(&system.trees, sweeps);
+    let sweeps = system.solve(scene, settings, progress, &mut shooting.times)?;
+    solution.stats = Stats {
+        limited_leaves: system.interactions.limited_leaves,
+        ..shooting.stats(&system.trees, sweeps)
+    };
     solution.trees = system.trees;
     solution.radiance = system.radiance;
     solution.interactions = system.interactions;
@@ -311,7 +316,8 @@ impl SurfaceState {
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
-        let received = push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure));
+        let received =
+            push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure), None);
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             *l += d;
             *u += d;
@@ -340,7 +346,7 @@ struct Shooting<'a> {
 impl<'a> Shooting<'a> {
     fn new(ctx: KernelContext<'a>, settings: &'a SolveSettings, times: PhaseTimes) -> Self {
         let scene = ctx.scene;
-        let pairs = linked_pairs(scene);
+        let pairs = linked_pairs(&ctx);
         let reflects = |s: u32| {
             let surface = &scene.surfaces[s as usize];
             surface

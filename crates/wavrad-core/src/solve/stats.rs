@@ -68,6 +68,11 @@ pub struct Stats {
     /// Every setting of the solve by its described name
     /// ([`SolveSettings::SETTINGS`](crate::setting::Described::SETTINGS)).
     pub settings: BTreeMap<&'static str, Value>,
+    /// Leaves whose form factors summed above one (quadrature error, or
+    /// surfaces closer together than their elements resolve), whose
+    /// reflected light was scaled down so that none reflects more than
+    /// reaches it ([`crate::solve::push_pull::reflection_limits`]).
+    pub limited_leaves: usize,
     /// Projections the refine–solve loop made (1 for the kernel oracle; at
     /// most the `refine_passes` setting).
     pub projections: u32,
@@ -142,6 +147,7 @@ impl Stats {
             interactions_per_level,
             settings: settings.values().into_iter().collect(),
             projections: 1,
+            limited_leaves: 0,
             solver: "gather".into(),
             shooting_steps: 0,
             unshot_fraction: 0.0,
