@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import wavrad
@@ -143,10 +144,23 @@ def test_every_setting_given_is_the_one_the_stats_report(scene: wavrad.Scene) ->
         "refine_passes": 2,
         "tolerance": 1e-4,
         "max_iterations": 50,
+        "time_limit": 3600.0,
+        "max_memory": 64.0,
     }
     solution = wavrad.solve(scene, **given)  # type: ignore[arg-type]
     assert solution.stats["settings"] == given
     assert solution.stats["projections"] in range(1, given["refine_passes"] + 1)
+    assert (solution.stats["stopped"], solution.stats["unrefined_items"]) == (None, 0)
+
+
+def test_a_time_limit_finishes_the_solve_from_what_was_done(scene: wavrad.Scene) -> None:
+    full = wavrad.solve(scene, max_level=MAX_LEVEL)
+    cut = wavrad.solve(scene, max_level=MAX_LEVEL, time_limit=1e-9)
+    assert cut.stats["stopped"] == "time_limit"
+    assert cut.stats["unrefined_items"] > 0
+    assert cut.stats["two_point_interactions"] < full.stats["two_point_interactions"]
+    image = cut.render("direct", 1)
+    assert np.isfinite(image).all() and image.max() > 0
 
 
 def test_render_settings_are_taken_by_name(kernel: wavrad.Solution) -> None:

@@ -46,6 +46,8 @@ class _SolveSettings(TypedDict, total=False):
     oracle: Literal["kernel", "power", "importance"]
     refine_passes: int
     cluster_ratio: float
+    time_limit: float
+    max_memory: float
 
 class WavradError(Exception):
     """Base class of every wavrad error."""
@@ -178,6 +180,9 @@ def solve(
     max_iterations: int | None = None,
     oracle: Literal["kernel", "power", "importance"] | None = None,
     refine_passes: int | None = None,
+    cluster_ratio: float | None = None,
+    time_limit: float | None = None,
+    max_memory: float | None = None,
     solver: Literal["gather", "shoot"] | None = None,
     on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
 ) -> Solution:
@@ -204,7 +209,17 @@ def solve(
     ``tolerance``: convergence of the Gauss-Seidel sweeps
     (default 1e-5; when shooting, also the unshot power left, relative to
     the emitted power); ``max_iterations``: most sweeps (default 200; when
-    shooting, also the most shooting steps).
+    shooting, also the most shooting steps); ``cluster_ratio``: largest
+    (size of both ends)/distance of a link between clusters of surfaces
+    (default 0.25; 0 links every pair of surfaces, as the paper does).
+
+    ``time_limit`` (seconds, default 0: none) and ``max_memory`` (GiB,
+    default 0: 80 % of the machine's memory) bound the solve: once one is
+    reached, the surface pairs left are linked whole, without refinement,
+    the sweeps stop after at least 8, and the solution is finished from
+    what was done; ``stats["stopped"]`` names the limit (``"time_limit"``,
+    ``"memory_limit"``) and ``stats["unrefined_items"]`` counts what it
+    left unrefined (``None`` and 0 when nothing did).
 
     ``solver``: ``"gather"`` (the default and the paper's: every kernel
     projected up front, then Gauss-Seidel gathering) or ``"shoot"``

@@ -9,7 +9,8 @@ use std::marker::PhantomData;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use wavrad_core::progress::Progress;
 use wavrad_core::render::{RenderSettings, Renderer};
@@ -22,6 +23,9 @@ use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
 #[derive(Parser, Debug)]
 #[command(name = "wavrad", version, about)]
 struct Cli {
+    /// Print no progress and no summary (warnings and errors still show).
+    #[arg(short, long, global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -144,41 +148,164 @@ impl<S: Described> Args for Given<S> {
     }
 }
 
-/// Progress bars on a terminal, nothing otherwise.
-struct Bars {
-    enabled: bool,
-    bar: Mutex<Option<ProgressBar>>,
+/// How progress is shown: bars on a terminal, plain lines otherwise (a
+/// log, CI), nothing with `--quiet`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Show {
+    Bars,
+    Lines,
+    Nothing,
 }
 
-impl Progress for Bars {
-    fn start(&self, phase: &str, total: u64) {
-        if !self.enabled {
+/// Seconds between two plain progress lines of one phase.
+const LINE_INTERVAL_S: f64 = 10.0;
+
+/// One phase under way.
+struct Phase {
+    name: String,
+    total: u64,
+    done: u64,
+    started: Instant,
+    /// When the last plain line was printed.
+    printed: Instant,
+    bar: Option<ProgressBar>,
+}
+
+/// The CLI's progress: each phase as a bar with its rate and time left, or
+/// as a plain line every [`LINE_INTERVAL_S`]; Ctrl-C asks the solve to
+/// stop ([`Progress::interrupted`]).
+struct Reporter {
+    show: Show,
+    phase: Mutex<Option<Phase>>,
+    interrupted: Arc<AtomicBool>,
+}
+
+impl Reporter {
+    fn new(quiet: bool) -> Reporter {
+        let show = match (quiet, std::io::stderr().is_terminal()) {
+            (true, _) => Show::Nothing,
+            (false, true) => Show::Bars,
+            (false, false) => Show::Lines,
+        };
+        Reporter {
+            show,
+            phase: Mutex::new(None),
+            interrupted: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    /// A note between phases (loading, writing), unless quiet.
+    fn note(&self, text: &str) {
+        if self.show != Show::Nothing {
+            eprintln!("wavrad: {text}");
+        }
+    }
+
+    /// First Ctrl-C: the solve stops refining and sweeping and finishes
+    /// from what is done; a second one quits at once.
+    fn stop_on_ctrl_c(&self) {
+        let interrupted = Arc::clone(&self.interrupted);
+        let handler = ctrlc::set_handler(move || {
+            if interrupted.swap(true, Ordering::SeqCst) {
+                eprintln!("\nwavrad: interrupted again: quitting, nothing more is written");
+                std::process::exit(130);
+            }
+            eprintln!(
+                "\nwavrad: interrupted: the solve stops refining and finishes from what is done \
+                 (Ctrl-C again quits at once)"
+            );
+        });
+        if let Err(e) = handler {
+            eprintln!("wavrad: warning: Ctrl-C will quit at once: {e}");
+        }
+    }
+
+    fn was_interrupted(&self) -> bool {
+        self.interrupted.load(Ordering::SeqCst)
+    }
+}
+
+impl Progress for Reporter {
+    fn start(&self, name: &str, total: u64) {
+        if self.show == Show::Nothing {
             return;
         }
-        let bar = ProgressBar::new(total);
-        bar.set_style(
-            ProgressStyle::with_template("{msg:>9} [{bar:40}] {pos}/{len} {elapsed_precise}")
+        let bar = (self.show == Show::Bars).then(|| {
+            let bar = ProgressBar::new(total);
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{msg:>15} [{bar:30}] {pos}/{len} {per_sec} {elapsed_precise}, {eta} left",
+                )
                 .expect("valid template")
                 .progress_chars("=> "),
-        );
-        bar.set_message(phase.to_string());
-        *self.bar.lock().expect("progress lock") = Some(bar);
+            );
+            bar.set_message(name.to_string());
+            bar
+        });
+        let now = Instant::now();
+        *self.phase.lock().expect("progress lock") = Some(Phase {
+            name: name.to_string(),
+            total,
+            done: 0,
+            started: now,
+            printed: now,
+            bar,
+        });
     }
+
     fn advance(&self, steps: u64) {
-        if let Some(bar) = self.bar.lock().expect("progress lock").as_ref() {
+        let mut phase = self.phase.lock().expect("progress lock");
+        let Some(phase) = phase.as_mut() else {
+            return;
+        };
+        phase.done += steps;
+        if let Some(bar) = &phase.bar {
             bar.inc(steps);
+        } else if phase.printed.elapsed().as_secs_f64() >= LINE_INTERVAL_S {
+            phase.printed = Instant::now();
+            let elapsed = phase.started.elapsed().as_secs_f64();
+            let share = phase.done as f64 / phase.total.max(1) as f64;
+            let left = elapsed * (1.0 - share) / share.max(1e-9);
+            eprintln!(
+                "wavrad: {} {}/{} ({:.0} %), {:.0} s, about {:.0} s left",
+                phase.name,
+                phase.done,
+                phase.total,
+                100.0 * share,
+                elapsed,
+                left
+            );
         }
     }
+
     fn finish(&self) {
-        if let Some(bar) = self.bar.lock().expect("progress lock").take() {
-            bar.finish_and_clear();
+        let Some(phase) = self.phase.lock().expect("progress lock").take() else {
+            return;
+        };
+        match phase.bar {
+            Some(bar) => bar.finish_and_clear(),
+            None if phase.started.elapsed().as_secs_f64() >= LINE_INTERVAL_S => eprintln!(
+                "wavrad: {} done ({}), {:.1} s",
+                phase.name,
+                phase.done,
+                phase.started.elapsed().as_secs_f64()
+            ),
+            None => {}
         }
+    }
+
+    fn interrupted(&self) -> bool {
+        self.was_interrupted()
     }
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(cli) {
+    let progress = Reporter::new(cli.quiet);
+    progress.stop_on_ctrl_c();
+    match run(cli, &progress) {
+        // An interrupted run finished what it could, and says so by its status.
+        Ok(()) if progress.was_interrupted() => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("wavrad: error: {message}");
@@ -187,11 +314,7 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<(), String> {
-    let progress = Bars {
-        enabled: std::io::stderr().is_terminal(),
-        bar: Mutex::new(None),
-    };
+fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
     match cli.command {
         Command::Compare { image, reference } => {
             let (w, h, a) = wavrad_io::read_exr_rgb(&image).map_err(|e| e.to_string())?;
@@ -208,8 +331,8 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Command::Solve { solve: args } => {
             check_outputs(None, args.stats.as_deref())?;
-            let solution = load_and_solve(&args, &progress)?;
-            report(&solution, None);
+            let solution = load_and_solve(&args, progress)?;
+            report(&solution, None, progress);
             write_stats(&args, &solution, None)
         }
         Command::Render {
@@ -222,7 +345,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let scene_free = wavrad_core::scene::Scene::from_surfaces(Vec::new());
             RenderSettings::from_values(&scene_free, &settings.values)
                 .map_err(|e| e.to_string())?;
-            let solution = load_and_solve(&args, &progress)?;
+            let solution = load_and_solve(&args, progress)?;
             let settings = RenderSettings::from_values(&solution.scene, &settings.values)
                 .map_err(|e| e.to_string())?;
             let renderer = Renderer::new(solution);
@@ -233,15 +356,16 @@ fn run(cli: Cli) -> Result<(), String> {
             let mut solution = renderer.into_solution();
             solution.stats.times.render_s = clock.elapsed().as_secs_f64();
             solution.stats.peak_memory_bytes = wavrad_core::solve::stats::peak_memory_bytes();
+            progress.note(&format!("writing {}", output.display()));
             wavrad_io::write_image(&output, image.width, image.height, &image.rgb)
                 .map_err(|e| e.to_string())?;
-            report(&solution, Some(&output));
+            report(&solution, Some(&output), progress);
             write_stats(&args, &solution, Some(&settings))
         }
     }
 }
 
-fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String> {
+fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<Solution, String> {
     let defines = args
         .define
         .iter()
@@ -251,6 +375,7 @@ fn load_and_solve(args: &SolveArgs, progress: &Bars) -> Result<Solution, String>
                 .ok_or_else(|| format!("-D expects NAME=VALUE, got {d:?}"))
         })
         .collect::<Result<Vec<_>, _>>()?;
+    progress.note(&format!("loading {}", args.scene.display()));
     let loaded = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
     for warning in &loaded.warnings {
         eprintln!("wavrad: warning: {warning}");
@@ -347,9 +472,24 @@ fn check_output_extension(output: &Path) -> Result<(), String> {
     }
 }
 
-fn report(solution: &Solution, output: Option<&Path>) {
+fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
     let s = &solution.stats;
     let t = &s.times;
+    if let Some(stop) = s.stopped {
+        eprintln!(
+            "wavrad: warning: {stop} cut the solve short: {} surface pairs, triples or links were \
+             left unrefined{}; the image is coarser than a full solve's",
+            s.unrefined_items,
+            if s.converged {
+                String::new()
+            } else {
+                format!(", and Gauss–Seidel stopped after {} sweeps", s.iterations)
+            }
+        );
+    }
+    if progress.show == Show::Nothing {
+        return report_warnings(solution);
+    }
     eprintln!(
         "wavrad: {} surfaces, {} two-point nodes, {} two-point interactions; {} iterations (residual {:.2e}); \
          kernels {:.2}s, solve {:.2}s, render {:.2}s",
@@ -362,13 +502,6 @@ fn report(solution: &Solution, output: Option<&Path>) {
         t.solve_s,
         t.render_s
     );
-    if !s.converged {
-        eprintln!(
-            "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \
-             {:.0e}); more --max-iterations may help",
-            s.residual, s.iterations, solution.settings.tolerance
-        );
-    }
     if s.shooting_steps > 0 {
         eprintln!(
             "wavrad: {} shooting steps (unshot {:.2e} of the emitted power); kernels projected for \
@@ -376,8 +509,21 @@ fn report(solution: &Solution, output: Option<&Path>) {
             s.shooting_steps, s.unshot_fraction, s.kernel_pairs, s.exchanging_pairs
         );
     }
+    report_warnings(solution);
     if let Some(out) = output {
         eprintln!("wavrad: wrote {}", out.display());
+    }
+}
+
+/// Warnings about a solve that ended without a hard failure.
+fn report_warnings(solution: &Solution) {
+    let s = &solution.stats;
+    if !s.converged && s.stopped.is_none() {
+        eprintln!(
+            "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \
+             {:.0e}); more --max-iterations may help",
+            s.residual, s.iterations, solution.settings.tolerance
+        );
     }
 }
 

@@ -1,6 +1,11 @@
 //! Progress of the long phases (refinement, solve, render), reported to
 //! whoever drives them: the CLI draws bars, Python calls back, tests stay
-//! silent.
+//! silent. The driver may also ask the work to stop ([`Progress::interrupted`]);
+//! with the time and memory limits that makes a solve's [`Budget`].
+
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 /// Receives progress of the long phases (the CLI draws bars; default: none).
 pub trait Progress: Sync {
@@ -10,9 +15,222 @@ pub trait Progress: Sync {
     fn advance(&self, _steps: u64) {}
     /// The phase is over.
     fn finish(&self) {}
+    /// Whether the driver asks the work to stop (Ctrl-C): refinement stops
+    /// splitting and the solve stops sweeping, as when a [`Budget`] is
+    /// spent. Default: never.
+    fn interrupted(&self) -> bool {
+        false
+    }
+    /// `items` (surface pairs or triples, links) were linked whole or left
+    /// as they were, instead of refined, because the work was asked to stop.
+    fn cut_short(&self, _items: u64) {}
 }
 
 /// Progress that reports nothing.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Silent;
 impl Progress for Silent {}
+
+/// What cut a solve short.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stop {
+    /// Its wall-clock time limit passed.
+    TimeLimit,
+    /// The process's resident memory reached its limit.
+    MemoryLimit,
+    /// The driver interrupted it ([`Progress::interrupted`]).
+    Interrupted,
+}
+
+impl std::fmt::Display for Stop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Stop::TimeLimit => "the time limit",
+            Stop::MemoryLimit => "the memory limit",
+            Stop::Interrupted => "an interrupt",
+        })
+    }
+}
+
+/// How often, at most, the resident memory is read.
+const MEMORY_CHECK_INTERVAL: Duration = Duration::from_millis(50);
+
+/// The limits a solve respects: a wall-clock time limit from its start, a
+/// limit on the process's resident memory, and the driver's interrupt.
+/// Once one is reached the budget stays spent: refinement links the items
+/// left without splitting them (counted in [`Budget::coarse_items`]) and
+/// Gauss–Seidel stops after its current sweep, so the solution is finished
+/// from what was done.
+#[derive(Debug)]
+pub struct Budget {
+    started: Instant,
+    time_limit: Option<Duration>,
+    max_memory: Option<u64>,
+    /// Nanoseconds from `started` at which memory is next read.
+    next_memory_check: AtomicU64,
+    spent: OnceLock<Stop>,
+    coarse: AtomicUsize,
+}
+
+impl Budget {
+    /// A budget from now: at most `time_limit` of wall-clock time and
+    /// `max_memory` bytes of resident memory (`None`: no limit).
+    pub fn new(time_limit: Option<Duration>, max_memory: Option<u64>) -> Budget {
+        Budget {
+            started: Instant::now(),
+            time_limit,
+            max_memory,
+            next_memory_check: AtomicU64::new(0),
+            spent: OnceLock::new(),
+            coarse: AtomicUsize::new(0),
+        }
+    }
+
+    /// No limits (an interrupt still stops the work).
+    pub fn unlimited() -> Budget {
+        Budget::new(None, None)
+    }
+
+    /// What spent the budget, checking the limits and `progress`'s
+    /// interrupt now; `None` while work may go on.
+    pub fn spent(&self, progress: &dyn Progress) -> Option<Stop> {
+        if let Some(&stop) = self.spent.get() {
+            return Some(stop);
+        }
+        let elapsed = self.started.elapsed();
+        let stop = if progress.interrupted() {
+            Some(Stop::Interrupted)
+        } else if self.time_limit.is_some_and(|limit| elapsed >= limit) {
+            Some(Stop::TimeLimit)
+        } else if self.max_memory.is_some() && self.memory_due(elapsed) {
+            let over = resident_memory_bytes()
+                .zip(self.max_memory)
+                .is_some_and(|(used, max)| used >= max);
+            over.then_some(Stop::MemoryLimit)
+        } else {
+            None
+        };
+        stop.map(|s| *self.spent.get_or_init(|| s))
+    }
+
+    /// What spent the budget, without checking again.
+    pub fn stopped(&self) -> Option<Stop> {
+        self.spent.get().copied()
+    }
+
+    /// Count `n` more items linked without refinement.
+    pub fn add_coarse(&self, n: usize) {
+        self.coarse.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Items (surface pairs or triples, links) linked whole or left as they
+    /// were, instead of refined, because the budget was spent.
+    pub fn coarse_items(&self) -> usize {
+        self.coarse.load(Ordering::Relaxed)
+    }
+
+    /// True at most once per [`MEMORY_CHECK_INTERVAL`] (reading the
+    /// resident memory costs a system call).
+    fn memory_due(&self, elapsed: Duration) -> bool {
+        let now = elapsed.as_nanos() as u64;
+        let due = self.next_memory_check.load(Ordering::Relaxed);
+        now >= due
+            && self
+                .next_memory_check
+                .compare_exchange(
+                    due,
+                    now + MEMORY_CHECK_INTERVAL.as_nanos() as u64,
+                    Ordering::Relaxed,
+                    Ordering::Relaxed,
+                )
+                .is_ok()
+    }
+}
+
+/// A driver's progress with a [`Budget`]: it reports to `progress`, and
+/// asks the work to stop once the budget is spent.
+pub struct Budgeted<'a> {
+    /// The driver's progress.
+    pub progress: &'a dyn Progress,
+    /// The limits.
+    pub budget: &'a Budget,
+}
+
+impl Progress for Budgeted<'_> {
+    fn start(&self, phase: &str, total: u64) {
+        self.progress.start(phase, total)
+    }
+    fn advance(&self, steps: u64) {
+        self.progress.advance(steps)
+    }
+    fn finish(&self) {
+        self.progress.finish()
+    }
+    fn interrupted(&self) -> bool {
+        self.budget.spent(self.progress).is_some()
+    }
+    fn cut_short(&self, items: u64) {
+        self.budget.add_coarse(items as usize);
+        self.progress.cut_short(items)
+    }
+}
+
+/// The process's resident memory now (Linux; `None` elsewhere).
+pub fn resident_memory_bytes() -> Option<u64> {
+    proc_status_kib("VmRSS:").map(|kib| kib * 1024)
+}
+
+/// The machine's physical memory (Linux; `None` elsewhere).
+pub fn physical_memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// A `kB` field of `/proc/self/status`.
+pub(crate) fn proc_status_kib(field: &str) -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with(field))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Interrupt;
+    impl Progress for Interrupt {
+        fn interrupted(&self) -> bool {
+            true
+        }
+    }
+
+    #[test]
+    fn a_budget_is_spent_by_its_first_limit_and_stays_spent() {
+        let open = Budget::unlimited();
+        assert_eq!(open.spent(&Silent), None);
+        assert_eq!(open.spent(&Interrupt), Some(Stop::Interrupted));
+        assert_eq!(open.spent(&Silent), Some(Stop::Interrupted));
+
+        let timed = Budget::new(Some(Duration::ZERO), None);
+        assert_eq!(timed.spent(&Silent), Some(Stop::TimeLimit));
+        assert_eq!(timed.stopped(), Some(Stop::TimeLimit));
+
+        let later = Budget::new(Some(Duration::from_secs(3600)), None);
+        assert_eq!(later.spent(&Silent), None);
+        assert_eq!(later.stopped(), None);
+    }
+
+    #[test]
+    fn a_memory_limit_below_what_the_process_holds_is_spent() {
+        if resident_memory_bytes().is_none() {
+            return; // not Linux
+        }
+        let tight = Budget::new(None, Some(1));
+        assert_eq!(tight.spent(&Silent), Some(Stop::MemoryLimit));
+        let ample = Budget::new(None, Some(u64::MAX));
+        assert_eq!(ample.spent(&Silent), None);
+    }
+}

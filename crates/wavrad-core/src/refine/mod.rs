@@ -57,18 +57,24 @@ impl Part {
 
 /// What `project` makes of every item, in parallel and in order, one
 /// progress step each under the phase `label`; the result does not depend
-/// on the number of threads.
+/// on the number of threads. `project(item, refine)` refines unless the
+/// work was asked to stop ([`Progress::interrupted`]); the items it did not
+/// refine are reported ([`Progress::cut_short`]).
 fn project_each<T: Sync, L: Send>(
     label: &str,
     items: &[T],
     progress: &dyn Progress,
-    project: impl Fn(&T) -> Vec<L> + Sync,
+    project: impl Fn(&T, bool) -> Vec<L> + Sync,
 ) -> Vec<Vec<L>> {
     progress.start(label, items.len() as u64);
     let out = items
         .par_iter()
         .map(|item| {
-            let out = project(item);
+            let refine = !progress.interrupted();
+            if !refine {
+                progress.cut_short(1);
+            }
+            let out = project(item, refine);
             progress.advance(1);
             out
         })
@@ -78,26 +84,31 @@ fn project_each<T: Sync, L: Send>(
 }
 
 /// The links `project` makes of every item (a surface pair or triple
-/// projected from the whole surfaces down), concatenated in order.
+/// projected from the whole surfaces down), concatenated in order;
+/// `project(item, refine)` as in [`project_each`].
 pub(crate) fn project_all<T: Sync, L: Send>(
     label: &str,
     items: &[T],
     progress: &dyn Progress,
-    project: impl Fn(&T) -> Vec<L> + Sync,
+    project: impl Fn(&T, bool) -> Vec<L> + Sync,
 ) -> Vec<L> {
     let per_item = project_each(label, items, progress, project);
     per_item.into_iter().flatten().collect()
 }
 
 /// Replace every link by what `refine` makes of it, in parallel and in
-/// order; also count the links that changed.
+/// order (once the work is asked to stop, the links left stay as they
+/// are); also count the links that changed.
 pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
     label: &str,
     links: &[L],
     progress: &dyn Progress,
     refine: impl Fn(&L) -> Vec<L> + Sync,
 ) -> (Vec<L>, usize) {
-    let per_link = project_each(label, links, progress, refine);
+    let per_link = project_each(label, links, progress, |l, go_on| match go_on {
+        true => refine(l),
+        false => vec![*l],
+    });
     let changed = per_link
         .iter()
         .zip(links)

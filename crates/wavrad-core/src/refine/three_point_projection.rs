@@ -13,7 +13,7 @@
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::three_point_quadrature::{GlossyElement, IncidentLight};
 use crate::kernel::KernelContext;
-use crate::progress::Progress;
+use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
@@ -69,6 +69,9 @@ pub struct ThreePointSettings {
 /// The surfaces of one triple and what the kernel needs of them.
 struct TripleRefiner<'a> {
     ctx: KernelContext<'a>,
+    /// Asks refinement to stop ([`Progress::interrupted`]): the links
+    /// under way are kept as they are.
+    stop: &'a dyn Progress,
     settings: ThreePointSettings,
     judge: Judge<'a>,
     r: u32,
@@ -86,10 +89,12 @@ impl<'a> TripleRefiner<'a> {
         settings: ThreePointSettings,
         estimate: Option<&'a LightEstimate>,
         (r, p, q): (u32, u32, u32),
+        stop: &'a dyn Progress,
     ) -> Self {
         let scene = ctx.scene;
         TripleRefiner {
             ctx: *ctx,
+            stop,
             settings,
             judge: Judge {
                 threshold: settings.refine.threshold,
@@ -147,6 +152,9 @@ impl<'a> TripleRefiner<'a> {
     /// tested too; the first element whose details fail is subdivided. The
     /// link is kept only when every refinable element passes.
     fn refine(&mut self, c: Part, a: Part, b: Part, known: Rgb) {
+        if self.stop.interrupted() {
+            return self.push(&c, &a, &b, known, 0.0);
+        }
         // A hypothetical receiver (the eye) is a point: never split.
         let point_receiver = self.q as usize >= self.ctx.scene.surfaces.len();
         let max = [
@@ -274,20 +282,34 @@ pub fn refine_three_point_links(
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
 ) -> Vec<ThreePointLink> {
-    project_all("3-point kernels", triples, progress, |&(r, p, q)| {
-        let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q));
-        let (c, a, b) = (
-            Part::of(ctx.scene, ElementRef::root(r)),
-            Part::of(ctx.scene, ElementRef::root(p)),
-            Part {
-                element: ElementRef::root(q),
-                patch: receiver(q),
-            },
-        );
-        let k = refiner.coefficient(&c, &a, &b);
-        refiner.refine(c, a, b, k);
-        refiner.links
-    })
+    // Once the work is asked to stop, the triples left are linked whole.
+    let unrefined = ThreePointSettings {
+        refine: RefineSettings {
+            max_level: 0,
+            ..settings.refine
+        },
+        receiver_max_level: 0,
+    };
+    project_all(
+        "3-point kernels",
+        triples,
+        progress,
+        |&(r, p, q), refine| {
+            let settings = if refine { settings } else { unrefined };
+            let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q), progress);
+            let (c, a, b) = (
+                Part::of(ctx.scene, ElementRef::root(r)),
+                Part::of(ctx.scene, ElementRef::root(p)),
+                Part {
+                    element: ElementRef::root(q),
+                    patch: receiver(q),
+                },
+            );
+            let k = refiner.coefficient(&c, &a, &b);
+            refiner.refine(c, a, b, k);
+            refiner.links
+        },
+    )
 }
 
 impl Projection for ThreePointSettings {
@@ -300,7 +322,7 @@ impl Projection for ThreePointSettings {
         estimate: &LightEstimate,
         l: &ThreePointLink,
     ) -> Vec<ThreePointLink> {
-        let mut refiner = TripleRefiner::new(ctx, *self, Some(estimate), (l.r, l.p, l.q));
+        let mut refiner = TripleRefiner::new(ctx, *self, Some(estimate), (l.r, l.p, l.q), &Silent);
         let [c, a, b] = l.elements().map(|e| Part::of(ctx.scene, e));
         let error = |e| Some(f64::from(l.detail) * refiner.weight(e, &[c, a, b]));
         if refiner.judge.still_accepts(error) {

@@ -12,7 +12,7 @@ use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::form_factor::point_to_polygon;
 use crate::kernel::two_point_quadrature::OuterSamples;
 use crate::kernel::KernelContext;
-use crate::progress::Progress;
+use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::{project_all, Part, Projection};
@@ -97,6 +97,9 @@ pub struct RefineSettings {
 
 struct PairRefiner<'a> {
     ctx: KernelContext<'a>,
+    /// Asks refinement to stop ([`Progress::interrupted`]): the links
+    /// under way are kept as they are.
+    stop: &'a dyn Progress,
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<ElementRef, bool>,
     settings: RefineSettings,
@@ -115,12 +118,14 @@ impl<'a> PairRefiner<'a> {
         settings: RefineSettings,
         estimate: Option<&'a LightEstimate>,
         (p, r): (u32, u32),
+        stop: &'a dyn Progress,
     ) -> Self {
         let scene = ctx.scene;
         let (sp, sr) = (&scene.surfaces[p as usize], &scene.surfaces[r as usize]);
         let rho = |s: &Surface| s.brdf.lambertian().map_or(0.0, |r| r.max_channel());
         PairRefiner {
             ctx: *ctx,
+            stop,
             straddling: Default::default(),
             settings,
             judge: Judge {
@@ -356,6 +361,9 @@ impl<'a> PairRefiner<'a> {
     /// Compute_2point_Kernel for the pair (a, c) whose throughput is known
     /// (and whose shaft is `clear`, when known: so are its parts').
     fn refine(&mut self, a: Part, c: Part, throughput: f64, clear: bool) {
+        if self.stop.interrupted() {
+            return self.push(&a, &c, throughput, 0.0, None);
+        }
         // Virtual resolution splits the larger element. Once the larger is
         // at the maximum level the smaller stays as it is unless it
         // `touches` the larger's plane: elsewhere splitting it would not
@@ -451,8 +459,14 @@ pub fn refine_links(
         .filter(|[a, c]| lambertian(a.surface) || lambertian(c.surface))
         .copied()
         .collect();
-    project_all("kernels", &starts, progress, |&pair| {
-        refine_pair(ctx, settings, estimate, pair)
+    // Once the work is asked to stop, the pairs left are linked whole.
+    let unrefined = RefineSettings {
+        max_level: 0,
+        ..settings
+    };
+    project_all("kernels", &starts, progress, |&pair, refine| {
+        let settings = if refine { settings } else { unrefined };
+        refine_pair(ctx, settings, estimate, pair, progress)
     })
 }
 
@@ -484,14 +498,16 @@ pub fn root_pairs(ctx: &KernelContext) -> Vec<[ElementRef; 2]> {
 }
 
 /// The two-point links between elements `a` and `c` of two surfaces,
-/// projected from those elements down.
+/// projected from those elements down, until the oracle accepts them or
+/// `stop` asks refinement to stop ([`Progress::interrupted`]).
 pub fn refine_pair(
     ctx: &KernelContext,
     settings: RefineSettings,
     estimate: Option<&LightEstimate>,
     [a, c]: [ElementRef; 2],
+    stop: &dyn Progress,
 ) -> Vec<Link> {
-    let mut refiner = PairRefiner::new(ctx, settings, estimate, (a.surface, c.surface));
+    let mut refiner = PairRefiner::new(ctx, settings, estimate, (a.surface, c.surface), stop);
     let (a, c) = (Part::of(ctx.scene, a), Part::of(ctx.scene, c));
     let s = refiner.samples(&a, &c, false);
     refiner.refine(a, c, s.total(), s.clear);
@@ -520,7 +536,7 @@ impl Projection for RefineSettings {
     const PHASE: &'static str = "kernels";
 
     fn refine_link(&self, ctx: &KernelContext, estimate: &LightEstimate, l: &Link) -> Vec<Link> {
-        let mut refiner = PairRefiner::new(ctx, *self, Some(estimate), (l.p, l.r));
+        let mut refiner = PairRefiner::new(ctx, *self, Some(estimate), (l.p, l.r), &Silent);
         if refiner.still_smooth(l) {
             return vec![*l];
         }

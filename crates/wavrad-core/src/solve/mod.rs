@@ -17,7 +17,7 @@ use crate::geometry::pair_tree::PairTree;
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::{KernelContext, Quadrature};
-use crate::progress::Progress;
+use crate::progress::{Budget, Budgeted, Progress};
 use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings, End, Linking};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
@@ -83,7 +83,18 @@ pub struct SolveSettings {
     /// as wholes ([`crate::refine::cluster_links`]); 0 links every pair of
     /// surfaces as the paper does.
     pub cluster_ratio: f64,
+    /// Wall-clock seconds the solve may take before refinement stops
+    /// splitting and Gauss–Seidel stops sweeping ([`Budget`]); 0: no limit.
+    pub time_limit: f64,
+    /// Resident memory, in GiB, at which refinement stops splitting and
+    /// Gauss–Seidel stops sweeping ([`Budget`]); 0: [`DEFAULT_MEMORY_SHARE`]
+    /// of the machine's physical memory.
+    pub max_memory: f64,
 }
+
+/// Share of the machine's physical memory a solve may hold by default
+/// ([`SolveSettings::max_memory`] 0).
+pub const DEFAULT_MEMORY_SHARE: f64 = 0.8;
 
 /// How the radiance system is solved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -194,6 +205,8 @@ pub struct Plan {
 /// the settings, and the light the weighted oracles weigh the first
 /// projection with.
 pub struct Projector {
+    /// The limits of the solve, from the projector's creation.
+    budget: Budget,
     scene: Scene,
     settings: SolveSettings,
     tracer: SceneTracer,
@@ -260,6 +273,7 @@ impl Projector {
 
     /// [`Projector::new`], adding its times to `times`.
     fn timed(scene: &Scene, settings: &SolveSettings, times: &mut PhaseTimes) -> Result<Projector> {
+        let budget = settings.budget();
         settings.validate()?;
         check_size(scene)?;
         check_light(scene)?;
@@ -287,6 +301,7 @@ impl Projector {
             .then(|| LightEstimate::emission(&scene, importance(&ctx, settings.oracle, &[])));
         times.kernels_s += clock.elapsed().as_secs_f64();
         Ok(Projector {
+            budget,
             settings: *settings,
             estimate,
             tracer,
@@ -309,6 +324,7 @@ impl Projector {
     /// refined in parallel.
     pub fn project(&self, block: &BlockItems, progress: &dyn Progress) -> BlockLinks {
         let clock = Instant::now();
+        let progress = &self.budgeted(progress);
         let ctx = self.kernel_context();
         let two_point = refine_links(
             &ctx,
@@ -330,6 +346,14 @@ impl Projector {
             two_point,
             three_point,
             kernels_s: clock.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// `progress` asking the work to stop once the budget is spent.
+    fn budgeted<'a>(&'a self, progress: &'a dyn Progress) -> Budgeted<'a> {
+        Budgeted {
+            progress,
+            budget: &self.budget,
         }
     }
 
@@ -448,6 +472,7 @@ impl Plan {
     /// hierarchies, and solve; the weighted oracles' refine–solve loop runs
     /// here. `stats.times.kernels_s` adds up the blocks' projection times.
     pub fn finish(self, mut blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
+        let progress = &self.projector.budgeted(progress);
         // The blocks' links, in item order.
         self.check_cover(&blocks)?;
         blocks.sort_by_key(|b| b.items.start);
@@ -501,7 +526,7 @@ impl Plan {
             assemble_and_solve(&links, &three_point, !looping, &mut times)?;
         let mut passes = 1;
         let mut final_system = !looping;
-        while looping && passes < settings.max_refine_passes {
+        while looping && passes < settings.max_refine_passes && !progress.interrupted() {
             let clock = Instant::now();
             let estimate = LightEstimate::from_solution(
                 scene,
@@ -539,6 +564,8 @@ impl Plan {
         let stats = Stats {
             projections: passes,
             limited_leaves: system.interactions.limited_leaves,
+            stopped: self.projector.budget.stopped(),
+            unrefined_items: self.projector.budget.coarse_items(),
             exchanging_pairs: pairs.len(),
             kernel_pairs: pairs.len(),
             cluster_links: linking.cluster_links.len(),
@@ -817,7 +844,10 @@ impl System {
         // Each surface's largest change in the last sweep.
         let mut changes = vec![0.0f64; scene.surfaces.len()];
         progress.start("solving", u64::from(settings.max_iterations));
-        while iterations < settings.max_iterations && residual > settings.tolerance {
+        while iterations < settings.max_iterations
+            && residual > settings.tolerance
+            && !(iterations >= MIN_SWEEPS && progress.interrupted())
+        {
             let far = interactions.clusters.far_field(radiance);
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 changes[p] = 0.0;
@@ -866,6 +896,10 @@ impl System {
         })
     }
 }
+
+/// Sweeps Gauss–Seidel makes even when the work is asked to stop
+/// ([`Progress::interrupted`]): the first bounces, most of the light.
+const MIN_SWEEPS: u32 = 8;
 
 /// Sweeps in a row that Gauss–Seidel's residual may grow, past its first
 /// sweep's, before the solve is called divergent. A converging solve's
@@ -917,6 +951,21 @@ fn fastest_changing(scene: &Scene, changes: &[f64]) -> Vec<String> {
 }
 
 impl SolveSettings {
+    /// The limits of a solve with these settings, from now: `time_limit`
+    /// and `max_memory` (0: [`DEFAULT_MEMORY_SHARE`] of the physical
+    /// memory, where the OS tells).
+    pub fn budget(&self) -> Budget {
+        let time =
+            (self.time_limit > 0.0).then(|| std::time::Duration::from_secs_f64(self.time_limit));
+        let memory = if self.max_memory > 0.0 {
+            Some((self.max_memory * (1u64 << 30) as f64) as u64)
+        } else {
+            crate::progress::physical_memory_bytes()
+                .map(|bytes| (bytes as f64 * DEFAULT_MEMORY_SHARE) as u64)
+        };
+        Budget::new(time, memory)
+    }
+
     /// The defaults for `oracle`: the weighted oracles' thresholds are
     /// relative radiance errors, not kernel details.
     pub fn for_oracle(oracle: Oracle) -> SolveSettings {
@@ -1043,6 +1092,8 @@ impl Default for SolveSettings {
             oracle: Oracle::Kernel,
             max_refine_passes: 4,
             cluster_ratio: 0.25,
+            time_limit: 0.0,
+            max_memory: 0.0,
         }
     }
 }
@@ -1088,6 +1139,32 @@ mod tests {
             clusters: (&ClusterTree::default(), &[]),
         };
         System::assemble(ctx, &[], trees, links, &mut PhaseTimes::default())
+    }
+
+    #[test]
+    fn a_spent_budget_links_the_items_left_whole_and_still_solves() {
+        let scene = crate::testing::light_over_a_corner(0.3);
+        let full = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+        assert_eq!((full.stats.stopped, full.stats.unrefined_items), (None, 0));
+        let limited = SolveSettings {
+            time_limit: 1e-9,
+            ..SolveSettings::default()
+        };
+        let cut = solve(&scene, &limited, &Silent).unwrap();
+        assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
+        // Every surface pair, and the emitter's links left unresolved.
+        assert!(cut.stats.unrefined_items > full.stats.kernel_pairs);
+        assert!(cut.stats.two_point_interactions < full.stats.two_point_interactions);
+        // Whole-surface links still carry the light: every lit surface
+        // receives about what the full solve gives it.
+        assert!(cut.stats.iterations >= MIN_SWEEPS.min(full.stats.iterations));
+        for (c, f) in cut.radiance.iter().zip(&full.radiance) {
+            let (c, f) = (c[0].max_channel(), f[0].max_channel());
+            assert!(
+                c.is_finite() && (c - f).abs() <= 0.1 * f + 1e-9,
+                "{c} against {f}"
+            );
+        }
     }
 
     #[test]

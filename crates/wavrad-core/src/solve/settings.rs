@@ -10,6 +10,12 @@ use crate::Result;
 /// Largest element level any setting may ask for: 4^16 elements per surface.
 pub const MAX_LEVEL: u32 = 16;
 
+/// Largest time limit accepted, in seconds (a year).
+const MAX_TIME_LIMIT: f64 = 3.2e7;
+
+/// Largest memory limit accepted, in GiB.
+const MAX_MEMORY_GIB: f64 = 1e6;
+
 /// Largest oracle threshold accepted; above about 1 nothing refines.
 const MAX_THRESHOLD: f64 = 1e3;
 
@@ -118,6 +124,29 @@ impl Described for SolveSettings {
             default: "200",
             help: "Most Gauss–Seidel sweeps.",
         },
+        Setting {
+            name: "time_limit",
+            group: Group::Solve,
+            domain: Domain::Real {
+                min: 0.0,
+                max: MAX_TIME_LIMIT,
+            },
+            default: "0",
+            help: "Seconds the solve may take (0: no limit). When they are spent, the surface \
+                   pairs left are linked without refinement, Gauss–Seidel stops after its \
+                   sweep, and the solution is finished from what was done, with a warning.",
+        },
+        Setting {
+            name: "max_memory",
+            group: Group::Solve,
+            domain: Domain::Real {
+                min: 0.0,
+                max: MAX_MEMORY_GIB,
+            },
+            default: "0",
+            help: "GiB of memory the process may hold while solving (0: 80 % of the machine's). \
+                   When it is reached, refinement and the solve stop as with time_limit.",
+        },
     ];
 
     fn get(&self, name: &str) -> Option<Value> {
@@ -132,6 +161,8 @@ impl Described for SolveSettings {
             "refine_passes" => Value::Count(self.max_refine_passes),
             "tolerance" => Value::Real(self.tolerance),
             "max_iterations" => Value::Count(self.max_iterations),
+            "time_limit" => Value::Real(self.time_limit),
+            "max_memory" => Value::Real(self.max_memory),
             _ => return None,
         })
     }
@@ -152,6 +183,8 @@ impl Described for SolveSettings {
             ("refine_passes", Value::Count(n)) => self.max_refine_passes = n,
             ("tolerance", Value::Real(t)) => self.tolerance = t,
             ("max_iterations", Value::Count(n)) => self.max_iterations = n,
+            ("time_limit", Value::Real(t)) => self.time_limit = t,
+            ("max_memory", Value::Real(m)) => self.max_memory = m,
             _ => unreachable!("{name} = {value:?} was checked against SETTINGS"),
         }
         Ok(())

@@ -62,7 +62,7 @@ use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::exposed_fractions;
 use crate::kernel::KernelContext;
-use crate::progress::{Progress, Silent};
+use crate::progress::{Budgeted, Progress, Silent};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
@@ -132,6 +132,11 @@ pub fn solve_shooting(
     progress: &dyn Progress,
     mut on_step: Option<OnStep<'_>>,
 ) -> Result<Solution> {
+    let budget = settings.budget();
+    let progress = &Budgeted {
+        progress,
+        budget: &budget,
+    };
     settings.validate()?;
     super::check_size(scene)?;
     if scene.surfaces.len() > MAX_SHOOTING_SURFACES {
@@ -182,7 +187,7 @@ pub fn solve_shooting(
 
     // Shoot the surface with the most unshot power until little is left.
     progress.start("shooting", u64::from(settings.max_iterations));
-    while shooting.steps < settings.max_iterations {
+    while shooting.steps < settings.max_iterations && !progress.interrupted() {
         let (shooter, remaining) = shooting.largest_unshot();
         if remaining <= settings.tolerance {
             break;
@@ -227,6 +232,7 @@ pub fn solve_shooting(
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times)?;
     solution.stats = Stats {
         limited_leaves: system.interactions.limited_leaves,
+        stopped: budget.stopped(),
         ..shooting.stats(&system.trees, sweeps)
     };
     solution.trees = system.trees;
@@ -423,7 +429,7 @@ impl<'a> Shooting<'a> {
         work.par_iter_mut().for_each(|(i, links)| {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
-                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), roots(pair)),
+                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), roots(pair), &Silent),
                 (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, &Silent).0,
                 (Some(old), None) => old,
             });

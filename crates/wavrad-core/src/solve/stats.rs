@@ -3,6 +3,7 @@
 //! and peak memory.
 
 use crate::geometry::hierarchy::ElementTree;
+use crate::progress::Stop;
 use crate::refine::two_point_projection::Link;
 use crate::scene::Scene;
 use crate::setting::{Described, Value};
@@ -107,6 +108,12 @@ pub struct Stats {
     pub times: PhaseTimes,
     /// Peak resident memory of the process in bytes, where the OS tells.
     pub peak_memory_bytes: Option<u64>,
+    /// What cut the solve short ([`crate::progress::Budget`]), if anything.
+    pub stopped: Option<Stop>,
+    /// Surface pairs and triples linked whole, and links left as they were
+    /// instead of refined further, because the solve was cut short: what
+    /// it cost in accuracy.
+    pub unrefined_items: usize,
 }
 
 impl Stats {
@@ -158,6 +165,8 @@ impl Stats {
             residual: sweeps.residual,
             converged: sweeps.residual <= settings.tolerance,
             times: PhaseTimes::default(),
+            stopped: None,
+            unrefined_items: 0,
             peak_memory_bytes: peak_memory_bytes(),
         }
     }
@@ -177,8 +186,5 @@ fn add_counts(counts: impl Iterator<Item = Vec<usize>>) -> Vec<usize> {
 
 /// Peak resident set size of this process (Linux `VmHWM`), if known.
 pub fn peak_memory_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+    crate::progress::proc_status_kib("VmHWM:").map(|kib| kib * 1024)
 }
