@@ -188,7 +188,11 @@ def test_an_option_the_mode_has_no_use_for_is_a_solve_error(
 
 
 def test_render_without_sensor_is_a_solve_error(tmp_path: Path) -> None:
-    xml = '<scene version="3.0.0">\n  <shape type="cube"/>\n</scene>\n'
+    # A glowing cube: a scene with light, solved, but nothing to render from.
+    xml = (
+        '<scene version="3.0.0">\n  <shape type="cube">'
+        '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>\n</scene>\n'
+    )
     scene = wavrad.load_scene(write_scene(tmp_path, xml))
     solution = wavrad.solve(scene, threshold=THRESHOLD, max_level=MAX_LEVEL)
     with pytest.raises(wavrad.SolveError, match="no sensor"):

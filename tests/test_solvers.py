@@ -85,7 +85,10 @@ def test_unknown_oracle_is_a_solve_error_naming_the_choices(scene: wavrad.Scene)
 
 def test_importance_oracle_without_a_sensor_is_a_solve_error(tmp_path: Path) -> None:
     path = tmp_path / "scene.xml"
-    path.write_text('<scene version="3.0.0">\n  <shape type="cube"/>\n</scene>\n')
+    path.write_text(
+        '<scene version="3.0.0">\n  <shape type="cube">'
+        '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>\n</scene>\n'
+    )
     scene = wavrad.load_scene(path)
     with pytest.raises(wavrad.SolveError, match="needs a sensor"):
         wavrad.solve(scene, oracle="importance")
