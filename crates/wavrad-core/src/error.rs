@@ -10,6 +10,10 @@ pub enum Error {
     /// The scene has no surfaces.
     #[error("the scene has no surfaces")]
     EmptyScene,
+    /// A size or coordinate of the scene beyond what wavrad accepts
+    /// ([`crate::scene::Scene::check_bounds`]).
+    #[error("{0}")]
+    OutOfBounds(String),
     /// Every pair of surfaces gets a link hierarchy, so the work grows with
     /// the square of the surface count; past the limit a solve would run for
     /// hours, so it is refused up front.

@@ -653,12 +653,12 @@ impl Solution {
     }
 }
 
-/// A scene the solvers accept: some surfaces.
+/// A scene the solvers accept: some surfaces, within [`Scene::check_bounds`].
 fn check_size(scene: &Scene) -> Result<()> {
     if scene.surfaces.is_empty() {
         return Err(Error::EmptyScene);
     }
-    Ok(())
+    scene.check_bounds()
 }
 
 /// A scene with light: some surface emits. Without any the solution is

@@ -17,7 +17,34 @@ pub use obj::read_obj;
 pub use ply::read_ply;
 pub use serialized::read_serialized;
 
+use crate::error::{Error, Result};
 use glam::DVec3;
+use std::path::Path;
+
+/// Largest mesh file wavrad reads, in bytes (16 GiB): far above any mesh
+/// that fits in memory once solved, and a clear error instead of reading a
+/// device or a runaway file until memory runs out.
+pub const MAX_MESH_FILE_BYTES: u64 = 16 << 30;
+
+/// Check that `path` is a regular file of at most [`MAX_MESH_FILE_BYTES`]
+/// before it is read.
+fn check_mesh_file(path: &Path) -> Result<()> {
+    let metadata = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !metadata.is_file() {
+        return Err(Error::mesh(path, None, "not a regular file"));
+    }
+    if metadata.len() > MAX_MESH_FILE_BYTES {
+        return Err(Error::mesh(
+            path,
+            None,
+            format!(
+                "{} bytes: wavrad reads mesh files of at most {MAX_MESH_FILE_BYTES} bytes",
+                metadata.len()
+            ),
+        ));
+    }
+    Ok(())
+}
 
 /// Three vertices, counter-clockwise seen from the front.
 pub type Triangle = [DVec3; 3];
@@ -65,5 +92,25 @@ mod tests {
             assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
         }
         assert_eq!(push_fan(&p, &[0, 1, 9], &mut out), Err(9));
+    }
+
+    #[test]
+    fn devices_and_directories_are_not_read_as_meshes() {
+        let dir = tempfile::tempdir().unwrap();
+        for (path, read) in [
+            (
+                Path::new("/dev/zero"),
+                read_obj as fn(&Path) -> Result<Mesh>,
+            ),
+            (Path::new("/dev/zero"), read_ply),
+            (dir.path(), read_obj),
+        ] {
+            let message = read(path).unwrap_err().to_string();
+            assert!(message.contains("not a regular file"), "{message}");
+        }
+        let message = read_serialized(Path::new("/dev/zero"), 0)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("not a regular file"), "{message}");
     }
 }

@@ -17,6 +17,7 @@ use crate::error::{Error, Result};
 ///
 /// Lines and points are ignored; `mtllib` files are not opened.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
+    super::check_mesh_file(path)?;
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     // `..Default::default()` covers the fields tobj's optional features add.
     #[allow(clippy::needless_update)]

@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 /// Read every face of a PLY file as triangles (polygons fan-triangulated),
 /// with their corners' normals.
 pub fn read_ply(path: &Path) -> Result<Mesh> {
+    super::check_mesh_file(path)?;
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_ply(&bytes).map_err(|(line, message)| Error::mesh(path, line, message))
 }

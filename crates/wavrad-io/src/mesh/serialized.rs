@@ -60,6 +60,7 @@ mod flags {
 /// Read shape `shape_index` of a serialized file: its triangles in file
 /// order, wound as stored, with their corners' normals when it has them.
 pub fn read_serialized(path: &Path, shape_index: u32) -> Result<Mesh> {
+    super::check_mesh_file(path)?;
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     parse_serialized(&bytes, shape_index).map_err(|message| Error::mesh(path, None, message))
 }
