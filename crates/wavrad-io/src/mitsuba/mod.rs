@@ -2,19 +2,24 @@
 //!
 //! Supported:
 //!
-//! - `<scene version="2.x|3.x">`, `<default name value/>` with `$name`
-//!   substitution in every attribute (overrides, like `mitsuba -D`, win),
-//!   `<include filename/>` (beside the including file, else in the scene's
-//!   directory; cycles are errors), `<ref id/>` to any object with an `id`;
+//! - `<scene version="2.x|3.x">`, and `0.x` (Mitsuba 0.5, 0.6) upgraded as
+//!   Mitsuba 3's loader upgrades it (`mitsuba/document.rs`); `<default name
+//!   value/>` with `$name` substitution in every attribute (overrides, like
+//!   `mitsuba -D`, win), `<include filename/>`, `<path value/>` (search
+//!   directories for every relative file name: `<path>`s latest first, then
+//!   beside the naming file, then the scene's directory; cycles of includes
+//!   are errors), `<ref id/>` to any object with an `id`;
 //! - shapes `rectangle`, `cube`, `disk`, `cylinder`, `sphere` (tessellated),
-//!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs `diffuse`
-//!   and `twosided` (`mitsuba/bsdfs.rs`), the `area` emitter (`mitsuba/emitters.rs`), sensors
-//!   `perspective` and `orthographic` with `hdrfilm`, `box`/`gaussian`
-//!   filters and any sampler (`mitsuba/sensors.rs`); `integrator` and top-level
-//!   `sampler` elements are accepted and their settings ignored (except
-//!   `sample_count`);
+//!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs
+//!   (`mitsuba/bsdfs.rs`), the `area` emitter nested in a shape or declared at
+//!   the top level and referenced by one (`mitsuba/emitters.rs`), sensors
+//!   `perspective` and `orthographic` with `hdrfilm`, every Mitsuba 3
+//!   `rfilter` and any sampler (`mitsuba/sensors.rs`); any `integrator`, its
+//!   unhonoured settings warned about (`mitsuba/integrators.rs`), and
+//!   top-level `sampler` elements (only `sample_count` is read);
 //! - parameters `<float>`, `<integer>`, `<boolean>`, `<string>`, `<point>`,
-//!   `<vector>`, `<rgb>`, `<spectrum value="v">` and `<transform>`
+//!   `<vector>`, `<rgb>`, `<spectrum>` (converted to RGB as Mitsuba 3's RGB
+//!   variants do: `mitsuba/spectrum.rs`) and `<transform>`
 //!   (`mitsuba/transform.rs`).
 //!
 //! Everything else — other plugins, textures, media, unknown parameters or
