@@ -264,11 +264,37 @@ fn non_hdrfilm_film() {
 }
 
 #[test]
-fn unsupported_rfilter() {
+fn unsupported_rfilter_and_huge_footprints() {
+    let film = |rfilter: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n\n{rfilter}\n</film></sensor></scene>"
+        )
+    };
     assert_error(
-        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n\n<rfilter type=\"tent\"/>\n</film></sensor></scene>",
+        &film("<rfilter type=\"sinc\"/>"),
         4,
-        &["unsupported rfilter plugin \"tent\"", "box, gaussian"],
+        &["unsupported rfilter plugin \"sinc\"", "tent", "lanczos"],
+    );
+    assert_error(
+        &film("<rfilter type=\"gaussian\">\n<float name=\"stddev\" value=\"1e9\"/></rfilter>"),
+        5,
+        &["gaussian", "at most 6 pixels"],
+    );
+    assert_error(
+        &film("<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"-2\"/></rfilter>"),
+        4,
+        &["lobes", "-2"],
+    );
+    assert_error(
+        &film("<rfilter type=\"tent\"><float name=\"radius\" value=\"0\"/></rfilter>"),
+        4,
+        &["tent", "radius must be a positive number"],
+    );
+    // Mitsuba's documentation says "A" and "B"; its code reads B and C.
+    assert_error(
+        &film("<rfilter type=\"mitchell\"><float name=\"A\" value=\"0.3\"/></rfilter>"),
+        4,
+        &["unknown parameter \"A\"", "B, C"],
     );
 }
 
@@ -286,10 +312,22 @@ fn unsupported_emitters() {
         3,
         &["\"spot\""],
     );
+    // An area emitter lights one shape, as in Mitsuba.
     assert_error(
-        "<scene version=\"3.0.0\">\n<emitter type=\"area\"/></scene>",
-        2,
-        &["area", "nested in a <shape>"],
+        "<scene version=\"3.0.0\">\n<emitter type=\"area\" id=\"l\"/>\n<shape type=\"rectangle\"><ref id=\"l\"/></shape>\n<shape type=\"cube\">\n<ref id=\"l\"/></shape></scene>",
+        5,
+        &["attached to a shape already", "bad.xml:3", "bad.xml:2"],
+    );
+    // Its parameters are checked even when no shape references it.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"area\" id=\"l\">\n<rgb name=\"radiance\" value=\"-1\"/></emitter></scene>",
+        3,
+        &["negative"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"area\">\n<float name=\"power\" value=\"1\"/></emitter></scene>",
+        3,
+        &["unknown parameter \"power\""],
     );
 }
 
@@ -350,7 +388,7 @@ fn unknown_element_tags() {
 
 #[test]
 fn unsupported_version_and_root() {
-    assert_error("<scene version=\"0.6.0\">\n</scene>", 1, &["\"0.6.0\""]);
+    assert_error("<scene version=\"4.0.0\">\n</scene>", 1, &["\"4.0.0\""]);
     assert_error(
         "\n<shape type=\"cube\"/>",
         2,
@@ -402,7 +440,7 @@ fn unsupported_sensor_settings() {
     assert_error(
         &sensor("<spectrum name=\"srf\" value=\"400:1, 500:2\"/>"),
         3,
-        &["400:1, 500:2"],
+        &["unknown parameter \"srf\""],
     );
 }
 

@@ -284,7 +284,7 @@ fn twosided_gives_two_surfaces_and_emission_on_the_front_only() {
     let s = scene(
         r#"<shape type="rectangle" id="lamp">
             <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.4 0.6"/></bsdf></bsdf>
-            <emitter type="area"><spectrum name="radiance" value="5"/></emitter>
+            <emitter type="area"><float name="radiance" value="5"/></emitter>
         </shape>"#,
     );
     assert_eq!(s.surfaces.len(), 2);
@@ -514,6 +514,51 @@ fn film_filter_sampler_and_orthographic() {
     );
     assert_eq!(s.film.filter, PixelFilter::Gaussian { stddev: 0.3 });
     assert_eq!(s.hints.samples_per_pixel, Some(4));
+}
+
+#[test]
+fn every_mitsuba_rfilter_with_its_defaults() {
+    let filter = |rfilter: &str| {
+        scene(&format!(
+            r#"<sensor type="perspective"><film type="hdrfilm">{rfilter}</film></sensor>"#
+        ))
+        .film
+        .filter
+    };
+    for (rfilter, expected) in [
+        (
+            r#"<rfilter type="tent"/>"#,
+            PixelFilter::Tent { radius: 1.0 },
+        ),
+        (
+            r#"<rfilter type="tent"><float name="radius" value="1.25"/></rfilter>"#,
+            PixelFilter::Tent { radius: 1.25 },
+        ),
+        (
+            r#"<rfilter type="mitchell"/>"#,
+            PixelFilter::Mitchell {
+                b: 1.0 / 3.0,
+                c: 1.0 / 3.0,
+            },
+        ),
+        (
+            r#"<rfilter type="mitchell"><float name="B" value="0.25"/><float name="C" value="0.55"/></rfilter>"#,
+            PixelFilter::Mitchell { b: 0.25, c: 0.55 },
+        ),
+        (r#"<rfilter type="catmullrom"/>"#, PixelFilter::CATMULL_ROM),
+        (
+            r#"<rfilter type="lanczos"/>"#,
+            PixelFilter::Lanczos { lobes: 3 },
+        ),
+        (
+            r#"<rfilter type="lanczos"><integer name="lobes" value="4"/></rfilter>"#,
+            PixelFilter::Lanczos { lobes: 4 },
+        ),
+        (r#"<rfilter type="box"/>"#, PixelFilter::Box),
+        ("", PixelFilter::Gaussian { stddev: 0.5 }),
+    ] {
+        assert_eq!(filter(rfilter), expected, "{rfilter}");
+    }
 }
 
 fn bsdf_of(bsdf: &str) -> wavrad_core::scene::brdf::Brdf {

@@ -1,5 +1,7 @@
 //! Film: pixel sample positions and the reconstruction filter (Mitsuba 3's
-//! `box` and `gaussian` rfilters), so images compare pixel for pixel.
+//! rfilters, [`PixelFilter`]) applied as Mitsuba's `hdrfilm` does, each pixel
+//! the weighted mean of the samples its filter reaches, so images compare
+//! pixel for pixel.
 
 use crate::sampling::pixel_offsets;
 use crate::scene::{Film, PixelFilter, Rgb};
@@ -16,36 +18,12 @@ pub struct Image {
     pub rgb: Vec<f32>,
 }
 
-impl PixelFilter {
-    /// Support radius in pixels.
-    pub fn radius(&self) -> f64 {
-        match *self {
-            PixelFilter::Box => 0.5,
-            PixelFilter::Gaussian { stddev } => 4.0 * stddev,
-        }
-    }
-
-    /// 1D filter weight at offset `x` pixels (the 2D filter is separable),
-    /// evaluated exactly as Mitsuba 3's JIT variants do.
-    pub fn eval(&self, x: f64) -> f64 {
-        match *self {
-            PixelFilter::Box => f64::from(u8::from(x.abs() < 0.5)),
-            PixelFilter::Gaussian { stddev } => {
-                let alpha = -1.0 / (2.0 * stddev * stddev);
-                let r = self.radius();
-                ((alpha * x * x).exp() - (alpha * r * r).exp()).max(0.0)
-            }
-        }
-    }
-}
-
 /// A filter's 1D weights tabulated finely over its radius (linear
 /// interpolation; relative error below 1e-6 for the Gaussian), so that
 /// weighting costs no exponential per sample and pixel.
 struct FilterTable {
     values: Vec<f64>,
     scale: f64,
-    radius: f64,
     boxed: bool,
 }
 
@@ -61,17 +39,15 @@ impl FilterTable {
         FilterTable {
             values,
             scale,
-            radius,
             boxed: filter == PixelFilter::Box,
         }
     }
 
     fn eval(&self, x: f64) -> f64 {
-        let x = x.abs();
         if self.boxed {
-            return f64::from(u8::from(x < self.radius));
+            return PixelFilter::Box.eval(x);
         }
-        let t = x * self.scale;
+        let t = x.abs() * self.scale;
         let i = t as usize;
         if i >= Self::STEPS {
             return 0.0;
@@ -98,7 +74,8 @@ const WINDOW_BYTES: usize = 1 << 25;
 /// ratio of the sums its neighbours hold for it. Rows are developed in
 /// bands, and the partial sums of a band and of the rows its filter reaches
 /// are kept in a sliding window, so memory stays bounded whatever the image
-/// size and sample count.
+/// size and sample count. The filter must be valid
+/// ([`PixelFilter::validate`], which bounds its radius).
 pub fn develop(
     film: &Film,
     samples: impl Fn(usize, usize) -> u32 + Sync,
@@ -113,6 +90,7 @@ fn develop_in_window(
     radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
     window_bytes: usize,
 ) -> Image {
+    debug_assert!(film.filter.validate().is_ok(), "{}", film.filter);
     let (w, h) = (film.width as usize, film.height as usize);
     let table = FilterTable::new(film.filter);
     let reach = (film.filter.radius() - 0.5).ceil().max(0.0) as usize;
@@ -206,26 +184,22 @@ fn develop_in_window(
 mod tests {
     use super::*;
 
-    #[test]
-    fn gaussian_vanishes_at_its_radius_and_box_is_one_pixel() {
-        let g = PixelFilter::Gaussian { stddev: 0.5 };
-        assert_eq!(g.radius(), 2.0);
-        assert_eq!(g.eval(2.0), 0.0);
-        assert!(g.eval(0.0) > g.eval(0.7));
-        assert_eq!(PixelFilter::Box.eval(0.49), 1.0);
-        assert_eq!(PixelFilter::Box.eval(0.51), 0.0);
-    }
+    /// One of each family, with a negative-lobed filter of each kind.
+    const FILTERS: [PixelFilter; 6] = [
+        PixelFilter::Box,
+        PixelFilter::Tent { radius: 1.0 },
+        PixelFilter::Gaussian { stddev: 0.5 },
+        PixelFilter::Gaussian { stddev: 0.3 },
+        PixelFilter::CATMULL_ROM,
+        PixelFilter::Lanczos { lobes: 3 },
+    ];
 
     #[test]
     fn table_matches_the_filter() {
-        for filter in [
-            PixelFilter::Box,
-            PixelFilter::Gaussian { stddev: 0.5 },
-            PixelFilter::Gaussian { stddev: 0.3 },
-        ] {
+        for filter in FILTERS {
             let t = FilterTable::new(filter);
             for i in 0..1000 {
-                let x = i as f64 * 0.0031 - 1.2;
+                let x = i as f64 * 0.0071 - 3.5;
                 assert!(
                     (t.eval(x) - filter.eval(x)).abs() < 1e-6,
                     "{filter:?} at {x}"
@@ -237,48 +211,64 @@ mod tests {
     #[test]
     fn bands_do_not_change_the_image() {
         // A film wide enough for several bands and an image-dependent signal.
-        let film = Film {
-            width: 300,
-            height: 40,
-            filter: PixelFilter::Gaussian { stddev: 0.5 },
-        };
-        let f = |x: f64, y: f64, _k: usize, _n: usize| {
-            Rgb([x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0])
-        };
-        let img = develop_in_window(&film, |_, _| 64, f, 8 * 300 * 100 * 7); // bands of 3 rows
-        assert_eq!(img, develop(&film, |_, _| 64, f));
-        // Pixel (150, 20) recomputed directly from its neighbourhood.
-        let (px, py) = (150usize, 20usize);
-        let (mut sum, mut weight) = (0.0, 0.0);
-        for qy in py - 2..=py + 2 {
-            for qx in px - 2..=px + 2 {
-                for o in pixel_offsets((qy * 300 + qx) as u64, 64) {
-                    let (x, y) = (qx as f64 + o.x, qy as f64 + o.y);
-                    let wt = film.filter.eval(x - px as f64 - 0.5)
-                        * film.filter.eval(y - py as f64 - 0.5);
-                    sum += wt * f64::from(f(x, y, 0, 64)[0] as f32);
-                    weight += wt;
+        for filter in [
+            PixelFilter::Gaussian { stddev: 0.5 },
+            PixelFilter::Lanczos { lobes: 3 },
+        ] {
+            let film = Film {
+                width: 300,
+                height: 40,
+                filter,
+            };
+            let f = |x: f64, y: f64, _k: usize, _n: usize| {
+                Rgb([x.sin() + 1.0, y * 0.1, (x * y).cos() + 1.0])
+            };
+            let reach = (filter.radius() - 0.5).ceil() as usize;
+            let span = 2 * reach + 1;
+            // Bands of 3 rows.
+            let window = 8 * 300 * span * span * 4 * (3 + 2 * reach);
+            let img = develop_in_window(&film, |_, _| 64, f, window);
+            assert_eq!(img, develop(&film, |_, _| 64, f));
+            // Pixel (150, 20) recomputed directly from its neighbourhood.
+            let (px, py) = (150usize, 20usize);
+            let (mut sum, mut weight) = (0.0, 0.0);
+            for qy in py - reach..=py + reach {
+                for qx in px - reach..=px + reach {
+                    for o in pixel_offsets((qy * 300 + qx) as u64, 64) {
+                        let (x, y) = (qx as f64 + o.x, qy as f64 + o.y);
+                        let wt = film.filter.eval(x - px as f64 - 0.5)
+                            * film.filter.eval(y - py as f64 - 0.5);
+                        sum += wt * f64::from(f(x, y, 0, 64)[0] as f32);
+                        weight += wt;
+                    }
                 }
             }
+            let pixel = f64::from(img.rgb[3 * (py * 300 + px)]);
+            assert!((pixel - sum / weight).abs() < 1e-5, "{filter}");
         }
-        assert!((f64::from(img.rgb[3 * (py * 300 + px)]) - sum / weight).abs() < 1e-5);
     }
 
     #[test]
     fn constant_radiance_develops_to_a_constant_image() {
-        let film = Film {
-            width: 7,
-            height: 5,
-            filter: PixelFilter::Gaussian { stddev: 0.5 },
-        };
-        let img = develop(
-            &film,
-            |x, _| 1 + x as u32,
-            |_, _, _, _| Rgb([1.0, 2.0, 3.0]),
-        );
-        assert_eq!(img.rgb.len(), 7 * 5 * 3);
-        for px in img.rgb.chunks(3) {
-            assert!((px[0] - 1.0).abs() < 1e-6 && (px[2] - 3.0).abs() < 1e-6);
+        // Normalized by the weights' sum, negative lobes included.
+        for filter in FILTERS {
+            let film = Film {
+                width: 7,
+                height: 5,
+                filter,
+            };
+            let img = develop(
+                &film,
+                |x, _| 1 + x as u32,
+                |_, _, _, _| Rgb([1.0, 2.0, 3.0]),
+            );
+            assert_eq!(img.rgb.len(), 7 * 5 * 3);
+            for px in img.rgb.chunks(3) {
+                assert!(
+                    (px[0] - 1.0).abs() < 1e-6 && (px[2] - 3.0).abs() < 1e-6,
+                    "{filter}: {px:?}"
+                );
+            }
         }
     }
 }

@@ -239,13 +239,15 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     ///
     /// # Errors
     /// [`Error::NonFinitePixels`] when a pixel is infinite or NaN: no image
-    /// is better than a wrong one.
+    /// is better than a wrong one; [`Error::InvalidSetting`] when the film's
+    /// filter is ([`crate::scene::PixelFilter::validate`]).
     pub fn render_view(
         &self,
         camera: &Camera,
         film: &Film,
         settings: &RenderSettings,
     ) -> Result<Image> {
+        film.filter.validate()?;
         let estimator = self.estimator_for(camera, settings);
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),

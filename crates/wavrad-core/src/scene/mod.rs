@@ -9,11 +9,13 @@
 mod bounds;
 pub mod brdf;
 mod color;
+mod filter;
 
 use crate::scene::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
 pub use color::Rgb;
+pub use filter::PixelFilter;
 
 /// The planar shape of a surface, parametrised over the unit square (paper §2:
 /// "each u,v pair taking the value in a unit square will span the full area").
@@ -45,19 +47,6 @@ pub struct Surface {
     pub brdf: Brdf,
     /// Emitted radiance Le per channel (zero for non-emitters).
     pub emission: Rgb,
-}
-
-/// Pixel reconstruction filter of the film (Mitsuba's `rfilter`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum PixelFilter {
-    /// Box of radius 0.5 pixel.
-    Box,
-    /// Gaussian with the given standard deviation in pixels, truncated at
-    /// 4·stddev (Mitsuba 3's `gaussian`, default stddev 0.5).
-    Gaussian {
-        /// Standard deviation in pixels.
-        stddev: f64,
-    },
 }
 
 /// Film: image size and pixel filter (Mitsuba's `hdrfilm`).

@@ -41,7 +41,7 @@ use wavrad_core::scene::brdf::{
 };
 use wavrad_core::scene::Rgb;
 
-use super::params::{FloatOrString, Ids, Nested, Object};
+use super::params::{Document, FloatOrString, Nested, Object};
 use crate::error::Result;
 
 /// The BRDF of the front side and, for `twosided`, of the back.
@@ -65,17 +65,17 @@ impl Default for Material {
 const MAX_NESTING: usize = 8;
 
 /// Read the BSDF `bsdf` (a `<bsdf>` element, possibly reached by `<ref>`).
-pub(crate) fn parse_bsdf(bsdf: Nested, ids: &Ids) -> Result<Material> {
-    parse_nested(bsdf, ids, 0)
+pub(crate) fn parse_bsdf(bsdf: Nested, doc: &Document) -> Result<Material> {
+    parse_nested(bsdf, doc, 0)
 }
 
-fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
+fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> {
     if depth > MAX_NESTING {
         return Err(bsdf
             .at
             .error("BSDFs nested too deeply (is there a <ref> cycle?)"));
     }
-    let mut obj = Object::parse(bsdf.element, ids)?;
+    let mut obj = Object::parse(bsdf.element, doc)?;
     match obj.plugin {
         "diffuse" => {
             let reflectance = obj.color("reflectance")?.unwrap_or(Rgb::splat(0.5));
@@ -101,7 +101,7 @@ fn parse_nested(bsdf: Nested, ids: &Ids, depth: usize) -> Result<Material> {
                 if n.tag() != "bsdf" {
                     return Err(obj.unexpected(n));
                 }
-                let side = parse_nested(*n, ids, depth + 1)?;
+                let side = parse_nested(*n, doc, depth + 1)?;
                 if side.back.is_some() {
                     return Err(n
                         .at
@@ -299,7 +299,7 @@ fn parse_microfacet(obj: &mut Object) -> Result<Microfacet> {
 fn parse_roughconductor(obj: &mut Object) -> Result<RoughConductor> {
     let distribution = parse_microfacet(obj)?;
     let material = obj.string("material")?;
-    let (eta, k) = (obj.color("eta")?, obj.color("k")?);
+    let (eta, k) = (obj.unbounded_color("eta")?, obj.unbounded_color("k")?);
     let ior = match material.as_deref() {
         Some(m) if m != "none" => {
             if eta.is_some() || k.is_some() {

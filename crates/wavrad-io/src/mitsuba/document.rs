@@ -1,6 +1,18 @@
 //! From XML text to a tree of [`Element`]s with `<default>`, `$name`
-//! substitution and `<include>` already applied, each element knowing the
-//! file and line it came from.
+//! substitution, `<include>` and `<path>` already applied and Mitsuba 0.x
+//! scenes upgraded, each element knowing the file and line it came from.
+//!
+//! A relative file name (an include, a mesh, a spectrum) is looked up as
+//! Mitsuba 3's file resolver does ([`SearchPath`]): in the directories
+//! added by `<path value="..."/>` elements, the latest first, then beside
+//! the file that names it, then in the scene file's directory.
+//!
+//! Scenes of version 0.x (Mitsuba 0.5, 0.6) are upgraded as Mitsuba 3's
+//! loader upgrades them (`upgrade_tree` in its `src/core/xml.cpp`): every
+//! `name` but a `<default>`'s from camelCase to snake_case (`toWorld` →
+//! `to_world`, `intIOR` → `int_ior`), `<lookAt>` → `<lookat>`, and a
+//! `diffuse` BSDF's `diffuse_reflectance` → `reflectance`. (Mitsuba's
+//! `uoffset`/`uscale` → `to_uv` is a texture's, and textures are refused.)
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -54,6 +66,21 @@ pub(crate) struct Element {
 }
 
 impl Element {
+    /// The `<scene>` root over the expanded `children` of the scene file
+    /// `file` (as named to the loader) in directory `dir`.
+    pub fn root(children: Vec<Element>, file: &str, dir: &Path) -> Element {
+        Element {
+            tag: "scene".into(),
+            attrs: Vec::new(),
+            children,
+            at: Location {
+                file: Arc::from(file),
+                line: 1,
+                dir: Arc::from(dir),
+            },
+        }
+    }
+
     /// Value of attribute `name`.
     pub fn attr(&self, name: &str) -> Option<&str> {
         self.attrs
@@ -91,22 +118,71 @@ impl Element {
 /// error rather than a stack overflow.
 const MAX_DEPTH: usize = 64;
 
+/// Where relative file names are looked up, as Mitsuba 3's file resolver
+/// does: the directories of `<path>` elements (the latest first), then the
+/// directory of the file naming it, then the scene file's directory.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) struct SearchPath {
+    /// Directories added by `<path>`, the latest first.
+    added: Vec<PathBuf>,
+    /// Directory of the top-level scene file.
+    scene_dir: PathBuf,
+}
+
+impl SearchPath {
+    /// Only the scene file's directory.
+    pub fn new(scene_dir: &Path) -> SearchPath {
+        SearchPath {
+            added: Vec::new(),
+            scene_dir: scene_dir.to_path_buf(),
+        }
+    }
+
+    /// The file `filename` names, written in a file of directory `beside`:
+    /// an absolute name as is, else the first candidate that exists, else
+    /// the name beside that file (so that messages name it there).
+    pub fn resolve(&self, filename: &str, beside: &Path) -> PathBuf {
+        let p = Path::new(filename);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        self.added
+            .iter()
+            .map(PathBuf::as_path)
+            .chain([beside, self.scene_dir.as_path()])
+            .map(|dir| dir.join(p))
+            .find(|candidate| candidate.exists())
+            .unwrap_or_else(|| beside.join(p))
+    }
+}
+
 /// Parse the scene document `xml` and return the children of its `<scene>`
-/// root, expanded. `own_path` (canonical) is the file itself when it has one,
-/// for include-cycle detection.
+/// root, expanded, and where relative file names are looked up. `own_path`
+/// (canonical) is the file itself when it has one, for include-cycle
+/// detection.
 pub(crate) fn read_scene_document(
     xml: &str,
     name: &str,
     dir: &Path,
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
-) -> Result<Vec<Element>> {
+) -> Result<(Vec<Element>, SearchPath)> {
     let mut expander = Expander {
         params: overrides.iter().cloned().collect(),
         include_stack: own_path.into_iter().collect(),
-        scene_dir: Arc::from(dir),
+        search: SearchPath::new(dir),
     };
-    expander.document(xml, name, dir)
+    let elements = expander.document(xml, name, dir)?;
+    Ok((elements, expander.search))
+}
+
+/// The file being expanded.
+struct Source<'d> {
+    doc: &'d roxmltree::Document<'d>,
+    file: &'d Arc<str>,
+    dir: &'d Arc<Path>,
+    /// Whether it is a Mitsuba 0.x scene, to be upgraded.
+    legacy: bool,
 }
 
 struct Expander {
@@ -115,9 +191,9 @@ struct Expander {
     params: HashMap<String, String>,
     /// Canonical paths of the files being read, outermost first.
     include_stack: Vec<PathBuf>,
-    /// Directory of the top-level scene file: the fallback for relative
-    /// include paths (Mitsuba's file resolver).
-    scene_dir: Arc<Path>,
+    /// Where relative file names are looked up, `<path>`s read so far
+    /// included.
+    search: SearchPath,
 }
 
 impl Expander {
@@ -146,9 +222,10 @@ impl Expander {
                 root.tag_name().name()
             )));
         }
+        let mut legacy = false;
         for attr in root.attributes() {
             match attr.name() {
-                "version" => check_version(attr.value(), &at)?,
+                "version" => legacy = is_legacy_version(attr.value(), &at)?,
                 other => {
                     return Err(at.error(format!(
                         "unexpected attribute \"{other}\" in <scene> (allowed: version)"
@@ -157,24 +234,28 @@ impl Expander {
             }
         }
         let mut out = Vec::new();
-        self.children(&doc, root, &file, &dir, 1, &mut out)?;
+        let source = Source {
+            doc: &doc,
+            file: &file,
+            dir: &dir,
+            legacy,
+        };
+        self.children(&source, root, 1, &mut out)?;
         Ok(out)
     }
 
     fn children(
         &mut self,
-        doc: &roxmltree::Document,
+        source: &Source,
         node: roxmltree::Node,
-        file: &Arc<str>,
-        dir: &Arc<Path>,
         depth: usize,
         out: &mut Vec<Element>,
     ) -> Result<()> {
         for child in node.children().filter(|n| n.is_element()) {
             let at = Location {
-                file: file.clone(),
-                line: doc.text_pos_at(child.range().start).row,
-                dir: dir.clone(),
+                file: source.file.clone(),
+                line: source.doc.text_pos_at(child.range().start).row,
+                dir: source.dir.clone(),
             };
             if depth > MAX_DEPTH {
                 return Err(at.error(format!("elements nested deeper than {MAX_DEPTH} levels")));
@@ -204,8 +285,21 @@ impl Expander {
                     let filename = element.required_attr("filename")?.to_string();
                     self.include(&element.at, &filename, out)?;
                 }
+                "path" => {
+                    if depth > 1 {
+                        return Err(element
+                            .at
+                            .error("<path> must be a child of the <scene> itself"));
+                    }
+                    element.check_attrs(&["value"])?;
+                    let value = element.required_attr("value")?.to_string();
+                    self.add_path(&element.at, &value)?;
+                }
                 _ => {
-                    self.children(doc, child, file, dir, depth + 1, &mut element.children)?;
+                    self.children(source, child, depth + 1, &mut element.children)?;
+                    if source.legacy {
+                        upgrade_from_legacy(&mut element);
+                    }
                     out.push(element);
                 }
             }
@@ -213,8 +307,29 @@ impl Expander {
         Ok(())
     }
 
+    /// `<path value>`: a directory looked up for relative file names from
+    /// now on, before those added earlier. A relative one is taken beside
+    /// the file naming it, else through the search path (Mitsuba 3's
+    /// `<path>`); it must exist.
+    fn add_path(&mut self, at: &Location, value: &str) -> Result<()> {
+        let beside = at.dir.join(value);
+        let dir = if beside.is_dir() {
+            beside
+        } else {
+            self.search.resolve(value, &at.dir)
+        };
+        if !dir.is_dir() {
+            return Err(at.error(format!(
+                "<path>: no directory \"{value}\" (looked for {})",
+                dir.display()
+            )));
+        }
+        self.search.added.insert(0, dir);
+        Ok(())
+    }
+
     fn include(&mut self, at: &Location, filename: &str, out: &mut Vec<Element>) -> Result<()> {
-        let path = resolve_path(filename, &at.dir, &self.scene_dir);
+        let path = self.search.resolve(filename, &at.dir);
         let canonical = std::fs::canonicalize(&path).map_err(|e| {
             at.error(format!(
                 "cannot read included file \"{}\": {e}",
@@ -283,38 +398,78 @@ impl Expander {
     }
 }
 
-/// A relative `filename` is looked up beside the file that names it, then
-/// in the top-level scene's directory (where Mitsuba's file resolver looks).
-pub(crate) fn resolve_path(filename: &str, dir: &Path, scene_dir: &Path) -> PathBuf {
-    let p = Path::new(filename);
-    if p.is_absolute() {
-        return p.to_path_buf();
-    }
-    let beside = dir.join(p);
-    if beside.exists() {
-        return beside;
-    }
-    let in_scene_dir = scene_dir.join(p);
-    if in_scene_dir.exists() {
-        in_scene_dir
-    } else {
-        beside
-    }
-}
-
-/// Accept Mitsuba 2.x and 3.x scene versions.
-fn check_version(version: &str, at: &Location) -> Result<()> {
+/// Whether a scene `version` is Mitsuba 0.x's (to be upgraded); Mitsuba
+/// 2.x and 3.x scenes are read as they are, anything else is an error.
+fn is_legacy_version(version: &str, at: &Location) -> Result<bool> {
     let parts: Vec<&str> = version.trim().split('.').collect();
     let numeric = parts.len() <= 3 && parts.iter().all(|p| p.parse::<u32>().is_ok());
     if !numeric {
         return Err(at.error(format!("malformed scene version \"{version}\"")));
     }
     match parts[0] {
-        "2" | "3" => Ok(()),
+        "0" | "1" => Ok(true),
+        "2" | "3" => Ok(false),
         _ => Err(at.error(format!(
-            "unsupported scene version \"{version}\" (supported: 2.x, 3.x)"
+            "unsupported scene version \"{version}\" (supported: 0.x (upgraded), 2.x, 3.x)"
         ))),
     }
+}
+
+/// Upgrade `element` (its own children already upgraded) from Mitsuba
+/// 0.x's names to Mitsuba 3's, as Mitsuba 3's `upgrade_tree` does. Elements
+/// of included files keep their own file's version.
+fn upgrade_from_legacy(element: &mut Element) {
+    if element.tag == "lookAt" {
+        element.tag = "lookat".into();
+    }
+    if element.tag != "default" {
+        rename(element, |name| Some(snake_case(name)));
+    }
+    if element.tag == "bsdf" && element.attr("type") == Some("diffuse") {
+        let file = element.at.file.clone();
+        for child in element.children.iter_mut() {
+            if Arc::ptr_eq(&child.at.file, &file) {
+                rename(child, |name| {
+                    (name == "diffuse_reflectance").then(|| "reflectance".into())
+                });
+            }
+        }
+    }
+}
+
+/// Replace `element`'s `name` where `new_name` gives one.
+fn rename(element: &mut Element, new_name: impl Fn(&str) -> Option<String>) {
+    for (key, value) in &mut element.attrs {
+        if key == "name" {
+            if let Some(name) = new_name(value) {
+                *value = name;
+            }
+        }
+    }
+}
+
+/// Mitsuba 3's `camel_to_underscore_case`: an upper-case letter after a
+/// lower-case one starts a new word, lower-cased with the upper-case letters
+/// right after it (`toWorld` → `to_world`, `intIOR` → `int_ior`, `B` stays).
+fn snake_case(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        if i > 0 && chars[i - 1].is_ascii_lowercase() && c.is_ascii_uppercase() {
+            out.push('_');
+            out.push(c.to_ascii_lowercase());
+            while i + 1 < chars.len() && chars[i + 1].is_ascii_uppercase() {
+                i += 1;
+                out.push(chars[i].to_ascii_lowercase());
+            }
+        } else {
+            out.push(c);
+        }
+        i += 1;
+    }
+    out
 }
 
 #[cfg(test)]
@@ -326,7 +481,7 @@ mod tests {
             .iter()
             .map(|(a, b)| (a.to_string(), b.to_string()))
             .collect();
-        read_scene_document(xml, "t.xml", Path::new("."), None, &o)
+        read_scene_document(xml, "t.xml", Path::new("."), None, &o).map(|(e, _)| e)
     }
 
     #[test]
@@ -356,11 +511,11 @@ mod tests {
 
     #[test]
     fn versions() {
-        for ok in ["2.0.0", "3.0.0", "3.5", "2"] {
+        for ok in ["0.5.0", "0.6.0", "2.0.0", "3.0.0", "3.5", "2"] {
             read(&format!("<scene version=\"{ok}\"/>"), &[]).unwrap();
         }
         read("<scene/>", &[]).unwrap();
-        for bad in ["0.6.0", "4.0.0", "x.y"] {
+        for bad in ["4.0.0", "x.y", "-1"] {
             let msg = read(&format!("<scene version=\"{bad}\"/>"), &[])
                 .unwrap_err()
                 .to_string();
@@ -376,5 +531,85 @@ mod tests {
             "</shape>".repeat(200)
         );
         assert!(read(&xml, &[]).is_err());
+    }
+
+    #[test]
+    fn snake_case_as_mitsuba() {
+        for (camel, snake) in [
+            ("toWorld", "to_world"),
+            ("intIOR", "int_ior"),
+            ("sampleCount", "sample_count"),
+            ("alphaU", "alpha_u"),
+            ("specularReflectance", "specular_reflectance"),
+            ("B", "B"),
+            ("to_world", "to_world"),
+            ("fovAxis", "fov_axis"),
+        ] {
+            assert_eq!(snake_case(camel), snake, "{camel}");
+        }
+    }
+
+    #[test]
+    fn legacy_scenes_are_upgraded_and_new_ones_are_not() {
+        let body = r#"<default name="camelName" value="1"/>
+            <shape type="rectangle">
+                <transform name="toWorld"><lookAt origin="0,0,1" target="0,0,0" up="0,1,0"/></transform>
+                <bsdf type="diffuse"><rgb name="diffuseReflectance" value="$camelName"/></bsdf>
+            </shape>"#;
+        let old = read(&format!("<scene version=\"0.5.0\">{body}</scene>"), &[]).unwrap();
+        let transform = &old[0].children[0];
+        assert_eq!(transform.attr("name"), Some("to_world"));
+        assert_eq!(transform.children[0].tag, "lookat");
+        let reflectance = &old[0].children[1].children[0];
+        assert_eq!(reflectance.attr("name"), Some("reflectance"));
+        assert_eq!(reflectance.attr("value"), Some("1"));
+        let new = read(&format!("<scene version=\"3.0.0\">{body}</scene>"), &[]).unwrap();
+        assert_eq!(new[0].children[0].attr("name"), Some("toWorld"));
+        assert_eq!(new[0].children[0].children[0].tag, "lookAt");
+    }
+
+    #[test]
+    fn path_elements_come_first_in_the_search_path() {
+        let dir = tempfile::tempdir().unwrap();
+        for sub in ["a", "b"] {
+            std::fs::create_dir(dir.path().join(sub)).unwrap();
+            std::fs::write(dir.path().join(sub).join("m.obj"), "").unwrap();
+        }
+        std::fs::write(dir.path().join("m.obj"), "").unwrap();
+        let read_in = |xml: &str| {
+            read_scene_document(xml, "t.xml", dir.path(), None, &[]).map(|(_, search)| search)
+        };
+        // The latest <path> first; relative ones beside the file.
+        let search = read_in(r#"<scene><path value="a"/><path value="b"/></scene>"#).unwrap();
+        assert_eq!(
+            search.resolve("m.obj", dir.path()),
+            dir.path().join("b/m.obj")
+        );
+        let search = read_in(r#"<scene><path value="b"/><path value="a"/></scene>"#).unwrap();
+        assert_eq!(
+            search.resolve("m.obj", dir.path()),
+            dir.path().join("a/m.obj")
+        );
+        assert_eq!(
+            search.resolve("none.obj", dir.path()),
+            dir.path().join("none.obj")
+        );
+        let search = read_in("<scene/>").unwrap();
+        assert_eq!(
+            search.resolve("m.obj", dir.path()),
+            dir.path().join("m.obj")
+        );
+        // A missing directory, or a <path> inside an object, is an error.
+        let msg = read_in("<scene>\n<path value=\"c\"/></scene>")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("t.xml:2:") && msg.contains("\"c\""),
+            "{msg}"
+        );
+        let msg = read_in(r#"<scene><shape type="cube"><path value="a"/></shape></scene>"#)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains("child of the <scene>"), "{msg}");
     }
 }

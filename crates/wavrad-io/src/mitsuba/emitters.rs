@@ -1,4 +1,6 @@
-//! Emitter plugins: only `area`, nested in a shape.
+//! Emitter plugins: only `area`, nested in a shape or declared at the top
+//! level with an `id` and referenced from one shape (`<ref id="..."/>`), as
+//! Mitsuba 3 attaches it.
 //!
 //! | parameter         | type                                   | default |
 //! |-------------------|----------------------------------------|---------|
@@ -13,20 +15,31 @@
 //! </shape>
 //! ```
 //!
-//! The emission leaves the front side of the shape only, as in Mitsuba.
+//! ```xml
+//! <emitter type="area" id="light">
+//!     <spectrum name="radiance" value="400:0, 500:8, 600:15.6, 700:18.4"/>
+//! </emitter>
+//! <shape type="rectangle"><ref id="light"/></shape>
+//! ```
+//!
+//! The emission leaves the front side of the shape only, as in Mitsuba. A
+//! spectral `radiance` becomes the colour Mitsuba's RGB variants give it
+//! (`mitsuba/spectrum.rs`). An area emitter attached to two shapes is an
+//! error (Mitsuba's too); one attached to none lights nothing, with a
+//! warning.
 
 use wavrad_core::scene::Rgb;
 
-use super::params::{Ids, Nested, Object};
+use super::params::{Document, Nested, Object};
 use crate::error::Result;
 
 /// The emitted radiance of an `area` emitter.
-pub(crate) fn parse_area_emitter(emitter: Nested, ids: &Ids) -> Result<Rgb> {
-    let mut obj = Object::parse(emitter.element, ids)?;
+pub(crate) fn parse_area_emitter(emitter: Nested, doc: &Document) -> Result<Rgb> {
+    let mut obj = Object::parse(emitter.element, doc)?;
     if obj.plugin != "area" {
         return Err(unsupported(&obj));
     }
-    let radiance = obj.color("radiance")?.unwrap_or(Rgb::splat(1.0));
+    let radiance = obj.radiance("radiance")?.unwrap_or(Rgb::splat(1.0));
     if let Some(c) = radiance.0.iter().find(|c| **c < 0.0) {
         return Err(obj.location_of("radiance").error(format!(
             "radiance {radiance} of emitter \"area\" has a negative component ({c})"
@@ -40,20 +53,20 @@ pub(crate) fn parse_area_emitter(emitter: Nested, ids: &Ids) -> Result<Rgb> {
     Ok(radiance)
 }
 
-/// The error for an emitter outside a shape.
-pub(crate) fn top_level_emitter(emitter: Nested, ids: &Ids) -> crate::Error {
-    match Object::parse(emitter.element, ids) {
-        Err(e) => e,
-        Ok(obj) if obj.plugin == "area" => obj
-            .at()
-            .error("an area emitter must be nested in a <shape>"),
-        Ok(obj) => unsupported(&obj),
+/// Check an emitter declared at the top level: only an `area` emitter can
+/// be, for a shape to reference.
+pub(crate) fn check_top_level_emitter(emitter: Nested, doc: &Document) -> Result<()> {
+    let obj = Object::parse(emitter.element, doc)?;
+    if obj.plugin != "area" {
+        return Err(unsupported(&obj));
     }
+    Ok(())
 }
 
 fn unsupported(obj: &Object) -> crate::Error {
     obj.at().error(format!(
-        "unsupported emitter plugin \"{}\" (supported: area, nested in a shape)",
+        "unsupported emitter plugin \"{}\" (supported: area, nested in a shape or referenced \
+         by one)",
         obj.plugin
     ))
 }

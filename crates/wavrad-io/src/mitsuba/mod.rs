@@ -2,19 +2,24 @@
 //!
 //! Supported:
 //!
-//! - `<scene version="2.x|3.x">`, `<default name value/>` with `$name`
-//!   substitution in every attribute (overrides, like `mitsuba -D`, win),
-//!   `<include filename/>` (beside the including file, else in the scene's
-//!   directory; cycles are errors), `<ref id/>` to any object with an `id`;
+//! - `<scene version="2.x|3.x">`, and `0.x` (Mitsuba 0.5, 0.6) upgraded as
+//!   Mitsuba 3's loader upgrades it (`mitsuba/document.rs`); `<default name
+//!   value/>` with `$name` substitution in every attribute (overrides, like
+//!   `mitsuba -D`, win), `<include filename/>`, `<path value/>` (search
+//!   directories for every relative file name: `<path>`s latest first, then
+//!   beside the naming file, then the scene's directory; cycles of includes
+//!   are errors), `<ref id/>` to any object with an `id`;
 //! - shapes `rectangle`, `cube`, `disk`, `cylinder`, `sphere` (tessellated),
-//!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs `diffuse`
-//!   and `twosided` (`mitsuba/bsdfs.rs`), the `area` emitter (`mitsuba/emitters.rs`), sensors
-//!   `perspective` and `orthographic` with `hdrfilm`, `box`/`gaussian`
-//!   filters and any sampler (`mitsuba/sensors.rs`); `integrator` and top-level
-//!   `sampler` elements are accepted and their settings ignored (except
-//!   `sample_count`);
+//!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs
+//!   (`mitsuba/bsdfs.rs`), the `area` emitter nested in a shape or declared at
+//!   the top level and referenced by one (`mitsuba/emitters.rs`), sensors
+//!   `perspective` and `orthographic` with `hdrfilm`, every Mitsuba 3
+//!   `rfilter` and any sampler (`mitsuba/sensors.rs`); any `integrator`, its
+//!   unhonoured settings warned about (`mitsuba/integrators.rs`), and
+//!   top-level `sampler` elements (only `sample_count` is read);
 //! - parameters `<float>`, `<integer>`, `<boolean>`, `<string>`, `<point>`,
-//!   `<vector>`, `<rgb>`, `<spectrum value="v">` and `<transform>`
+//!   `<vector>`, `<rgb>`, `<spectrum>` (converted to RGB as Mitsuba 3's RGB
+//!   variants do: `mitsuba/spectrum.rs`) and `<transform>`
 //!   (`mitsuba/transform.rs`).
 //!
 //! Everything else — other plugins, textures, media, unknown parameters or
@@ -43,21 +48,22 @@
 mod bsdfs;
 mod document;
 mod emitters;
+mod integrators;
 mod params;
 mod sensors;
 mod shapes;
+mod spectrum;
 mod transform;
 
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use wavrad_core::scene::{Film, RenderHints, Scene};
 
 use crate::error::{Error, Result};
 use document::{read_scene_document, Element, Location};
-use params::{Ids, Object};
+use params::{Document, Object};
 
 /// A scene as loaded, with the warnings the loader had about it.
 #[derive(Debug, Clone, PartialEq)]
@@ -124,52 +130,26 @@ fn load(
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
 ) -> Result<Loaded> {
-    let children = read_scene_document(xml, name, dir, own_path, overrides)?;
-    let root = Element {
-        tag: "scene".into(),
-        attrs: Vec::new(),
-        children,
-        at: Location {
-            file: Arc::from(name),
-            line: 1,
-            dir: Arc::from(dir),
-        },
-    };
-    let ids = collect_ids(&root)?;
-    build_scene(&root, &ids, dir)
+    let (children, search) = read_scene_document(xml, name, dir, own_path, overrides)?;
+    let root = Element::root(children, name, dir);
+    let doc = Document::new(&root, search)?;
+    let scene = build_scene(&root, &doc)?;
+    Ok(Loaded {
+        scene,
+        warnings: doc.into_warnings(),
+    })
 }
 
-/// Every object with an `id`, anywhere in the document.
-fn collect_ids(root: &Element) -> Result<Ids<'_>> {
-    fn walk<'a>(e: &'a Element, ids: &mut HashMap<&'a str, &'a Element>) -> Result<()> {
-        for child in &e.children {
-            if child.tag != "ref" {
-                if let Some(id) = child.attr("id") {
-                    if let Some(first) = ids.insert(id, child) {
-                        return Err(child.at.error(format!(
-                            "duplicate id \"{id}\" (first defined at {})",
-                            first.at
-                        )));
-                    }
-                }
-            }
-            walk(child, ids)?;
-        }
-        Ok(())
-    }
-    let mut ids = HashMap::new();
-    walk(root, &mut ids)?;
-    Ok(ids)
-}
-
-fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Loaded> {
-    let scene = Object::parse(root, ids)?;
+fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
+    let scene = Object::parse(root, doc)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
-    let mut warnings = Vec::new();
     let mut sensor = None;
     let mut top_level_samples = None;
     let mut shape_index = 0;
+    let mut top_level_emitters = Vec::new();
+    // Area emitters by element, with the shape each is attached to.
+    let mut attached: HashMap<*const Element, &Location> = HashMap::new();
     for n in &scene.nested {
         if !std::ptr::eq(n.at, &n.element.at) {
             return Err(n
@@ -178,29 +158,34 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Loaded> {
         }
         match n.tag() {
             "shape" => {
-                shapes::build_shape(
-                    *n,
-                    ids,
-                    shape_index,
-                    scene_dir,
-                    &mut surfaces,
-                    &mut warnings,
-                )?;
+                let emitter = shapes::build_shape(*n, doc, shape_index, &mut surfaces)?;
+                if let Some(e) = emitter {
+                    if let Some(first) = attached.insert(e.element, e.at) {
+                        return Err(e.at.error(format!(
+                            "the area emitter at {} is attached to a shape already (at {first}); \
+                             an area emitter lights one shape, as in Mitsuba",
+                            e.element.at
+                        )));
+                    }
+                }
                 shape_index += 1;
             }
             "bsdf" => {
-                bsdfs::parse_bsdf(*n, ids)?;
+                bsdfs::parse_bsdf(*n, doc)?;
             }
-            "emitter" => return Err(emitters::top_level_emitter(*n, ids)),
+            "emitter" => {
+                emitters::check_top_level_emitter(*n, doc)?;
+                top_level_emitters.push(*n);
+            }
             "sensor" => {
-                let s = sensors::parse_sensor(*n, ids)?;
+                let s = sensors::parse_sensor(*n, doc)?;
                 sensor.get_or_insert(s);
             }
             "sampler" => {
-                let count = sensors::parse_sampler(*n, ids)?;
+                let count = sensors::parse_sampler(*n, doc)?;
                 top_level_samples = top_level_samples.or(count);
             }
-            "integrator" => n.element.check_attrs(&["type", "id", "name"])?,
+            "integrator" => integrators::check_integrator(*n, doc)?,
             other => {
                 return Err(n.at.error(format!(
                     "<{other}> must be nested in {}",
@@ -213,7 +198,16 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Loaded> {
             }
         }
     }
-    let scene = Scene {
+    for n in top_level_emitters {
+        if !attached.contains_key(&std::ptr::from_ref(n.element)) {
+            emitters::parse_area_emitter(n, doc)?;
+            doc.warn(n.at.warning(
+                "this area emitter is attached to no shape (none references its id), so it \
+                 lights nothing, as in Mitsuba",
+            ));
+        }
+    }
+    Ok(Scene {
         surfaces,
         camera: sensor.map(|s| s.camera),
         film: sensor.map_or_else(Film::default, |s| s.film),
@@ -222,6 +216,5 @@ fn build_scene(root: &Element, ids: &Ids, scene_dir: &Path) -> Result<Loaded> {
                 .and_then(|s| s.samples_per_pixel)
                 .or(top_level_samples),
         },
-    };
-    Ok(Loaded { scene, warnings })
+    })
 }

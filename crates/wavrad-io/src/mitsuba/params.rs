@@ -1,22 +1,73 @@
 //! Objects and their typed parameters: `<float>`, `<integer>`, `<boolean>`,
-//! `<string>`, `<point>`, `<vector>`, `<rgb>`, `<spectrum>`, `<transform>`,
-//! and nested objects (directly or through `<ref>`).
+//! `<string>`, `<point>`, `<vector>`, `<rgb>`, `<spectrum>`
+//! (`mitsuba/spectrum.rs`), `<transform>`, and nested objects (directly or
+//! through `<ref>`), read in the [`Document`] that holds them.
 //!
 //! A plugin asks for each parameter it knows by name; [`Object::finish`]
 //! then rejects whatever was left unasked, so an unknown or misspelled
 //! parameter is an error naming the plugin, the parameter and its line.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 
 use glam::{DMat4, DVec3};
 use wavrad_core::scene::Rgb;
 
-use super::document::{Element, Location};
+use super::document::{Element, Location, SearchPath};
+use super::spectrum::{ColorRole, Spectrum};
 use super::transform::parse_transform;
+use super::Warning;
 use crate::error::Result;
 
-/// Top-level objects by `id`.
-pub(crate) type Ids<'a> = HashMap<&'a str, &'a Element>;
+/// The expanded scene as its objects see it: every object with an `id`,
+/// where relative file names are looked up, and the warnings so far.
+#[derive(Debug)]
+pub(crate) struct Document<'a> {
+    ids: HashMap<&'a str, &'a Element>,
+    /// Where relative file names (meshes, spectra) are looked up.
+    pub search: SearchPath,
+    warnings: RefCell<Vec<Warning>>,
+}
+
+impl<'a> Document<'a> {
+    /// The document below `root`: every element with an `id` (but `<ref>`s)
+    /// indexed; a repeated id is an error.
+    pub fn new(root: &'a Element, search: SearchPath) -> Result<Document<'a>> {
+        fn walk<'a>(e: &'a Element, ids: &mut HashMap<&'a str, &'a Element>) -> Result<()> {
+            for child in &e.children {
+                if child.tag != "ref" {
+                    if let Some(id) = child.attr("id") {
+                        if let Some(first) = ids.insert(id, child) {
+                            return Err(child.at.error(format!(
+                                "duplicate id \"{id}\" (first defined at {})",
+                                first.at
+                            )));
+                        }
+                    }
+                }
+                walk(child, ids)?;
+            }
+            Ok(())
+        }
+        let mut ids = HashMap::new();
+        walk(root, &mut ids)?;
+        Ok(Document {
+            ids,
+            search,
+            warnings: RefCell::new(Vec::new()),
+        })
+    }
+
+    /// Record something loaded, but not as written.
+    pub fn warn(&self, warning: Warning) {
+        self.warnings.borrow_mut().push(warning);
+    }
+
+    /// The warnings, in the order they were made.
+    pub fn into_warnings(self) -> Vec<Warning> {
+        self.warnings.into_inner()
+    }
+}
 
 /// Tags of objects wavrad can meet nested in other objects.
 const OBJECT_TAGS: &[&str] = &[
@@ -51,7 +102,7 @@ pub(crate) enum Value {
     Point(DVec3),
     Vector(DVec3),
     Rgb(Rgb),
-    Spectrum(f64),
+    Spectrum(Spectrum),
     Transform(DMat4),
 }
 
@@ -120,12 +171,13 @@ pub(crate) struct Object<'a> {
     pub nested: Vec<Nested<'a>>,
     props: Vec<Property>,
     known: Vec<&'static str>,
+    doc: &'a Document<'a>,
 }
 
 impl<'a> Object<'a> {
     /// Parse `element` (an object tag) and its children. `<ref>`s resolve
-    /// through `ids`.
-    pub fn parse(element: &'a Element, ids: &Ids<'a>) -> Result<Object<'a>> {
+    /// through `doc`.
+    pub fn parse(element: &'a Element, doc: &'a Document<'a>) -> Result<Object<'a>> {
         let plugin = if element.tag == "scene" {
             "scene"
         } else {
@@ -139,14 +191,17 @@ impl<'a> Object<'a> {
             nested: Vec::new(),
             props: Vec::new(),
             known: Vec::new(),
+            doc,
         };
         for child in &element.children {
             let tag = child.tag.as_str();
             if tag == "ref" {
                 child.check_attrs(&["id", "name"])?;
                 let id = child.required_attr("id")?;
-                let target = ids
+                let target = doc
+                    .ids
                     .get(id)
+                    .copied()
                     .ok_or_else(|| child.at.error(format!("<ref> to unknown id \"{id}\"")))?;
                 if let Some((_, why)) = UNSUPPORTED_TAGS.iter().find(|(t, _)| *t == target.tag) {
                     return Err(child
@@ -171,7 +226,7 @@ impl<'a> Object<'a> {
                     .at
                     .error(format!("unsupported element <{tag}{plugin}>: {why}")));
             } else {
-                let value = parse_value(child)?;
+                let value = parse_value(child, &doc.search)?;
                 let name = child.required_attr("name")?;
                 if let Some(first) = object.props.iter().find(|p| p.name == name) {
                     return Err(child.at.error(format!(
@@ -294,17 +349,46 @@ impl<'a> Object<'a> {
         self.props.iter().any(|p| p.name == name)
     }
 
-    /// A constant color: `<rgb>`, `<float>`, `<integer>` or a single-valued
-    /// `<spectrum>`. A nested `<texture>` under this name has already been
-    /// rejected by [`Object::parse`].
+    /// A reflectance colour: `<rgb>`, `<float>`, `<integer>` or
+    /// `<spectrum>` (converted as Mitsuba's RGB variants do, clamped to
+    /// \[0, 1\] with a warning). A nested `<texture>` under this name has
+    /// already been rejected by [`Object::parse`].
     pub fn color(&mut self, name: &'static str) -> Result<Option<Rgb>> {
+        self.color_as(name, ColorRole::Reflectance)
+    }
+
+    /// An optical constant's colour (`eta`, `k`): as [`Object::color`], a
+    /// spectrum clamped at zero only.
+    pub fn unbounded_color(&mut self, name: &'static str) -> Result<Option<Rgb>> {
+        self.color_as(name, ColorRole::Unbounded)
+    }
+
+    /// An emitted radiance: as [`Object::color`], a spectrum converted as
+    /// Mitsuba's RGB variants convert emission.
+    pub fn radiance(&mut self, name: &'static str) -> Result<Option<Rgb>> {
+        self.color_as(name, ColorRole::Emission)
+    }
+
+    fn color_as(&mut self, name: &'static str, role: ColorRole) -> Result<Option<Rgb>> {
         let Some((value, at)) = self.take(name) else {
             return Ok(None);
         };
         match value {
             Value::Rgb(c) => Ok(Some(c)),
-            Value::Float(v) | Value::Spectrum(v) => Ok(Some(Rgb::splat(v))),
+            Value::Float(v) => Ok(Some(Rgb::splat(v))),
             Value::Integer(v) => Ok(Some(Rgb::splat(v as f64))),
+            Value::Spectrum(s) => {
+                let converted = s.to_rgb(role);
+                if let Some(before) = converted.clamped_from {
+                    self.doc.warn(at.warning(format!(
+                        "spectrum \"{name}\" of {} is {before} in linear sRGB, outside the gamut; \
+                         clamped to {}, as Mitsuba's RGB variants do",
+                        self.describe(),
+                        converted.rgb
+                    )));
+                }
+                Ok(Some(converted.rgb))
+            }
             other => Err(self.mismatch(name, "an <rgb>, <float> or <spectrum>", &other, &at)),
         }
     }
@@ -375,8 +459,8 @@ impl<'a> Object<'a> {
     }
 }
 
-/// Parse a parameter element.
-fn parse_value(e: &Element) -> Result<Value> {
+/// Parse a parameter element; `search` finds spectrum files.
+fn parse_value(e: &Element, search: &SearchPath) -> Result<Value> {
     fn value(e: &Element) -> Result<&str> {
         e.required_attr("value")
     }
@@ -434,37 +518,59 @@ fn parse_value(e: &Element) -> Result<Value> {
                 }
             }
         }
-        "spectrum" => {
-            e.check_attrs(&["name", "value", "filename"])?;
-            if e.attr("filename").is_some() {
-                return Err(e.at.error(format!(
-                    "{}: spectra from files are not supported (give a single value)",
-                    describe(e)
-                )));
-            }
-            let v = value(e)?;
-            if v.contains(':') {
-                return Err(e.at.error(format!(
-                    "{}: only a constant spectrum (a single value) is supported, not \"{v}\"",
-                    describe(e)
-                )));
-            }
-            match parse_numbers(v, e)?.as_slice() {
-                [x] => Value::Spectrum(*x),
-                _ => {
-                    return Err(e.at.error(format!(
-                        "{}: only a constant spectrum (a single value) is supported, not \"{v}\"",
-                        describe(e)
-                    )))
-                }
-            }
-        }
+        "spectrum" => Value::Spectrum(parse_spectrum(e, search)?),
         "transform" => {
             e.check_attrs(&["name"])?;
             Value::Transform(parse_transform(e)?)
         }
+        "blackbody" => return Err(blackbody(e)),
         other => return Err(e.at.error(format!("unknown element <{other}>"))),
     })
+}
+
+/// A `<spectrum>` given by `value` or by `filename`.
+fn parse_spectrum(e: &Element, search: &SearchPath) -> Result<Spectrum> {
+    if let Some(plugin) = e.attr("type") {
+        return Err(if plugin == "blackbody" {
+            blackbody(e)
+        } else {
+            e.at.error(format!(
+                "unsupported spectrum plugin \"{plugin}\" in {}: spectrum plugins are textures; \
+                 give <spectrum value=\"...\"/> or <rgb> instead",
+                describe(e)
+            ))
+        });
+    }
+    e.check_attrs(&["name", "value", "filename"])?;
+    let malformed = |why: String| e.at.error(format!("{}: {why}", describe(e)));
+    match (e.attr("value"), e.attr("filename")) {
+        (Some(value), None) => Spectrum::parse(value).map_err(malformed),
+        (None, Some(filename)) => {
+            let path = search.resolve(filename, &e.at.dir);
+            let text = std::fs::read_to_string(&path).map_err(|err| {
+                malformed(format!(
+                    "cannot read spectrum file \"{}\": {err}",
+                    path.display()
+                ))
+            })?;
+            Spectrum::parse_file(&text)
+                .map_err(|why| malformed(format!("spectrum file \"{}\", {why}", path.display())))
+        }
+        _ => Err(malformed(
+            "give either \"value\" or \"filename\" (but not both)".to_string(),
+        )),
+    }
+}
+
+/// The error for a black-body spectrum (`<spectrum type="blackbody">`, or
+/// Mitsuba 0.x's `<blackbody>`): Mitsuba 3 evaluates it in its spectral
+/// variants only, and wavrad renders as its RGB variants do.
+fn blackbody(e: &Element) -> crate::Error {
+    e.at.error(format!(
+        "black-body spectra ({}) are not supported: Mitsuba 3 has them in its spectral variants \
+         only, and wavrad renders as its RGB variants do; give the emitter's <rgb> radiance",
+        describe(e)
+    ))
 }
 
 /// `<float name="fov">`, for messages.
@@ -529,13 +635,19 @@ mod tests {
     use crate::mitsuba::document::read_scene_document;
     use std::path::Path;
 
-    fn elements(xml: &str) -> Vec<Element> {
-        read_scene_document(xml, "p.xml", Path::new("."), None, &[]).unwrap()
+    /// The root of `xml` read in `dir`.
+    fn root_in(xml: &str, dir: &Path) -> (Element, SearchPath) {
+        let (children, search) = read_scene_document(xml, "p.xml", dir, None, &[]).unwrap();
+        (Element::root(children, "p.xml", dir), search)
+    }
+
+    fn read(xml: &str) -> (Element, SearchPath) {
+        root_in(xml, Path::new("."))
     }
 
     #[test]
     fn typed_values_and_unknown_parameter() {
-        let e = elements(
+        let (root, search) = read(
             r#"<scene><shape type="x">
             <float name="f" value="1.5"/>
             <integer name="i" value="-3"/>
@@ -546,8 +658,8 @@ mod tests {
             <string name="extra" value="?"/>
             </shape></scene>"#,
         );
-        let ids = Ids::new();
-        let mut o = Object::parse(&e[0], &ids).unwrap();
+        let doc = Document::new(&root, search).unwrap();
+        let mut o = Object::parse(&root.children[0], &doc).unwrap();
         assert_eq!(o.float("f").unwrap(), Some(1.5));
         assert_eq!(o.float("i").unwrap(), Some(-3.0));
         assert_eq!(o.boolean("b").unwrap(), Some(true));
@@ -567,8 +679,11 @@ mod tests {
     fn malformed_numbers_name_the_line() {
         let xml =
             "<scene><shape type=\"x\">\n\n<float name=\"f\" value=\"1.5.2\"/></shape></scene>";
-        let e = elements(xml);
-        let msg = Object::parse(&e[0], &Ids::new()).unwrap_err().to_string();
+        let (root, search) = read(xml);
+        let doc = Document::new(&root, search).unwrap();
+        let msg = Object::parse(&root.children[0], &doc)
+            .unwrap_err()
+            .to_string();
         assert!(
             msg.starts_with("p.xml:3:") && msg.contains("1.5.2"),
             "{msg}"
@@ -577,8 +692,82 @@ mod tests {
             let xml = format!(
                 "<scene><shape type=\"x\"><float name=\"f\" value=\"{bad}\"/></shape></scene>"
             );
-            let e = elements(&xml);
-            assert!(Object::parse(&e[0], &Ids::new()).is_err(), "{bad}");
+            let (root, search) = read(&xml);
+            let doc = Document::new(&root, search).unwrap();
+            assert!(Object::parse(&root.children[0], &doc).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn spectra_convert_by_role_and_warn_when_clamped() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("spd")).unwrap();
+        std::fs::write(
+            dir.path().join("spd/green.spd"),
+            "# a narrow green band\n500 0\n520 1\n540 0\n",
+        )
+        .unwrap();
+        let (root, search) = root_in(
+            r#"<scene><path value="spd"/><shape type="x">
+            <spectrum name="gray" value="0.5"/>
+            <spectrum name="emitted" value="0.5"/>
+            <spectrum name="green" filename="green.spd"/>
+            </shape></scene>"#,
+            dir.path(),
+        );
+        let doc = Document::new(&root, search).unwrap();
+        let mut o = Object::parse(&root.children[0], &doc).unwrap();
+        assert_eq!(o.color("gray").unwrap(), Some(Rgb::splat(0.5)));
+        // An equal-energy emitter is pinkish in sRGB, as in Mitsuba.
+        let emitted = o.radiance("emitted").unwrap().unwrap();
+        assert!((emitted[0] - 0.5 * 1.204794).abs() < 1e-5, "{emitted}");
+        assert!(emitted[0] > emitted[1] && emitted[1] > emitted[2]);
+        let green = o.color("green").unwrap().unwrap();
+        assert!(
+            green[0] == 0.0 && green[1] > 0.2 && green[2] == 0.0,
+            "{green}"
+        );
+        o.finish().unwrap();
+        let warnings = doc.into_warnings();
+        let [w] = &warnings[..] else {
+            panic!("{warnings:?}")
+        };
+        assert_eq!(w.line, 4);
+        assert!(
+            w.message.contains("\"green\"") && w.message.contains("clamped"),
+            "{w}"
+        );
+    }
+
+    #[test]
+    fn unusable_spectra_name_the_line_and_the_reason() {
+        for (spectrum, needle) in [
+            (r#"<spectrum name="s" value="500:1"/>"#, "at least two"),
+            (r#"<spectrum name="s" filename="none.spd"/>"#, "none.spd"),
+            (
+                r#"<spectrum name="s" value="1" filename="x.spd"/>"#,
+                "not both",
+            ),
+            (
+                r#"<spectrum name="s" type="blackbody"><float name="temperature" value="5000"/></spectrum>"#,
+                "spectral variants",
+            ),
+            (
+                r#"<blackbody name="s" temperature="5000K"/>"#,
+                "spectral variants",
+            ),
+            (
+                r#"<spectrum name="s" type="d65"/>"#,
+                "spectrum plugin \"d65\"",
+            ),
+        ] {
+            let xml = format!("<scene><shape type=\"x\">\n{spectrum}</shape></scene>");
+            let (root, search) = read(&xml);
+            let doc = Document::new(&root, search).unwrap();
+            let msg = Object::parse(&root.children[0], &doc)
+                .unwrap_err()
+                .to_string();
+            assert!(msg.starts_with("p.xml:2:") && msg.contains(needle), "{msg}");
         }
     }
 }

@@ -1,5 +1,6 @@
 //! Sensor plugins (`perspective`, `orthographic`) with their nested film
-//! (`hdrfilm`), reconstruction filter (`box`, `gaussian`) and sampler.
+//! (`hdrfilm`), reconstruction filter (every Mitsuba 3 `rfilter`:
+//! [`PixelFilter`]) and sampler.
 //!
 //! | plugin         | parameter                 | type        | default        |
 //! |----------------|---------------------------|-------------|----------------|
@@ -13,7 +14,11 @@
 //! | `hdrfilm`      | `width`, `height`         | integer     | 768, 576       |
 //! | `hdrfilm`      | `crop_*`                  | integer, full frame only |   |
 //! | `hdrfilm`      | `pixel_format`, `component_format`, `file_format`, `banner`, `sample_border` | (ignored) | |
+//! | `box`, `catmullrom` | (none)               |             |                |
+//! | `tent`         | `radius`                  | float       | 1              |
 //! | `gaussian`     | `stddev`                  | float       | 0.5            |
+//! | `mitchell`     | `B`, `C`                  | float       | 1/3, 1/3       |
+//! | `lanczos`      | `lobes`                   | integer     | 3              |
 //! | any sampler    | `sample_count`            | integer     | none           |
 //!
 //! ```xml
@@ -35,7 +40,7 @@
 use glam::DMat4;
 use wavrad_core::scene::{Camera, Film, FovAxis, PixelFilter, Projection};
 
-use super::params::{Ids, Nested, Object};
+use super::params::{Document, Nested, Object};
 use crate::error::Result;
 
 /// What a sensor element yields.
@@ -47,8 +52,8 @@ pub(crate) struct Sensor {
 }
 
 /// Read a `<sensor>`.
-pub(crate) fn parse_sensor(sensor: Nested, ids: &Ids) -> Result<Sensor> {
-    let mut obj = Object::parse(sensor.element, ids)?;
+pub(crate) fn parse_sensor(sensor: Nested, doc: &Document) -> Result<Sensor> {
+    let mut obj = Object::parse(sensor.element, doc)?;
     let perspective = match obj.plugin {
         "perspective" => true,
         "orthographic" => false,
@@ -65,10 +70,10 @@ pub(crate) fn parse_sensor(sensor: Nested, ids: &Ids) -> Result<Sensor> {
     let mut seen_sampler = false;
     for n in &obj.nested {
         match n.tag() {
-            "film" if film.is_none() => film = Some(parse_film(*n, ids)?),
+            "film" if film.is_none() => film = Some(parse_film(*n, doc)?),
             "sampler" if !seen_sampler => {
                 seen_sampler = true;
-                samples_per_pixel = parse_sampler(*n, ids)?;
+                samples_per_pixel = parse_sampler(*n, doc)?;
             }
             "film" | "sampler" => {
                 return Err(n.at.error(format!(
@@ -203,8 +208,8 @@ fn has_scale(m: &DMat4) -> bool {
 }
 
 /// Read an `hdrfilm`.
-fn parse_film(film: Nested, ids: &Ids) -> Result<Film> {
-    let mut obj = Object::parse(film.element, ids)?;
+fn parse_film(film: Nested, doc: &Document) -> Result<Film> {
+    let mut obj = Object::parse(film.element, doc)?;
     if obj.plugin != "hdrfilm" {
         return Err(obj.at().error(format!(
             "unsupported film plugin \"{}\" (supported: hdrfilm)",
@@ -247,7 +252,7 @@ fn parse_film(film: Nested, ids: &Ids) -> Result<Film> {
     let mut filter = None;
     for n in &obj.nested {
         match n.tag() {
-            "rfilter" if filter.is_none() => filter = Some(parse_rfilter(*n, ids)?),
+            "rfilter" if filter.is_none() => filter = Some(parse_rfilter(*n, doc)?),
             "rfilter" => return Err(n.at.error("film \"hdrfilm\" has more than one <rfilter>")),
             _ => return Err(obj.unexpected(n)),
         }
@@ -259,23 +264,39 @@ fn parse_film(film: Nested, ids: &Ids) -> Result<Film> {
     })
 }
 
-/// Read an `rfilter`.
-fn parse_rfilter(rfilter: Nested, ids: &Ids) -> Result<PixelFilter> {
-    let mut obj = Object::parse(rfilter.element, ids)?;
-    let filter = match obj.plugin {
-        "box" => PixelFilter::Box,
+/// Read an `rfilter`: every Mitsuba 3 reconstruction filter, with its
+/// parameters and defaults ([`PixelFilter`]).
+fn parse_rfilter(rfilter: Nested, doc: &Document) -> Result<PixelFilter> {
+    let mut obj = Object::parse(rfilter.element, doc)?;
+    let (filter, parameter) = match obj.plugin {
+        "box" => (PixelFilter::Box, None),
+        "tent" => {
+            let radius = obj.float("radius")?.unwrap_or(1.0);
+            (PixelFilter::Tent { radius }, Some("radius"))
+        }
         "gaussian" => {
             let stddev = obj.float("stddev")?.unwrap_or(0.5);
-            if stddev <= 0.0 {
-                return Err(obj
-                    .location_of("stddev")
-                    .error(format!("gaussian stddev must be positive, got {stddev}")));
-            }
-            PixelFilter::Gaussian { stddev }
+            (PixelFilter::Gaussian { stddev }, Some("stddev"))
+        }
+        "mitchell" => {
+            let b = obj.float("B")?.unwrap_or(1.0 / 3.0);
+            let c = obj.float("C")?.unwrap_or(1.0 / 3.0);
+            (PixelFilter::Mitchell { b, c }, Some("B"))
+        }
+        "catmullrom" => (PixelFilter::CATMULL_ROM, None),
+        "lanczos" => {
+            let lobes = obj.integer("lobes")?.unwrap_or(3);
+            let lobes = u32::try_from(lobes).map_err(|_| {
+                obj.location_of("lobes").error(format!(
+                    "lobes of rfilter \"lanczos\" must be a positive integer, got {lobes}"
+                ))
+            })?;
+            (PixelFilter::Lanczos { lobes }, Some("lobes"))
         }
         other => {
             return Err(obj.at().error(format!(
-                "unsupported rfilter plugin \"{other}\" (supported: box, gaussian)"
+                "unsupported rfilter plugin \"{other}\" (supported: box, tent, gaussian, \
+                 mitchell, catmullrom, lanczos)"
             )))
         }
     };
@@ -283,12 +304,16 @@ fn parse_rfilter(rfilter: Nested, ids: &Ids) -> Result<PixelFilter> {
         return Err(obj.unexpected(n));
     }
     obj.finish()?;
+    filter.validate().map_err(|e| {
+        let at = parameter.map_or(obj.at(), |p| obj.location_of(p));
+        at.error(e.to_string())
+    })?;
     Ok(filter)
 }
 
 /// Any sampler: only `sample_count` matters.
-pub(crate) fn parse_sampler(sampler: Nested, ids: &Ids) -> Result<Option<u32>> {
-    let mut obj = Object::parse(sampler.element, ids)?;
+pub(crate) fn parse_sampler(sampler: Nested, doc: &Document) -> Result<Option<u32>> {
+    let mut obj = Object::parse(sampler.element, doc)?;
     let count = match obj.integer("sample_count")? {
         None => None,
         Some(v) => Some(u32::try_from(v).ok().filter(|v| *v > 0).ok_or_else(|| {

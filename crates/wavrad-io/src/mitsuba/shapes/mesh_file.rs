@@ -25,14 +25,11 @@
 //! vertices) are skipped, and a warning counts them; a mesh with no other
 //! triangle is an error.
 
-use std::path::Path;
-
 use glam::DMat4;
 use wavrad_core::scene::Patch;
 
-use super::super::document::{resolve_path, Location};
-use super::super::params::Object;
-use super::super::Warning;
+use super::super::document::Location;
+use super::super::params::{Document, Object};
 use crate::error::Result;
 use crate::mesh;
 
@@ -93,16 +90,15 @@ impl MeshFile {
     }
 
     /// The mesh's triangles in world space, less those of zero area (counted
-    /// in a warning). `describe` names the shape in messages; `scene_dir` is
-    /// the fallback for a relative `filename`.
+    /// in a warning). `describe` names the shape in messages; a relative
+    /// `filename` is looked up along the document's search path.
     pub fn patches(
         &self,
         world_from_local: &DMat4,
         describe: &str,
-        scene_dir: &Path,
-        warnings: &mut Vec<Warning>,
+        doc: &Document,
     ) -> Result<Vec<Patch>> {
-        let path = resolve_path(&self.filename, &self.at.dir, scene_dir);
+        let path = doc.search.resolve(&self.filename, &self.at.dir);
         let mesh = match self.format {
             Format::Obj => mesh::read_obj(&path),
             Format::Ply => mesh::read_ply(&path),
@@ -143,7 +139,7 @@ impl MeshFile {
         }
         let skipped = count - patches.len();
         if skipped > 0 {
-            warnings.push(self.at.warning(format!(
+            doc.warn(self.at.warning(format!(
                 "{describe}: skipped {skipped} of the {count} triangles of mesh \"{}\": they have zero area (collinear or repeated vertices)",
                 path.display()
             )));

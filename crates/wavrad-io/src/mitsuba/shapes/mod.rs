@@ -34,15 +34,12 @@ mod parallelogram;
 mod sphere;
 mod tessellation;
 
-use std::path::Path;
-
 use glam::{DMat4, DVec3};
 use wavrad_core::scene::{Patch, Rgb, Surface};
 
 use super::bsdfs::{parse_bsdf, Material};
 use super::emitters::parse_area_emitter;
-use super::params::{Ids, Nested, Object};
-use super::Warning;
+use super::params::{Document, Nested, Object};
 use crate::error::Result;
 use mesh_file::MeshFile;
 
@@ -101,8 +98,7 @@ impl Geometry {
         &self,
         obj: &Object,
         world_from_local: &DMat4,
-        scene_dir: &Path,
-        warnings: &mut Vec<Warning>,
+        doc: &Document,
     ) -> Result<Vec<Patch>> {
         let zero_area = || {
             obj.at()
@@ -148,7 +144,7 @@ impl Geometry {
                 }
                 let placement = sphere::Placement::new(&world_from_unit).ok_or_else(zero_area)?;
                 if placement.replaced {
-                    warnings.push(obj.location_of("to_world").warning(format!(
+                    doc.warn(obj.location_of("to_world").warning(format!(
                         "to_world of {} shears or scales unevenly; as in Mitsuba, the shape is a sphere of radius {} (its length along the local x axis)",
                         obj.describe(),
                         placement.radius()
@@ -160,9 +156,7 @@ impl Geometry {
                     Front::Winding,
                 )
             }
-            Geometry::Mesh(file) => {
-                return file.patches(world_from_local, &obj.describe(), scene_dir, warnings)
-            }
+            Geometry::Mesh(file) => return file.patches(world_from_local, &obj.describe(), doc),
         };
         let mirrored = world_from_local.determinant() < 0.0;
         local
@@ -183,18 +177,15 @@ impl Geometry {
 }
 
 /// Append the surfaces of shape `shape` to `out`, all named by the shape's
-/// `id` (else its `name`, else `plugin#index`). `scene_dir` is the fallback
-/// for relative mesh paths; what was loaded but not as written goes to
-/// `warnings`.
-pub(crate) fn build_shape(
-    shape: Nested,
-    ids: &Ids,
+/// `id` (else its `name`, else `plugin#index`), and return its area
+/// emitter, nested or referenced, if it has one.
+pub(crate) fn build_shape<'a>(
+    shape: Nested<'a>,
+    doc: &'a Document<'a>,
     index: usize,
-    scene_dir: &Path,
     out: &mut Vec<Surface>,
-    warnings: &mut Vec<Warning>,
-) -> Result<()> {
-    let mut obj = Object::parse(shape.element, ids)?;
+) -> Result<Option<Nested<'a>>> {
+    let mut obj = Object::parse(shape.element, doc)?;
     let plugin = obj.plugin;
 
     // Parameters.
@@ -210,11 +201,11 @@ pub(crate) fn build_shape(
 
     // Nested BSDF and emitter.
     let mut material = None;
-    let mut emission = None;
+    let mut emitter = None;
     for n in &obj.nested {
         match n.tag() {
-            "bsdf" if material.is_none() => material = Some(parse_bsdf(*n, ids)?),
-            "emitter" if emission.is_none() => emission = Some(parse_area_emitter(*n, ids)?),
+            "bsdf" if material.is_none() => material = Some(parse_bsdf(*n, doc)?),
+            "emitter" if emitter.is_none() => emitter = Some(*n),
             "bsdf" | "emitter" => {
                 return Err(n.at.error(format!(
                     "{} has more than one <{}>",
@@ -226,10 +217,13 @@ pub(crate) fn build_shape(
         }
     }
     let material: Material = material.unwrap_or_default();
-    let emission = emission.unwrap_or(Rgb::ZERO);
+    let emission = match emitter {
+        Some(n) => parse_area_emitter(n, doc)?,
+        None => Rgb::ZERO,
+    };
 
     // Geometry in world space.
-    let mut patches = geometry.patches(&obj, &world_from_local, scene_dir, warnings)?;
+    let mut patches = geometry.patches(&obj, &world_from_local, doc)?;
     if flip_normals {
         patches = patches.iter().map(Patch::flipped).collect();
     }
@@ -256,5 +250,5 @@ pub(crate) fn build_shape(
             });
         }
     }
-    Ok(())
+    Ok(emitter)
 }

@@ -1,0 +1,174 @@
+//! Scene structure as people write it: `<path>` search directories, area
+//! emitters declared at the top level and referenced by id, spectral values,
+//! the integrator's settings, and Mitsuba 0.5 scenes upgraded. The fixtures
+//! in `tests/fixtures/structure/` are one small room written both ways.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use wavrad_core::scene::{PixelFilter, Rgb, Scene};
+use wavrad_io::{load_scene, load_scene_str, Loaded};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/structure")
+        .join(name)
+}
+
+fn load(name: &str) -> Loaded {
+    load_scene(&fixture(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[track_caller]
+fn assert_close(a: Rgb, b: [f64; 3]) {
+    for (x, y) in a.0.iter().zip(b) {
+        assert!((x - y).abs() <= 2e-5 * y.abs().max(1e-2), "{a} vs {b:?}");
+    }
+}
+
+/// Mitsuba 3.9.1 `scalar_rgb` loads `modern.xml` with these colours
+/// (`mi.traverse`): the spectra converted as its RGB variants do.
+#[test]
+fn modern_scene_matches_mitsubas_colours() {
+    let loaded = load("modern.xml");
+    assert_eq!(loaded.warnings, []);
+    let s = loaded.scene;
+    // The mesh (two triangles, found through <path>), the floor, the light.
+    assert_eq!(s.surfaces.len(), 4);
+    let red = s.surfaces[0].brdf.lambertian().unwrap();
+    assert_close(red, [0.729185, 0.274161, 0.00653984]);
+    let light = &s.surfaces[3];
+    assert_close(light.emission, [20.7108, 10.8546, 2.77115]);
+    // The light's reflectance, from a spectrum file found through <path>.
+    assert_close(
+        light.brdf.lambertian().unwrap(),
+        [0.69929, 0.699212, 0.699161],
+    );
+    assert_eq!(s.film.filter, PixelFilter::Tent { radius: 1.0 });
+    assert_eq!(s.hints.samples_per_pixel, Some(16));
+}
+
+#[test]
+fn mitsuba_0_5_scene_is_upgraded_to_the_same_scene() {
+    let legacy = load("legacy-0.5.xml");
+    assert_eq!(legacy.warnings, []);
+    let modern = load("modern.xml").scene;
+    let names = |s: &Scene| {
+        s.surfaces
+            .iter()
+            .map(|x| x.name.clone())
+            .collect::<Vec<_>>()
+    };
+    // Unnamed shapes are named by their index, the same in both files; the
+    // modern file's light is named "shape#2" too.
+    assert_eq!(names(&legacy.scene), names(&modern));
+    assert_eq!(legacy.scene, modern);
+}
+
+#[test]
+fn top_level_emitter_lights_the_shape_that_references_it() {
+    let xml = r#"<scene version="3.0.0">
+        <emitter type="area" id="sun"><rgb name="radiance" value="1 2 3"/></emitter>
+        <emitter type="area" id="spare"/>
+        <shape type="rectangle" id="a"><ref id="sun"/></shape>
+        <shape type="rectangle" id="b"/>
+    </scene>"#;
+    let loaded = load_scene_str(xml, Path::new("."), "e.xml", &[]).unwrap();
+    let s = &loaded.scene;
+    assert_eq!(s.surfaces[0].emission, Rgb([1.0, 2.0, 3.0]));
+    assert_eq!(s.surfaces[1].emission, Rgb::ZERO);
+    // The emitter no shape references lights nothing, and says so.
+    let [w] = &loaded.warnings[..] else {
+        panic!("{:?}", loaded.warnings)
+    };
+    assert_eq!(w.line, 3);
+    assert!(w.message.contains("attached to no shape"), "{w}");
+}
+
+#[test]
+fn paths_are_searched_latest_first_for_meshes_and_includes() {
+    let dir = tempfile::tempdir().unwrap();
+    for sub in ["old", "new", "parts"] {
+        fs::create_dir(dir.path().join(sub)).unwrap();
+    }
+    // The same name in two directories: the later <path> wins.
+    fs::write(
+        dir.path().join("old/m.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("new/m.obj"),
+        "v 0 0 0\nv 2 0 0\nv 0 2 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("parts/lamp.xml"),
+        r#"<scene version="3.0.0"><shape type="cube"/></scene>"#,
+    )
+    .unwrap();
+    fs::write(
+        dir.path().join("scene.xml"),
+        r#"<scene version="3.0.0">
+            <path value="old"/>
+            <path value="new"/>
+            <path value="parts"/>
+            <include filename="lamp.xml"/>
+            <shape type="obj"><string name="filename" value="m.obj"/></shape>
+        </scene>"#,
+    )
+    .unwrap();
+    let s = load_scene(&dir.path().join("scene.xml"))
+        .unwrap_or_else(|e| panic!("{e}"))
+        .scene;
+    assert_eq!(s.surfaces.len(), 7);
+    assert!((s.surfaces[6].patch.area() - 2.0).abs() < 1e-12);
+}
+
+#[test]
+fn unhonoured_integrator_settings_warn_once_each() {
+    let warnings = |integrator: &str| {
+        let xml =
+            format!("<scene version=\"3.0.0\">\n{integrator}\n<shape type=\"cube\"/></scene>");
+        load_scene_str(&xml, Path::new("."), "i.xml", &[])
+            .unwrap_or_else(|e| panic!("{e}"))
+            .warnings
+    };
+    for quiet in [
+        r#"<integrator type="path"/>"#,
+        r#"<integrator type="path"><integer name="max_depth" value="-1"/></integrator>"#,
+        r#"<integrator type="volpath"><integer name="max_depth" value="65"/><integer name="rr_depth" value="5"/></integrator>"#,
+        r#"<integrator type="path"><boolean name="hide_emitters" value="false"/></integrator>"#,
+    ] {
+        assert_eq!(warnings(quiet), [], "{quiet}");
+    }
+    for (loud, needle) in [
+        (
+            r#"<integrator type="path"><integer name="max_depth" value="1"/></integrator>"#,
+            "only the emitters",
+        ),
+        (
+            r#"<integrator type="path"><integer name="max_depth" value="2"/></integrator>"#,
+            "direct lighting only",
+        ),
+        (
+            r#"<integrator type="prb"><integer name="max_depth" value="8"/></integrator>"#,
+            "at most 7 bounces",
+        ),
+        (r#"<integrator type="direct"/>"#, "direct lighting only"),
+        (
+            r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#,
+            "hide_emitters",
+        ),
+    ] {
+        let w = warnings(loud);
+        assert_eq!(w.len(), 1, "{loud}: {w:?}");
+        assert_eq!(w[0].line, 2);
+        assert!(w[0].message.contains(needle), "{}", w[0]);
+    }
+    let xml = "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"-2\"/></integrator></scene>";
+    let msg = load_scene_str(xml, Path::new("."), "i.xml", &[])
+        .unwrap_err()
+        .to_string();
+    assert!(msg.starts_with("i.xml:3:") && msg.contains("-2"), "{msg}");
+}
