@@ -6,7 +6,7 @@
 //! normal points to, as Mitsuba's `diffuse` BSDF and `area` emitter do. A
 //! `twosided` material becomes two surfaces, one per side.
 
-mod bounds;
+pub mod bounds;
 pub mod brdf;
 mod color;
 mod filter;
