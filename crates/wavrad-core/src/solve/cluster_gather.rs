@@ -160,7 +160,8 @@ pub struct ClusterTransfers {
     roots: Vec<Member>,
     /// The element ends of links, each once.
     elements: Vec<Member>,
-    /// The cone of normals of each cluster node's members.
+    /// The cone of normals of each cluster node's members (none without
+    /// links).
     cones: Vec<NormalCone>,
     /// (link, side) of the links at each cluster node.
     at_cluster: Incidence,
@@ -244,10 +245,9 @@ fn normal_cones(clusters: &ClusterTree, roots: &[Member]) -> Vec<NormalCone> {
     }
     let axes: Vec<DVec3> = moment.iter().map(|m| m.normalize_or_zero()).collect();
     let mut nearest = vec![1.0f64; nodes];
-    for (s, m) in roots.iter().enumerate() {
-        let leaf = clusters.leaf_of[s];
+    for (s, &leaf) in clusters.leaf_of.iter().enumerate() {
         for c in std::iter::once(leaf).chain(clusters.ancestors(s as u32)) {
-            let cos = axes[c as usize].dot(m.normal);
+            let cos = axes[c as usize].dot(roots[s].normal);
             nearest[c as usize] = nearest[c as usize].min(cos);
         }
     }
@@ -337,7 +337,11 @@ impl ClusterTransfers {
             })
             .collect();
         ClusterTransfers {
-            cones: normal_cones(&clusters, &roots),
+            cones: if links.is_empty() {
+                Vec::new()
+            } else {
+                normal_cones(&clusters, &roots)
+            },
             at_cluster: Incidence::new(clusters.nodes.len(), &incident.0),
             at_surface: Incidence::new(roots.len(), &incident.1),
             clusters,
@@ -601,6 +605,16 @@ mod tests {
         Scene::from_surfaces(surfaces.into())
     }
 
+    /// Every surface's tree of one element, its root.
+    fn root_trees(scene: &Scene) -> Vec<ElementTree> {
+        let root = BTreeSet::from([ElementId::ROOT]);
+        scene
+            .surfaces
+            .iter()
+            .map(|s| ElementTree::build(&s.patch, &root))
+            .collect()
+    }
+
     /// The members of an end and the point it sends from or receives at.
     fn end_members(clusters: &ClusterTree, scene: &Scene, end: End) -> (Vec<u32>, DVec3) {
         match end {
@@ -642,11 +656,7 @@ mod tests {
             ends: [x, y],
             visibility,
         });
-        let trees: Vec<ElementTree> = scene
-            .surfaces
-            .iter()
-            .map(|s| ElementTree::build(&s.patch, &BTreeSet::from([ElementId::ROOT])))
-            .collect();
+        let trees = root_trees(&scene);
         let radiance: Vec<Vec<Rgb>> = (0..16)
             .map(|s| {
                 vec![Rgb([
@@ -711,7 +721,14 @@ mod tests {
     fn normal_cones_hold_their_members_normals_and_no_more() {
         let scene = three_groups();
         let clusters = ClusterTree::build(&scene);
-        let transfers = ClusterTransfers::new(&scene, clusters.clone(), &[], &[]);
+        let trees = root_trees(&scene);
+        let [cap, rest] = clusters.nodes[0].children.unwrap();
+        let link = ClusterLink {
+            ends: [End::Cluster(cap), End::Cluster(rest)],
+            visibility: 1.0,
+        };
+        let transfers = ClusterTransfers::new(&scene, clusters.clone(), &trees, &[link]);
+        assert_eq!(transfers.cones.len(), clusters.nodes.len());
         let normals = |c: usize| {
             clusters
                 .members_of(c as u32)
