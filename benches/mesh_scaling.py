@@ -175,7 +175,7 @@ def report(rows: list[dict], args, notes: str) -> str:
                 f"- {case}: log–log slope of time {t:.2f}, of memory {m:.2f} "
                 f"({min(xs)}–{max(xs)} surfaces)."
             )
-    out += ["", NOTES, notes.strip(), ""]
+    out += ["", NOTES, "", notes.strip(), ""]
     return "\n".join(out)
 
 
