@@ -183,16 +183,18 @@ pub fn resident_memory_bytes() -> Option<u64> {
 
 /// The machine's physical memory (Linux; `None` elsewhere).
 pub fn physical_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+    proc_kib("/proc/meminfo", "MemTotal:").map(|kib| kib * 1024)
 }
 
 /// A `kB` field of `/proc/self/status`.
 pub(crate) fn proc_status_kib(field: &str) -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with(field))?;
+    proc_kib("/proc/self/status", field)
+}
+
+/// The `kB` field `field` of the `/proc` file `path`.
+fn proc_kib(path: &str, field: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let line = text.lines().find(|l| l.starts_with(field))?;
     line.split_whitespace().nth(1)?.parse().ok()
 }
 

@@ -3,7 +3,7 @@
 //! inside the work (a ray structure over coordinates near `f32`'s range, a
 //! film of billions of pixels), checked before any work starts.
 
-use super::{Patch, Scene};
+use super::Scene;
 use crate::{Error, Result};
 
 /// Largest coordinate magnitude of a vertex, in scene units: the ray
@@ -22,20 +22,9 @@ impl Scene {
     /// [`MAX_FILM_PIXELS`]; the error names the surface or the film.
     pub fn check_bounds(&self) -> Result<()> {
         for (index, surface) in self.surfaces.iter().enumerate() {
-            let corners = match surface.patch {
-                Patch::Parallelogram {
-                    origin,
-                    edge_s,
-                    edge_t,
-                } => vec![
-                    origin,
-                    origin + edge_s,
-                    origin + edge_t,
-                    origin + edge_s + edge_t,
-                ],
-                Patch::Triangle(v) => v.to_vec(),
-            };
-            if let Some(v) = corners
+            if let Some(v) = surface
+                .patch
+                .vertices()
                 .iter()
                 .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE)
             {
@@ -67,6 +56,7 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Patch;
     use crate::testing::light_over_a_corner;
     use glam::DVec3;
 
