@@ -1,39 +1,55 @@
 #!/usr/bin/env python3
-"""End-to-end benchmark: wavrad against Mitsuba 3's path tracer on the
-bundled scenes, in one run on one machine. Writes docs/benchmarks.md (tables)
-and docs/benchmarks.json (every raw number), and the walkthrough's images
-under docs/benchmarks/.
+"""End-to-end benchmark: wavrad against Mitsuba 3's path tracer at its best,
+in one run on one machine. Writes docs/benchmarks.md (tables) and
+docs/benchmarks.json (every raw number).
 
-For each scene and each wavrad configuration (CONFIGS below, with the
-per-scene additions of SCENE_CONFIGS):
+Each bundled scene (SCENES) is rendered at each resolution (256² and 512²
+by default) with a box pixel filter by both programs, from the same XML:
+the bundled file with its film's filter made `box` and its sampler the one
+under test, written to a temporary folder.
 
-* wavrad: solve (every phase in ``solution.stats["times"]``), render the
-  scene's view (gather mode, default camera rays), counts, peak memory and
-  relRMSE against the committed reference (``scenes/*/reference.exr``). Each
-  configuration runs in its own process, so that peak memory is its own.
-* Mitsuba 3 (``path`` as in the scene file, the reference's integrator):
-  progressive renders with the sample count doubling (1, 2, 4, ... spp, each
-  pass with new seeds, the running average is the image at that spp), timed,
-  until the running relRMSE falls below wavrad's; the time Mitsuba needs to
-  reach wavrad's relRMSE is interpolated log-log between the two measured
-  points that bracket it.
-* Walkthrough (WALKTHROUGH_SCENE): VIEWS views along a path from one wavrad
-  solution (WALKTHROUGH_CONFIG: the gather cache made by the first view and
-  read by all), against VIEWS Mitsuba images at the spp that reached
-  wavrad's relRMSE on the scene's own view.
+* Reference: REFERENCE_RENDERS independent Mitsuba renders (REFERENCE_SAMPLER,
+  the scene's reference integrator), averaged; their pairwise differences
+  measure the average's own noise on any set of pixels, which is taken out
+  of every error below in quadrature. References are cached under
+  out/bench/references/ (keyed by scene, resolution, spp and the XML's hash),
+  since they cost more than everything else; the timed renders never reuse
+  their seeds.
+* Masks: pixels whose reference sees an emitter directly (Mitsuba's `path`
+  with max_depth 1) are left out of the headline error, which both programs
+  get exactly; the all-pixel error is reported beside it. Scenes with
+  `region="indirect"` also report the pixels lit only indirectly (their
+  direct-only render, max_depth 2, below 1 % of the reference).
+* wavrad: each configuration (CONFIGS) in its own process: solve, render
+  (gather mode, default camera rays), then `direct` and `smooth` renders of
+  the same solution (the view-independent solution, timed apart).
+* Mitsuba 3 (llvm_ad_rgb): for every sampler in SAMPLERS and every
+  integrator of the scene, single renders at 1, 2, 4, ... spp (each its own
+  render with new seeds, as a user would run it), timed without drjit's
+  kernel compilation (which its disk cache saves on a second run), until
+  the error is below wavrad's or the time cap; the time to wavrad's error is
+  interpolated log-log between the two renders that bracket it. The
+  headline compares wavrad with the fastest sampler/integrator; the others
+  are in the JSON and the per-sampler table.
+* Walkthrough (--walkthrough): VIEWS views of WALKTHROUGH_SCENE from one
+  wavrad solution against Mitsuba's best sampler at the spp that reached
+  wavrad's error on the scene's own view.
 
 Usage: make bench   (installs benches/requirements.txt into .venv, then
-       .venv/bin/python benches/benchmarks.py [--scenes NAME ...])
+       .venv/bin/python benches/benchmarks.py [--scenes NAME ...] [--res 256 ...])
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime
+import hashlib
 import json
 import math
 import os
 import platform
+import re
 import resource
 import subprocess
 import sys
@@ -44,87 +60,102 @@ import numpy as np
 
 import wavrad
 
-# wavrad configurations: name -> keyword arguments of wavrad.solve; add a
-# line to compare another.
+
+@dataclasses.dataclass(frozen=True)
+class SceneSpec:
+    """A bundled scene as the benchmark runs it."""
+
+    xml: str  # relative to scenes/
+    integrators: tuple[str, ...]  # Mitsuba integrators timed
+    reference_integrator: str
+    reference_spp: int  # per reference render
+    region: str | None = None  # "indirect": also report the indirectly lit pixels
+    # -D values for both programs (besides res and spp).
+    defines: tuple[tuple[str, str], ...] = ()
+
+
+SCENES: dict[str, SceneSpec] = {
+    "cornell-box": SceneSpec("cornell-box/scene.xml", ("path",), "path", 4096),
+    "glossy-cornell-box": SceneSpec("glossy-cornell-box/scene.xml", ("path",), "path", 2048),
+    # The paper's experiment: emitter -> Ward reflector -> diffuse receiver,
+    # seen from the receiver. Its receiver is lit mostly through the
+    # reflector, a path the light tracer samples far better.
+    "figure3-specular": SceneSpec("figure3/specular.xml", ("path", "ptracer"), "ptracer",
+                                  8192, region="indirect"),
+}
+# Scenes not in the repository (--external NAME=XML: public scenes keep their
+# licence where they are): path tracing with every bounce, as the references.
+EXTERNAL_ENV = "WAVRAD_BENCH_EXTERNAL"
+RESOLUTIONS = (256, 512)
+# Mitsuba 3's samplers that suit path tracing, the likely fastest first: a
+# curve stops once one render takes longer than the fastest time to wavrad's
+# error so far (it cannot be faster; its own time is then extrapolated).
+SAMPLERS = ("multijitter", "orthogonal", "stratified", "ldsampler", "independent")
+REFERENCE_SAMPLER = "multijitter"
+REFERENCE_RENDERS = 4
+# wavrad configurations: name -> keyword arguments of wavrad.solve.
 CONFIGS: dict[str, dict[str, object]] = {
     "default": {},
-    # The default solve, rendered with the view-independent gather cache
-    # (RENDER_ARGS): the walkthrough's configuration.
+    # The default solve rendered with the view-independent gather cache: the
+    # walkthrough's configuration.
     "cached": {},
-    # Power-weighted oracle (refine-solve loop), with its own default
-    # thresholds (2e-4 relative radiance error) unless SCENE_CONFIGS says.
-    "power": {"oracle": "power"},
-    # The three-point maximum level before it became 2: the finer directional
-    # structure's cost and what it buys once the final gather lights glossy
-    # surfaces per point.
-    "level-3": {"three_point_max_level": 3},
 }
 # Keyword arguments of Solution.render besides mode="gather", per configuration.
 RENDER_ARGS: dict[str, dict[str, object]] = {"cached": {"gather_cache": True}}
-# The configuration the walkthrough renders its views with: the cache is built
-# by its first view (the scene's own), whose render time includes it.
-WALKTHROUGH_CONFIG = "cached"
-# Configurations that run only on some scenes (the others have nothing for
-# them to change): configuration -> scenes.
-SCENE_ONLY: dict[str, list[str]] = {"level-3": ["glossy-cornell-box"]}
-# Per-scene keyword arguments of a configuration, on top of CONFIGS:
-# configuration -> scene -> keyword arguments.
-SCENE_CONFIGS: dict[str, dict[str, dict[str, object]]] = {
-    "power": {"cornell-box": {"threshold": 1e-4}},
-}
-
-SCENES = ["cornell-box", "glossy-cornell-box"]  # names of scenes/make_references.py
+# Modes rendered from the default configuration's solution besides gather:
+# the view-independent solution, read without a per-pixel final gather.
+SOLUTION_MODES = ("direct", "smooth")
 WALKTHROUGH_SCENE = "glossy-cornell-box"
+WALKTHROUGH_CONFIG = "cached"
 VIEWS = 16
-# Walkthrough views given a Mitsuba reference of REFERENCE_RENDERS renders at
-# the walkthrough's spp (view 0 is the scene's own view: it has the committed one).
-REFERENCE_VIEWS = (5, 10, 15)
-REFERENCE_RENDERS = 4
-# Self-noise (relRMSE) of the committed references, from scenes/README.md.
-REFERENCE_NOISE = {
-    "cornell-box": 0.00348,
-    "glossy-cornell-box": 0.00276,
-    "figure3-diffuse": 0.00314,
-    "figure3-specular": 0.00458,
-}
-MAX_LANES = 1 << 24  # pixels x spp per mi.render call (memory)
-CURVE_TIME_CAP_S = 300.0  # per scene
-CURVE_MAX_SPP = 1 << 17
-# Independent progressive curves per scene: Mitsuba's error on the glossy box
-# is heavy-tailed (in two runs, 16384 spp gave 1.03 % and 1.47 %), so one
-# curve's crossing moved the glossy ratio by 2x between runs. The time to
-# wavrad's error is the median of the curves' crossings.
-CURVES = 3
-FIRST_SEED = 1_000_000  # the references used seeds below 1 000 000
+MAX_LANES = 1 << 25  # pixels x spp per mi.render call (memory)
+CURVE_TIME_CAP_S = 120.0  # per render
+CURVE_MAX_SPP = 1 << 16
+SEED_BASE = {"reference": 1_000_000, "timed": 2_000_000, "mask": 3_000_000}
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES_DIR = os.path.join(ROOT, "scenes")
 DOCS = os.path.join(ROOT, "docs")
-IMAGES = os.path.join(DOCS, "benchmarks")
+CACHE = os.path.join(ROOT, "out", "bench", "references")
 
 
-def scene_files(name: str) -> tuple[str, str, str]:
-    """(scene XML, reference EXR, reference integrator) of a bundled scene."""
-    sys.path.insert(0, SCENES_DIR)
-    import make_references
+def add_external(specs: list[str]) -> None:
+    """Add scenes given as NAME=XML to SCENES (and to the environment, for
+    the wavrad workers)."""
+    for spec in specs:
+        name, _, xml = spec.partition("=")
+        if not xml or not os.path.isfile(xml):
+            sys.exit(f"benchmarks.py: --external {spec}: expected NAME=XML of an existing file")
+        with open(xml) as f:
+            declared = re.findall(r'<default\s+name="(\w+)"', f.read())
+        defines = (("max_depth", "-1"),) if "max_depth" in declared else ()
+        SCENES[name] = SceneSpec(os.path.abspath(xml), ("path",), "path", 2048,
+                                 defines=defines)
+    os.environ[EXTERNAL_ENV] = json.dumps(specs)
 
-    xml, exr, _res, _spp, _pass_spp, integrator = make_references.SCENES[name]
-    return xml, exr, integrator
+
+def bench_xml(name: str, sampler: str, folder: str) -> str:
+    """The scene's XML with a box filter and `sampler`, written to `folder`
+    (with a `<path>` to its own folder, for the files it names)."""
+    source = os.path.join(SCENES_DIR, SCENES[name].xml)
+    with open(source) as f:
+        text = f.read()
+    text, filters = re.subn(r'<rfilter type="\w+"\s*/>', '<rfilter type="box"/>', text)
+    text, samplers = re.subn(r'<sampler type="\w+">', f'<sampler type="{sampler}">', text)
+    text, scenes = re.subn(r'(<scene\b[^>]*>)',
+                           rf'\1<path value="{os.path.dirname(source)}"/>', text, count=1)
+    if filters != 1 or samplers != 1 or scenes != 1:
+        sys.exit(f"benchmarks.py: {source} needs one <rfilter .../> and one "
+                 "<sampler type=...>")
+    path = os.path.join(folder, f"{name}-{sampler}.xml")
+    with open(path, "w") as f:
+        f.write(text)
+    return path
 
 
-def walkthrough_views(n: int = VIEWS) -> list[tuple[tuple[float, ...], ...]]:
-    """(origin, target, up) of n views: from the scene's own camera, outside
-    the box's open side, dollying in to just inside the box while circling
-    left and right and up, always looking into the box (towards its back
-    wall at the end)."""
-    views = []
-    for k in range(n):
-        t = k / (n - 1)
-        s, h = math.sin(2 * math.pi * t), math.sin(math.pi * t)
-        origin = (0.55 * s, 0.3 * h, 3.9 - 3.1 * t)
-        target = (-0.35 * s, -0.3 * h, -t)
-        views.append((origin, target, (0.0, 1.0, 0.0)))
-    return views
+def scene_name(xml: str) -> str:
+    """The scene a `bench_xml` file was written for."""
+    return os.path.basename(xml).rsplit("-", 1)[0]
 
 
 def cpu_seconds() -> float:
@@ -133,67 +164,46 @@ def cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-# wavrad, one process per (scene, configuration)
+# Errors
 
 
-def solve_arguments(scene_name: str, config: str) -> dict[str, object]:
-    """Keyword arguments of wavrad.solve for a configuration on a scene."""
-    return {**CONFIGS[config], **SCENE_CONFIGS.get(config, {}).get(scene_name, {})}
+def rel_rmse(a: np.ndarray, b: np.ndarray, mask: np.ndarray | None = None) -> float:
+    """sqrt(mean((a - b)²)) / mean(b) over the pixels of `mask` (all if None)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if mask is not None:
+        a, b = a[mask], b[mask]
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.mean(b))
 
 
-def wavrad_worker(scene_name: str, config: str, out: str) -> None:
-    xml, exr, _ = scene_files(scene_name)
-    scene = wavrad.load_scene(xml)
-    clock, cpu = time.perf_counter(), cpu_seconds()
-    solution = wavrad.solve(scene, **solve_arguments(scene_name, config))
-    solve_wall, solve_cpu = time.perf_counter() - clock, cpu_seconds() - cpu
-    stats = solution.stats
-    render_args = RENDER_ARGS.get(config, {})
-    walk = scene_name == WALKTHROUGH_SCENE and config == WALKTHROUGH_CONFIG
-    times, cpus, views = [], [], []
-    # The walkthrough's first view is the scene's own: it is the main image.
-    for origin, target, up in walkthrough_views() if walk else [(None, None, None)]:
-        clock, cpu = time.perf_counter(), cpu_seconds()
-        views.append(solution.render(mode="gather", origin=origin, target=target, up=up,
-                                     **render_args))
-        times.append(time.perf_counter() - clock)
-        cpus.append(cpu_seconds() - cpu)
-    image, render_s, render_cpu = views[0], times[0], cpus[0]
-    np.save(os.path.join(out, "main.npy"), image)
-    result = {
-        "stats": stats,
-        "solve_wall_s": solve_wall,
-        "solve_cpu_s": solve_cpu,
-        "render_s": render_s,
-        "render_cpu_s": render_cpu,
-        "rel_rmse": wavrad.relative_rmse(image, wavrad.read_exr(exr)),
-        "width": scene.width,
-        "height": scene.height,
-    }
-    if walk:
-        for k, view in enumerate(views):
-            np.save(os.path.join(out, f"view{k}.npy"), view)
-        result["view_render_s"] = times
-        result["view_render_cpu_s"] = cpus
-    with open(os.path.join(out, "result.json"), "w") as f:
-        json.dump(result, f)
+@dataclasses.dataclass
+class Reference:
+    """A reference image, the renders it averages, and its pixel sets."""
 
+    renders: list[np.ndarray]
+    masks: dict[str, np.ndarray]  # "all", "no-emitter", maybe "indirect"
+    spp: int  # of the average
+    seconds: float
 
-def run_wavrad(scene_name: str, config: str, out: str) -> dict:
-    """Run the worker in a fresh process; adds its peak resident memory."""
-    os.makedirs(out, exist_ok=True)
-    args = [sys.executable, os.path.abspath(__file__), "--worker", scene_name, config, out]
-    process = subprocess.Popen(args)
-    _, status, usage = os.wait4(process.pid, 0)
-    if status != 0:
-        sys.exit(f"wavrad worker {scene_name} {config} failed (status {status})")
-    with open(os.path.join(out, "result.json")) as f:
-        result = json.load(f)
-    result["process_max_rss_bytes"] = usage.ru_maxrss * 1024
-    result["main"] = np.load(os.path.join(out, "main.npy"))
-    if "view_render_s" in result:
-        result["views"] = [np.load(os.path.join(out, f"view{k}.npy")) for k in range(VIEWS)]
-    return result
+    @property
+    def image(self) -> np.ndarray:
+        return np.mean(self.renders, axis=0)
+
+    def noise(self, mask: str) -> float:
+        """relRMSE of the average against its expectation on `mask`, from
+        the renders' pairwise differences (each pair's difference has twice
+        one render's variance; the average has 1/n of it)."""
+        m, n = self.masks[mask], len(self.renders)
+        scale = float(self.image[m].mean())
+        single = math.sqrt(np.mean([
+            np.mean((self.renders[i][m].astype(np.float64) - self.renders[j][m]) ** 2) / 2
+            for i in range(n) for j in range(i + 1, n)])) / scale
+        return single / math.sqrt(n)
+
+    def error(self, image: np.ndarray, mask: str) -> dict[str, float]:
+        """The image's relRMSE on `mask`, measured and with the reference's
+        own noise taken out in quadrature."""
+        measured, noise = rel_rmse(image, self.image, self.masks[mask]), self.noise(mask)
+        return {"measured": measured, "corrected": math.sqrt(max(0.0, measured**2 - noise**2))}
 
 
 # Mitsuba 3
@@ -222,142 +232,247 @@ class Mitsuba:
         import ward_bsdf
 
         ward_bsdf.register()
+        mi.set_log_level(mi.LogLevel.Error)  # not the samplers' rounding of spp
         dr.set_flag(dr.JitFlag.KernelHistory, True)
-        self.next_seed = FIRST_SEED
-        self.compile_ms = 0.0  # codegen + backend compile inside timed renders
-        self.kernels_compiled = 0  # JIT kernels not found in drjit's caches
+        self.loaded: dict[tuple, tuple] = {}
+        self.seeds = dict(SEED_BASE)
+        self.compile_s = 0.0  # codegen + backend compile inside timed renders, left out
 
-    def load(self, xml: str, integrator: str):
-        scene = self.mi.load_file(xml)
-        integ = None
-        if integrator != "path":
-            integ = self.mi.load_dict({"type": integrator, "max_depth": -1})
-        return scene, integ
+    def load(self, xml: str, res: int, spp: int, integrator: str, max_depth: int = -1):
+        """(scene, integrator or None, the sampler's own spp) loaded once."""
+        key = (xml, res, spp, integrator, max_depth)
+        if key not in self.loaded:
+            scene = self.mi.load_file(xml, res=res, spp=spp,
+                                      **dict(SCENES[scene_name(xml)].defines))
+            integ = None
+            if integrator != "path" or max_depth != -1:
+                integ = self.mi.load_dict({"type": integrator, "max_depth": max_depth})
+            actual = int(scene.sensors()[0].sampler().sample_count())
+            self.loaded[key] = (scene, integ, actual)
+        return self.loaded[key]
 
-    def render(self, loaded, spp: int, timed: bool = True) -> tuple[np.ndarray, float, float]:
-        """An spp-sample image (float64, passes of at most MAX_LANES samples,
-        each with new seeds), the wall-clock seconds of its mi.render calls
-        and their CPU seconds (every thread)."""
-        scene, integ = loaded
-        size = scene.sensors()[0].film().size()
-        max_pass = max(1, MAX_LANES // (int(size[0]) * int(size[1])))
-        total, seconds, cpu, done = None, 0.0, 0.0, 0
+    def render(self, xml: str, res: int, spp: int, integrator: str, purpose: str,
+               max_depth: int = -1, view=None) -> tuple[np.ndarray, int, float, float]:
+        """An image of about `spp` samples per pixel (in passes of at most
+        MAX_LANES samples, each with new seeds): (image, its spp as the
+        sampler rounds it, wall-clock seconds of the mi.render calls less
+        drjit's kernel compilation, CPU seconds)."""
+        pass_spp = spp
+        while pass_spp > 1 and pass_spp * res * res > MAX_LANES:
+            pass_spp //= 2
+        scene, integ, actual = self.load(xml, res, pass_spp, integrator, max_depth)
+        if view is not None:
+            self.set_view(scene, *view)
+        passes = max(1, round(spp / actual))
+        total, seconds, cpu = None, 0.0, 0.0
         self.dr.kernel_history()  # drop older entries
-        while done < spp:
-            n = min(max_pass, spp - done)
-            seed, self.next_seed = self.next_seed, self.next_seed + 1
+        for _ in range(passes):
+            seed = self.seeds[purpose]
+            self.seeds[purpose] += 1
             clock, cpu_start = time.perf_counter(), cpu_seconds()
-            if integ is None:
-                image = self.mi.render(scene, spp=n, seed=seed)
-            else:
-                image = self.mi.render(scene, integrator=integ, spp=n, seed=seed)
+            image = self.mi.render(scene, integrator=integ, seed=seed) if integ else \
+                self.mi.render(scene, seed=seed)
             image = np.array(image, dtype=np.float64)
             seconds += time.perf_counter() - clock
             cpu += cpu_seconds() - cpu_start
-            total = image * n if total is None else total + image * n
-            done += n
-        if timed:
-            for k in self.dr.kernel_history():
-                self.compile_ms += k.get("codegen_time", 0.0) + k.get("backend_time", 0.0)
-                self.kernels_compiled += int(k.get("cache_hit", 1) == 0)
-        return total / spp, seconds, cpu
+            total = image if total is None else total + image
+        compile_s = sum(k.get("codegen_time", 0.0) + k.get("backend_time", 0.0)
+                        for k in self.dr.kernel_history()) / 1000.0
+        self.compile_s += compile_s
+        return total / passes, passes * actual, max(0.0, seconds - compile_s), cpu
 
-    def set_view(self, loaded, origin, target, up) -> None:
-        scene, _ = loaded
+    def set_view(self, scene, origin, target, up) -> None:
         params = self.mi.traverse(scene)
         key = next(k for k in params.keys() if k.endswith(".x_fov")).replace(".x_fov", ".to_world")
         params[key] = self.mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up)
         params.update()
 
-    def warm_up(self, loaded) -> float:
-        """One render that compiles (or loads from drjit's disk cache) the
-        kernels, untimed in the results; returns its seconds."""
-        _, seconds, _ = self.render(loaded, 1, timed=False)
-        self.dr.kernel_history()
-        return seconds
+
+def source_hash(name: str) -> str:
+    """Hash of the scene's own XML and its -D values (the cache key of its
+    references)."""
+    with open(os.path.join(SCENES_DIR, SCENES[name].xml), "rb") as f:
+        data = f.read() + repr((SCENES[name].defines, SCENES[name].reference_integrator,
+                                REFERENCE_SAMPLER, REFERENCE_RENDERS)).encode()
+    return hashlib.sha256(data).hexdigest()[:16]
 
 
-def relative_rmse(a: np.ndarray, b: np.ndarray) -> float:
-    return wavrad.relative_rmse(a.astype(np.float32), b.astype(np.float32))
+def reference(mitsuba: Mitsuba, name: str, res: int, folder: str, spp: int) -> Reference:
+    """The scene's reference at `res` (cached under out/bench/references/)."""
+    spec = SCENES[name]
+    xml = bench_xml(name, REFERENCE_SAMPLER, folder)
+    stem = f"{name}-{res}-{spp}-{source_hash(name)}"
+    path = os.path.join(CACHE, stem + ".npz")
+    if os.path.exists(path):
+        data = np.load(path)
+        renders = [data[f"render{k}"] for k in range(REFERENCE_RENDERS)]
+        masks = {k[5:]: data[k] for k in data.files if k.startswith("mask_")}
+        return Reference(renders, masks, int(data["spp"]), float(data["seconds"]))
+    print(f"  reference {name} {res}²: {REFERENCE_RENDERS} x {spp} spp "
+          f"({REFERENCE_SAMPLER}, {spec.reference_integrator})", flush=True)
+    clock = time.perf_counter()
+    renders, actual = [], 0
+    for k in range(REFERENCE_RENDERS):
+        image, actual, seconds, _ = mitsuba.render(xml, res, spp, spec.reference_integrator,
+                                                   "reference")
+        renders.append(image.astype(np.float32))
+        print(f"    render {k + 1}/{REFERENCE_RENDERS}: {actual} spp, {seconds:.0f} s",
+              flush=True)
+    mean = np.mean(renders, axis=0)
+    emitted, *_ = mitsuba.render(xml, res, 64, "path", "mask", max_depth=1)
+    pixel = np.ones(mean.shape[:2], bool)
+    masks = {"all": pixel, "no-emitter": emitted.max(axis=2) <= 0.0}
+    if spec.region == "indirect":
+        direct, *_ = mitsuba.render(xml, res, 1024, "path", "mask", max_depth=2)
+        lum, dlum = mean.mean(axis=2), direct.mean(axis=2)
+        masks["indirect"] = masks["no-emitter"] & (lum > 0.01 * lum.mean()) & (dlum < 0.01 * lum)
+    seconds = time.perf_counter() - clock
+    os.makedirs(CACHE, exist_ok=True)
+    tmp = path + ".tmp.npz"
+    np.savez_compressed(tmp, spp=REFERENCE_RENDERS * actual, seconds=seconds,
+                        **{f"render{k}": r for k, r in enumerate(renders)},
+                        **{f"mask_{k}": m for k, m in masks.items()})
+    os.replace(tmp, path)
+    wavrad.write_image(os.path.join(CACHE, stem + ".exr"), mean)
+    return Reference(renders, masks, REFERENCE_RENDERS * actual, seconds)
 
 
-def mitsuba_curve(mitsuba: Mitsuba, loaded, reference: np.ndarray, target: float) -> list[dict]:
-    """Progressive renders, spp doubling, until relRMSE < target (or the caps)."""
-    curve, total, spp, seconds, cpu = [], None, 0, 0.0, 0.0
+def mitsuba_curve(mitsuba: Mitsuba, xml: str, res: int, integrator: str, ref: Reference,
+                  target: float, cap_s: float) -> list[dict]:
+    """Single renders at 1, 2, 4, ... spp (as the sampler rounds them)
+    until the corrected error (no emitter pixels) is below `target`, or a
+    render takes more than `cap_s`, or the spp cap."""
+    mitsuba.render(xml, res, 1, integrator, "timed")  # warm-up: compiles the kernels
+    curve, spp = [], 1
     while True:
-        n = max(1, spp)  # 1, 1, 2, 4, ... : running spp 1, 2, 4, 8, ...
-        image, dt, dcpu = mitsuba.render(loaded, n)
-        total = image * n if total is None else total + image * n
-        spp, seconds, cpu = spp + n, seconds + dt, cpu + dcpu
-        error = relative_rmse(total / spp, reference)
-        curve.append({"spp": spp, "time_s": seconds, "cpu_s": cpu, "rel_rmse": error})
-        print(f"  mitsuba {spp:7d} spp {seconds:8.2f} s ({cpu:8.2f} s CPU) "
+        image, actual, seconds, cpu = mitsuba.render(xml, res, spp, integrator, "timed")
+        errors = {m: ref.error(image, m) for m in ref.masks}
+        error = errors["no-emitter"]["corrected"]
+        curve.append({"spp": actual, "time_s": seconds, "cpu_s": cpu, "rel_rmse": error,
+                      "errors": errors})
+        print(f"    {actual:6d} spp {seconds:7.2f} s ({cpu:7.2f} s CPU) "
               f"relRMSE {100 * error:.2f} %", flush=True)
-        if error < target or seconds > CURVE_TIME_CAP_S or spp >= CURVE_MAX_SPP:
+        if error < target or seconds > cap_s or actual >= CURVE_MAX_SPP:
             return curve
+        spp = 2 * actual
 
 
-def match(curve: list[dict], target: float) -> dict:
-    """Mitsuba's spp and time at relRMSE = target: log-log interpolation
-    between the first point below target and the one before it; past the
+def match(curve: list[dict], target: float, key: str = "rel_rmse") -> dict:
+    """Mitsuba's spp and time at error = target: log-log interpolation
+    between the first render below target and the one before it; past the
     curve's end, extrapolated with error ∝ spp^(-1/2) and time ∝ spp."""
     keys = ("spp", "time_s", "cpu_s")
-    for before, after in zip(curve, curve[1:]):
-        if before["rel_rmse"] >= target > after["rel_rmse"]:
-            f = math.log(target / before["rel_rmse"]) / math.log(
-                after["rel_rmse"] / before["rel_rmse"]
-            )
-            out = {key: math.exp((1 - f) * math.log(before[key]) + f * math.log(after[key]))
-                   for key in keys}
+    points = [p for p in curve if p[key] > 0]
+    for before, after in zip(points, points[1:]):
+        if before[key] >= target > after[key]:
+            f = math.log(target / before[key]) / math.log(after[key] / before[key])
+            out = {k: math.exp((1 - f) * math.log(before[k]) + f * math.log(after[k]))
+                   for k in keys}
             return {**out, "method": "interpolated"}
-    if curve[0]["rel_rmse"] < target:
-        return {**{key: curve[0][key] for key in keys}, "method": "first point"}
-    last = curve[-1]
-    scale = (last["rel_rmse"] / target) ** 2
-    return {**{key: last[key] * scale for key in keys}, "method": "extrapolated"}
+    if curve[0][key] < target:
+        return {**{k: curve[0][k] for k in keys}, "method": "first point"}
+    last = points[-1]
+    scale = (last[key] / target) ** 2
+    return {**{k: last[k] * scale for k in keys}, "method": "extrapolated"}
 
 
-def median_match(curves: list[list[dict]], target: float) -> dict:
-    """The median, by spp, of `match` on each curve, with every curve's spp."""
-    matches = sorted((match(c, target) for c in curves), key=lambda m: m["spp"])
-    return {**matches[len(matches) // 2], "spp_per_curve": [m["spp"] for m in matches]}
+# wavrad, one process per (scene, resolution, configuration)
 
 
-def walkthrough(mitsuba: Mitsuba, loaded, spp: int) -> dict:
-    """VIEWS Mitsuba images at spp (two halves each, whose difference
-    measures the image's own noise), and references for REFERENCE_VIEWS."""
-    views, times, cpus, noise = [], [], [], []
+def wavrad_worker(name: str, res: int, config: str, out: str) -> None:
+    xml = bench_xml(name, "independent", out)
+    scene = wavrad.load_scene(xml, res=res, **dict(SCENES[name].defines))
+    clock, cpu = time.perf_counter(), cpu_seconds()
+    solution = wavrad.solve(scene, **CONFIGS[config])
+    solve_wall, solve_cpu = time.perf_counter() - clock, cpu_seconds() - cpu
+    walk = name == WALKTHROUGH_SCENE and config == WALKTHROUGH_CONFIG and res == RESOLUTIONS[0]
+    views = walkthrough_views() if walk and os.environ.get("WAVRAD_BENCH_WALK") else [None]
+    result = {"stats": solution.stats, "solve_wall_s": solve_wall, "solve_cpu_s": solve_cpu,
+              "views": []}
+    for k, view in enumerate(views):
+        origin, target, up = view or (None, None, None)
+        clock, cpu = time.perf_counter(), cpu_seconds()
+        image = solution.render(mode="gather", origin=origin, target=target, up=up,
+                                **RENDER_ARGS.get(config, {}))
+        result["views"].append({"render_s": time.perf_counter() - clock,
+                                "render_cpu_s": cpu_seconds() - cpu})
+        np.save(os.path.join(out, f"view{k}.npy"), image)
+    if config == "default":
+        result["modes"] = {}
+        for mode in SOLUTION_MODES:
+            clock = time.perf_counter()
+            np.save(os.path.join(out, f"{mode}.npy"), solution.render(mode=mode))
+            result["modes"][mode] = {"render_s": time.perf_counter() - clock}
+    with open(os.path.join(out, "result.json"), "w") as f:
+        json.dump(result, f)
+
+
+def run_wavrad(name: str, res: int, config: str, out: str) -> dict:
+    """Run the worker in a fresh process; adds its peak resident memory."""
+    os.makedirs(out, exist_ok=True)
+    args = [sys.executable, os.path.abspath(__file__), "--worker", name, str(res), config, out]
+    process = subprocess.Popen(args)
+    _, status, usage = os.wait4(process.pid, 0)
+    if status != 0:
+        sys.exit(f"wavrad worker {name} {res} {config} failed (status {status})")
+    with open(os.path.join(out, "result.json")) as f:
+        result = json.load(f)
+    result["process_max_rss_bytes"] = usage.ru_maxrss * 1024
+    result["images"] = [np.load(os.path.join(out, f"view{k}.npy"))
+                        for k in range(len(result["views"]))]
+    for mode in result.get("modes", {}):
+        result["modes"][mode]["image"] = np.load(os.path.join(out, f"{mode}.npy"))
+    view = result["views"][0]
+    result["render_s"], result["render_cpu_s"] = view["render_s"], view["render_cpu_s"]
+    result["total_s"] = result["solve_wall_s"] + result["render_s"]
+    result["total_cpu_s"] = result["solve_cpu_s"] + result["render_cpu_s"]
+    return result
+
+
+# Walkthrough
+
+
+def walkthrough_views(n: int = VIEWS) -> list[tuple[tuple[float, ...], ...]]:
+    """(origin, target, up) of n views: from the scene's own camera, outside
+    the box's open side, dollying in to just inside the box while circling
+    left and right and up, always looking into the box."""
+    views = []
+    for k in range(n):
+        t = k / (n - 1)
+        s, h = math.sin(2 * math.pi * t), math.sin(math.pi * t)
+        views.append(((0.55 * s, 0.3 * h, 3.9 - 3.1 * t), (-0.35 * s, -0.3 * h, -t),
+                      (0.0, 1.0, 0.0)))
+    return views
+
+
+def walkthrough(mitsuba: Mitsuba, folder: str, res: int, best: dict, spp: int,
+                wavrad_run: dict) -> dict:
+    """Each view: Mitsuba's best sampler at `spp` (two independent halves,
+    whose difference is its own noise) and wavrad's error against their
+    average, less that average's noise (so both errors are against the
+    expectation)."""
+    xml = bench_xml(WALKTHROUGH_SCENE, best["sampler"], folder)
     half = max(1, spp // 2)
-    for k, (origin, target, up) in enumerate(walkthrough_views()):
-        mitsuba.set_view(loaded, origin, target, up)
-        a, ta, ca = mitsuba.render(loaded, half)
-        b, tb, cb = mitsuba.render(loaded, half)
-        image = 0.5 * (a + b)
-        # relRMSE of one half is relRMSE(a, b)/sqrt(2); of their mean, half of relRMSE(a, b).
-        noise.append(0.5 * relative_rmse(a, b) * float(b.mean()) / float(image.mean()))
-        views.append(image)
-        times.append(ta + tb)
-        cpus.append(ca + cb)
-        print(f"  mitsuba view {k:2d}: {ta + tb:6.2f} s, own noise {100 * noise[-1]:.2f} %",
-              flush=True)
-    references = {}
-    for k in REFERENCE_VIEWS:
-        mitsuba.set_view(loaded, *walkthrough_views()[k])
-        renders = [views[k]]
-        for _ in range(REFERENCE_RENDERS - 1):
-            renders.append(mitsuba.render(loaded, 2 * half, timed=False)[0])
-        reference = np.mean(renders, axis=0)
-        # Noise of one render from the pairs' differences, of the mean /sqrt(n).
-        pairs = [(i, j) for i in range(len(renders)) for j in range(i + 1, len(renders))]
-        single = math.sqrt(np.mean([relative_rmse(renders[i], renders[j]) ** 2 / 2
-                                    for i, j in pairs]))
-        references[k] = {"image": reference, "noise": single / math.sqrt(len(renders)),
-                         "spp": len(renders) * 2 * half}
-        print(f"  reference view {k}: {references[k]['spp']} spp, "
-              f"noise {100 * references[k]['noise']:.2f} %", flush=True)
-    mitsuba.set_view(loaded, *walkthrough_views()[0])
-    return {"spp": 2 * half, "views": views, "times": times, "cpu_s": cpus, "noise": noise,
-            "references": references}
+    views = []
+    for k, view in enumerate(walkthrough_views()):
+        a, n, ta, ca = mitsuba.render(xml, res, half, best["integrator"], "timed", view=view)
+        b, _, tb, cb = mitsuba.render(xml, res, half, best["integrator"], "timed", view=view)
+        mean = 0.5 * (a + b)
+        # relRMSE of one half is relRMSE(a, b)/sqrt(2); of their mean, half of it.
+        noise = 0.5 * rel_rmse(a, b) * float(b.mean()) / float(mean.mean())
+        measured = rel_rmse(wavrad_run["images"][k], mean)
+        wavrad_error = math.sqrt(max(0.0, measured**2 - noise**2))
+        # Mitsuba's time to wavrad's error on this view, if error ∝ spp^(-1/2).
+        equal = (ta + tb) * (noise / max(wavrad_error, 1e-9)) ** 2
+        views.append({"spp": 2 * n, "time_s": ta + tb, "cpu_s": ca + cb, "noise": noise,
+                      "wavrad_error": wavrad_error, "mitsuba_time_to_wavrad_error_s": equal,
+                      "wavrad_render_s": wavrad_run["views"][k]["render_s"]})
+        print(f"  view {k:2d}: Mitsuba {ta + tb:6.2f} s noise {100 * noise:.2f} %, wavrad "
+              f"{100 * wavrad_error:.2f} %", flush=True)
+    mitsuba.set_view(mitsuba.load(xml, res, half, best["integrator"])[0],
+                     *walkthrough_views()[0])
+    return {"views": views, "sampler": best["sampler"], "integrator": best["integrator"],
+            "wavrad_solve_s": wavrad_run["solve_wall_s"]}
 
 
 # Report
@@ -387,232 +502,170 @@ def machine() -> dict:
     }
 
 
-def mosaic(images: list[np.ndarray], columns: int = 4) -> np.ndarray:
-    rows = [np.concatenate(images[i:i + columns], axis=1)
-            for i in range(0, len(images), columns)]
-    return np.concatenate(rows, axis=0).astype(np.float32)
-
-
 def pct(x: float) -> str:
     return f"{100 * x:.2f} %"
 
 
-def write_report(info: dict, results: dict, walk: dict | None) -> None:
+def write_report(info: dict, runs: list[dict], walk: dict | None) -> None:
     m = info["machine"]
-    commit = m["wavrad_commit"][:12]
-    if m["uncommitted_changes"]:
-        commit += " + uncommitted changes"
+    commit = m["wavrad_commit"][:12] + (" + uncommitted changes" if m["uncommitted_changes"]
+                                        else "")
     lines = [
-        "# wavrad against Mitsuba 3: end-to-end benchmark",
+        "# wavrad against Mitsuba 3 at its best: end-to-end benchmark",
         "",
         f"Written by `benches/benchmarks.py` (`make bench`), {m['date']}: {m['cpu']}, "
         f"`os.cpu_count()` = {m['cpu_count']}, wavrad {commit}, Python {m['python']}, "
         f"Mitsuba {info['mitsuba']} (drjit {info['drjit']}, variant `{info['variant']}`). "
         f"Load average at start {m['load_average_start'][0]:.2f}, at end "
-        f"{m['load_average_end'][0]:.2f} (1 min; both programs use every core, so "
-        "other jobs on the machine slow both). Raw numbers: `docs/benchmarks.json`. "
-        f"The whole run took {info['total_s'] / 60:.1f} min.",
+        f"{m['load_average_end'][0]:.2f} (both programs use every core, so other jobs on "
+        "the machine slow both). One run; raw numbers: `docs/benchmarks.json`. The whole "
+        f"run took {info['total_s'] / 60:.1f} min.",
         "",
-        "relRMSE = sqrt(mean((a−b)²)) / mean(b) over all pixels and channels, against "
-        "the committed reference (`scenes/*/reference.exr`, itself Mitsuba 3 at high spp, "
-        "whose own noise is listed; it adds in quadrature to every error below, to "
-        "wavrad's and Mitsuba's alike).",
+        "Both programs render the same XML: the bundled scene with a box pixel filter, at "
+        "the resolution shown. Error = relRMSE, sqrt(mean((a−b)²)) / mean(b) over pixels "
+        "and channels, against a reference of "
+        f"{REFERENCE_RENDERS} independent Mitsuba renders ({REFERENCE_SAMPLER} sampler) "
+        "whose own noise, measured from their differences, is taken out of every error "
+        "in quadrature. The headline leaves out the pixels that see an emitter directly "
+        "(both programs get them exactly); the all-pixel error is beside it. Mitsuba is "
+        "timed with every sampler in "
+        f"{', '.join(f'`{s}`' for s in SAMPLERS)} and the integrators listed, one render "
+        "per spp (1, 2, 4, …), its time without drjit's kernel compilation; the headline "
+        "takes the fastest to wavrad's error.",
         "",
         "## Time to the same error",
         "",
-        "| scene | wavrad config | wavrad relRMSE | wavrad solve | wavrad render | "
-        "wavrad total (CPU) | Mitsuba spp for that relRMSE | Mitsuba time (CPU) | "
-        "**Mitsuba / wavrad** | same, CPU time | cores busy, wavrad / Mitsuba |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for name, r in results.items():
-        for config, w in r["wavrad"].items():
-            mt = r["match"][config]
-            total = w["solve_s"] + w["render_s"]
-            total_cpu = w["solve_cpu_s"] + w["render_cpu_s"]
-            flag = "" if mt["method"] == "interpolated" else f" ({mt['method']})"
-            lines.append(
-                f"| {name} ({w['width']}×{w['height']}) | {config} | {pct(w['rel_rmse'])} | "
-                f"{w['solve_s']:.2f} s | {w['render_s']:.2f} s | "
-                f"{total:.2f} s ({total_cpu:.1f} s) | {mt['spp']:.0f}{flag} | "
-                f"{mt['time_s']:.2f} s ({mt['cpu_s']:.1f} s) | **{mt['time_s'] / total:.2f}** | "
-                f"{mt['cpu_s'] / total_cpu:.2f} | {total_cpu / total:.1f} / "
-                f"{mt['cpu_s'] / mt['time_s']:.1f} |"
-            )
-    lines += ["", "Mitsuba spp at wavrad's relRMSE on each curve (the table takes the median):"]
-    lines += [
-        f"{name} {config}: " + ", ".join(f"{x:.0f}" for x in mt["spp_per_curve"]) + "; "
-        for name, r in results.items()
-        for config, mt in r["match"].items()
-        if "spp_per_curve" in mt
-    ]
-    lines += [
-        "",
-        "wavrad solve = every phase of `solution.stats[\"times\"]` (visibility, kernels, "
-        "hierarchy, Gauss–Seidel); render = wall clock of `solution.render()` (gather "
-        "mode, default camera rays; config `cached` with `gather_cache=True`, its time "
-        "including the cache's making). Mitsuba time = wall clock of its `mi.render` calls "
-        "(scene loading excluded), interpolated log-log between the two measured points "
-        "of a curve below that bracket wavrad's relRMSE; the median over "
-        f"{CURVES} independent curves (every curve's spp below the table). CPU: user + "
-        "system time of "
-        "the process over the same calls, every thread. Both programs use every core "
-        f"({m['cpu_count']} here), so \"cores busy\" (CPU time / wall clock) should be "
-        "about the same for both; where it differs, other jobs shared the machine during "
-        "one of them, and the CPU-time ratio is the fairer comparison.",
-        "",
-        "| scene | config | elements (two-point nodes) | links (two-point interactions) | "
-        "three-point nodes | three-point interactions | iterations | kernels | peak memory |",
+        "| scene | wavrad config | wavrad error (all pixels) | wavrad solve + render "
+        "(CPU) | Mitsuba's fastest | its spp | its time (CPU) | **Mitsuba / wavrad** | "
+        "same, CPU time |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for name, r in results.items():
+    for r in runs:
         for config, w in r["wavrad"].items():
-            s = w["stats"]
-            mem = (s.get("peak_memory_bytes") or 0) / 2**20
+            best = r["best"][config]
             lines.append(
-                f"| {name} | {config} | {s['two_point_nodes']:,} | "
-                f"{s['two_point_interactions']:,} | {s['three_point_nodes']:,} | "
-                f"{s['three_point_interactions']:,} | {s['iterations']} | "
-                f"{s['times']['kernels_s']:.2f} s | {mem:.0f} MB |"
-            )
+                f"| {r['scene']} {r['res']}² | {config} | "
+                f"{pct(w['errors']['no-emitter']['corrected'])} "
+                f"({pct(w['errors']['all']['corrected'])}) | "
+                f"{w['solve_wall_s']:.2f} + {w['render_s']:.2f} s "
+                f"({w['total_cpu_s']:.1f} s) | `{best['sampler']}`, `{best['integrator']}` | "
+                f"{best['spp']:.0f} | {best['time_s']:.2f} s ({best['cpu_s']:.1f} s) | "
+                f"**{best['time_s'] / w['total_s']:.2f}** | "
+                f"{best['cpu_s'] / w['total_cpu_s']:.2f} |")
     lines += [
         "",
-        "Peak memory: the solving process's peak resident set (`VmHWM`) at the end of the "
-        "solve, as `stats[\"peak_memory_bytes\"]`, Python and numpy included (each "
-        "configuration runs in a fresh process); `docs/benchmarks.json` also has the "
-        "process's peak after rendering (`process_max_rss_bytes`).",
+        "wavrad's time: `wavrad.solve` and `Solution.render(mode=\"gather\")` (config "
+        "`cached`: with the view-independent gather cache, its making included), wall "
+        "clock and CPU time of the process, each configuration in a fresh process. "
+        "Mitsuba's: the wall clock of its `mi.render` calls, interpolated log-log between "
+        "the two renders that bracket wavrad's error (`extrapolated` below: a curve "
+        f"stops past {CURVE_TIME_CAP_S:.0f} s, or past the fastest sampler's time, "
+        "and is extrapolated with error ∝ spp^−½).",
         "",
-        "## Mitsuba 3's error against time",
+        "### Every sampler: Mitsuba's time to the default configuration's error",
         "",
-        "Progressive: passes of 1, 1, 2, 4, … spp with new seeds, each point the running "
-        "average. The integrator is the scene file's (`path`, `max_depth` −1), as for the "
-        "references. One untimed 1-spp warm-up render per scene first compiles the "
-        "kernels (or loads them from drjit's disk cache); inside the timed renders drjit's "
-        f"kernel history shows {info['kernels_compiled']} kernel(s) compiled anew and "
-        f"{info['compile_ms']:.0f} ms of codegen and backend compile in all, which the "
-        "times include (as they include drjit's first allocation of each larger "
-        "wavefront, which any user pays too).",
-        "",
+        "| scene | integrator | " + " | ".join(SAMPLERS) + " |",
+        "|---|---|" + "---|" * len(SAMPLERS),
     ]
-    for name, r in results.items():
+    for r in runs:
+        for integrator in r["integrators"]:
+            cells = []
+            for sampler in SAMPLERS:
+                mt = r["matches"]["default"][f"{sampler}/{integrator}"]
+                note = "" if mt["method"] == "interpolated" else f" ({mt['method']})"
+                cells.append(f"{mt['time_s']:.1f} s, {mt['spp']:.0f} spp{note}")
+            lines.append(f"| {r['scene']} {r['res']}² | `{integrator}` | " + " | ".join(cells)
+                         + " |")
+    if any("indirect" in r["reference_noise"] for r in runs):
         lines += [
-            f"**{name}** (reference: {pct(r['reference_noise'] or float('nan'))} "
-            f"self-noise; warm-up {r['warm_up_s']:.2f} s)",
             "",
-            "| spp | time | CPU time | relRMSE | relRMSE, every curve |",
-            "|---|---|---|---|---|",
+            "### Pixels lit only indirectly",
+            "",
+            "The pixels whose direct-only render (Mitsuba, `max_depth` 2) is below 1 % of "
+            "the reference: on the paper's experiment, the receiver lit through the "
+            "reflector.",
+            "",
+            "| scene | wavrad config | wavrad error | Mitsuba's fastest there | its time | "
+            "Mitsuba / wavrad |",
+            "|---|---|---|---|---|---|",
         ]
-        curves = r.get("curves", [r["curve"]])
-        lines += [f"| {p['spp']} | {p['time_s']:.2f} s | {p['cpu_s']:.2f} s | "
-                  f"{pct(p['rel_rmse'])} | "
-                  + ", ".join(pct(c[i]["rel_rmse"]) for c in curves if i < len(c)) + " |"
-                  for i, p in enumerate(r["curve"])]
-        lines.append("")
-    if walk is not None:
-        lines += walkthrough_report(walk)
-    with open(os.path.join(DOCS, "benchmarks.md"), "w") as f:
-        f.write("\n".join(lines))
-
-
-def walkthrough_report(walk: dict) -> list[str]:
-    config, mt = walk["config"], walk["mitsuba"]
-    solve_s, render_s = walk["wavrad_solve_s"], walk["wavrad_view_render_s"]
-    n = len(mt["times"])
-    wavrad_total = solve_s + sum(render_s)
-    mitsuba_total = sum(mt["times"])
-    wavrad_cpu = walk["wavrad_solve_cpu_s"] + sum(walk["wavrad_view_render_cpu_s"])
-    mitsuba_cpu = sum(mt["cpu_s"])
-    errors = walk["errors"]
-    ref_views = [int(k) for k in errors if k != "0"]
-    refs = ", ".join(str(k) for k in ref_views)
-    lines = [
-        f"## Walkthrough: {n} views of {walk['scene']} from one solution",
-        "",
-        f"The camera starts at the scene's own view and dollies in through the box's open "
-        f"side to just inside it, swinging left, right and up, always looking into the box "
-        f"(`walkthrough_views()` in the script; images: `docs/benchmarks/walkthrough-"
-        f"wavrad.png`, `walkthrough-mitsuba.png`, views row by row). wavrad solves once "
-        f"(config `{config}`) and renders every view (with the view-independent gather "
-        "cache, which the first view makes: its render time includes that); Mitsuba "
-        "renders every view at "
-        f"{mt['spp']} spp, the spp at which it reached wavrad's relRMSE on the scene's "
-        "own view (rounded up to even): this assumes that the same spp gives about the same "
-        "error on the other views, which the per-view noise below checks for Mitsuba.",
-        "",
-        "| | wavrad | Mitsuba 3 |",
-        "|---|---|---|",
-        f"| once | solve {solve_s:.2f} s | — |",
-        f"| per view (mean) | render {np.mean(render_s):.2f} s | "
-        f"{np.mean(mt['times']):.2f} s ({mt['spp']} spp) |",
-        f"| {n} views | **{wavrad_total:.1f} s** | **{mitsuba_total:.1f} s** |",
-        f"| Mitsuba / wavrad | | **{mitsuba_total / wavrad_total:.2f}** |",
-        f"| {n} views, CPU time | {wavrad_cpu:.1f} s | {mitsuba_cpu:.1f} s "
-        f"(ratio {mitsuba_cpu / wavrad_cpu:.2f}) |",
-        f"| cores busy (CPU time / wall clock) | {wavrad_cpu / wavrad_total:.1f} | "
-        f"{mitsuba_cpu / mitsuba_total:.1f} |",
-        f"| relRMSE, view 0 (committed reference) | {pct(errors['0']['wavrad'])} | "
-        f"{pct(errors['0']['mitsuba'])} (own noise {pct(mt['noise'][0])}) |",
-    ]
-    ratios = []
-    # Mitsuba's seconds to wavrad's error on each view that has a reference:
-    # view 0's from its curves, the others' scaled from their own noise.
-    equal_error_s = [walk["view0_match_s"]]
-    for k in ref_views:
-        e = errors[str(k)]
-        # Mitsuba at wavrad's error on this view, if its error ∝ spp^(-1/2).
-        scale = (mt["noise"][k] / e["wavrad_corrected"]) ** 2
-        ratios.append(e["wavrad_corrected"] / mt["noise"][k])
-        equal_error_s.append(mt["times"][k] * scale)
-        lines.append(
-            f"| relRMSE, view {k} (reference of {e['reference_spp']} spp, noise "
-            f"{pct(e['reference_noise'])}) | {pct(e['wavrad'])} measured, "
-            f"{pct(e['wavrad_corrected'])} without the reference's noise | "
-            f"{pct(mt['noise'][k])} (own noise); wavrad's error at ≈ {mt['spp'] * scale:.0f} "
-            f"spp, ≈ {mt['times'][k] * scale:.1f} s (if error ∝ spp^−½) |"
-        )
+        for r in runs:
+            if "indirect" not in r["reference_noise"]:
+                continue
+            for config, w in r["wavrad"].items():
+                best = r["best_indirect"][config]
+                lines.append(
+                    f"| {r['scene']} {r['res']}² | {config} | "
+                    f"{pct(w['errors']['indirect']['corrected'])} | `{best['sampler']}`, "
+                    f"`{best['integrator']}` | {best['time_s']:.2f} s | "
+                    f"**{best['time_s'] / w['total_s']:.2f}** |")
     lines += [
-        f"| {n} views at wavrad's error on each (the mean of views 0, {refs}, times {n}) | "
-        f"**{wavrad_total:.1f} s** | **{n * np.mean(equal_error_s):.1f} s** (ratio "
-        f"**{n * np.mean(equal_error_s) / wavrad_total:.1f}**) |",
-        f"| Mitsuba's own noise, mean (min–max) over the {n} views | | "
-        f"{pct(np.mean(mt['noise']))} ({pct(min(mt['noise']))}–{pct(max(mt['noise']))}) |",
         "",
-        "Errors: there are no committed references for views other than view 0, so "
-        f"wavrad's error is measured on views {refs} against references rendered in this "
-        f"run ({walk['reference_renders']} independent Mitsuba images at {mt['spp']} spp, "
-        "averaged; "
-        "their noise, estimated from the renders' pairwise differences, is subtracted in "
-        "quadrature for the corrected value) and on view 0 against the committed one. "
-        "Mitsuba is unbiased, so its error on each view is its noise, estimated from the "
-        "difference of the two half-spp renders that make each image (view 0 is also "
-        "compared with the committed reference). The references' renders are not timed.",
+        "## The solution without a final gather",
         "",
-        f"So the walkthrough's assumption does not hold here: on views {refs} wavrad's "
-        f"error is {min(ratios):.1f}–{max(ratios):.1f}× Mitsuba's at {mt['spp']} spp "
-        "(Mitsuba's noise falls once the camera is inside the box, wavrad's error does "
-        "not), "
-        "and the comparison at the scene view's spp overstates Mitsuba's time for equal "
-        "error on those views; the last column of the rows above estimates the time it "
-        "would need for wavrad's error there."
-        if ratios and min(ratios) > 1.5 else
-        f"On views {refs} wavrad's error is {min(ratios, default=0):.1f}–"
-        f"{max(ratios, default=0):.1f}× Mitsuba's at {mt['spp']} spp.",
+        "The default configuration's solution rendered in `direct` (the solution read at "
+        "each pixel) and `smooth` (reconstructed) modes: what a walkthrough, a lightmap or "
+        "a viewer shows.",
         "",
-        "| view | wavrad render | Mitsuba | Mitsuba noise |",
+        "| scene | mode | error (all pixels) | render |",
         "|---|---|---|---|",
     ]
-    for k in range(n):
-        lines.append(f"| {k} | {render_s[k]:.2f} s | {mt['times'][k]:.2f} s | "
-                     f"{pct(mt['noise'][k])} |")
-    lines.append("")
-    return lines
-
-
-def report_from_json() -> None:
-    """Rewrite docs/benchmarks.md from docs/benchmarks.json (no rendering)."""
-    with open(os.path.join(DOCS, "benchmarks.json")) as f:
-        raw = json.load(f)
-    write_report(raw["info"], raw["scenes"], raw["walkthrough"])
+    for r in runs:
+        for mode, x in r["wavrad"]["default"].get("modes", {}).items():
+            lines.append(f"| {r['scene']} {r['res']}² | `{mode}` | "
+                         f"{pct(x['errors']['no-emitter']['corrected'])} "
+                         f"({pct(x['errors']['all']['corrected'])}) | {x['render_s']:.2f} s |")
+    lines += [
+        "",
+        "## References and counts",
+        "",
+        "| scene | reference spp | its noise, no emitter (all) | elements | links | "
+        "three-point interactions | kernels | wavrad peak memory |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in runs:
+        s = r["wavrad"]["default"]["stats"]
+        n = r["reference_noise"]
+        lines.append(
+            f"| {r['scene']} {r['res']}² | {r['reference_spp']} | {pct(n['no-emitter'])} "
+            f"({pct(n['all'])}) | {s['two_point_nodes']:,} | {s['two_point_interactions']:,} | "
+            f"{s['three_point_interactions']:,} | {s['times']['kernels_s']:.2f} s | "
+            f"{(s.get('peak_memory_bytes') or 0) / 2**20:.0f} MiB |")
+    lines += ["", "## Mitsuba's error against time", ""]
+    for r in runs:
+        lines += [f"**{r['scene']} {r['res']}²**", "",
+                  "| sampler, integrator | spp: time, error |", "|---|---|"]
+        for key, curve in r["curves"].items():
+            lines.append(f"| `{key}` | " + "; ".join(
+                f"{p['spp']}: {p['time_s']:.2f} s, {pct(p['rel_rmse'])}" for p in curve) + " |")
+        lines.append("")
+    if walk is not None:
+        views = walk["views"]
+        wavrad_total = walk["wavrad_solve_s"] + sum(v["wavrad_render_s"] for v in views)
+        equal = sum(v["mitsuba_time_to_wavrad_error_s"] for v in views)
+        lines += [
+            f"## Walkthrough: {len(views)} views of {WALKTHROUGH_SCENE} from one solution",
+            "",
+            f"wavrad solves once (config `{WALKTHROUGH_CONFIG}`) and renders every view; "
+            f"Mitsuba (`{walk['sampler']}`, `{walk['integrator']}`) renders each view twice "
+            "at half the spp that reached wavrad's error on the scene's own view. Each "
+            "view's error is against the average of Mitsuba's two halves, less that "
+            "average's noise; Mitsuba's time to wavrad's error on each view scales its "
+            "time by (its noise / wavrad's error)².",
+            "",
+            f"wavrad, {len(views)} views: **{wavrad_total:.1f} s**; Mitsuba at wavrad's "
+            f"error on each view: **{equal:.1f} s**; ratio **{equal / wavrad_total:.1f}**.",
+            "",
+            "| view | wavrad render | wavrad error | Mitsuba time | Mitsuba noise | "
+            "Mitsuba at wavrad's error |",
+            "|---|---|---|---|---|---|",
+        ]
+        lines += [f"| {k} | {v['wavrad_render_s']:.2f} s | {pct(v['wavrad_error'])} | "
+                  f"{v['time_s']:.2f} s | {pct(v['noise'])} | "
+                  f"{v['mitsuba_time_to_wavrad_error_s']:.1f} s |" for k, v in enumerate(views)]
+        lines.append("")
+    with open(os.path.join(DOCS, "benchmarks.md"), "w") as f:
+        f.write("\n".join(lines))
 
 
 def to_json(x):
@@ -625,93 +678,114 @@ def to_json(x):
     return x
 
 
+def bench_scene(mitsuba: Mitsuba, name: str, res: int, folder: str, reference_spp: int) -> dict:
+    """One scene at one resolution: reference, wavrad, Mitsuba's curves."""
+    spec = SCENES[name]
+    ref = reference(mitsuba, name, res, folder, reference_spp)
+    run = {"scene": name, "res": res, "integrators": list(spec.integrators),
+           "reference_spp": ref.spp, "reference_noise": {m: ref.noise(m) for m in ref.masks},
+           "wavrad": {}}
+    print(f"{name} {res}²: reference {ref.spp} spp, noise "
+          f"{pct(run['reference_noise']['no-emitter'])}", flush=True)
+    for config in CONFIGS:
+        w = run_wavrad(name, res, config, os.path.join(folder, f"{name}-{res}-{config}"))
+        w["errors"] = {m: ref.error(w["images"][0], m) for m in ref.masks}
+        for x in w.get("modes", {}).values():
+            x["errors"] = {m: ref.error(x["image"], m) for m in ref.masks}
+        run["wavrad"][config] = w
+        print(f"  wavrad {config}: solve {w['solve_wall_s']:.2f} s render {w['render_s']:.2f} s"
+              f" error {pct(w['errors']['no-emitter']['corrected'])}", flush=True)
+    target = min(w["errors"]["no-emitter"]["corrected"] for w in run["wavrad"].values())
+    run["curves"], fastest = {}, CURVE_TIME_CAP_S
+    for integrator in spec.integrators:
+        for sampler in SAMPLERS:
+            print(f"  mitsuba {sampler} {integrator}", flush=True)
+            xml = bench_xml(name, sampler, folder)
+            curve = mitsuba_curve(mitsuba, xml, res, integrator, ref, target,
+                                  min(CURVE_TIME_CAP_S, fastest))
+            run["curves"][f"{sampler}/{integrator}"] = curve
+            if curve[-1]["rel_rmse"] < target:
+                fastest = min(fastest, match(curve, target)["time_s"])
+    run["matches"], run["best"], run["best_indirect"] = {}, {}, {}
+    for config, w in run["wavrad"].items():
+        run["matches"][config] = {
+            key: match(curve, w["errors"]["no-emitter"]["corrected"])
+            for key, curve in run["curves"].items()}
+        key = min(run["matches"][config], key=lambda k: run["matches"][config][k]["time_s"])
+        sampler, integrator = key.split("/")
+        run["best"][config] = {**run["matches"][config][key], "sampler": sampler,
+                               "integrator": integrator}
+        if "indirect" in ref.masks:
+            for curve in run["curves"].values():
+                for p in curve:
+                    p["indirect"] = p["errors"]["indirect"]["corrected"]
+            wanted = w["errors"]["indirect"]["corrected"]
+            region = {k: match(c, wanted, "indirect") for k, c in run["curves"].items()}
+            key = min(region, key=lambda k: region[k]["time_s"])
+            sampler, integrator = key.split("/")
+            run["best_indirect"][config] = {**region[key], "sampler": sampler,
+                                            "integrator": integrator}
+    return run
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenes", nargs="+", default=SCENES,
-                    help="bundled scenes (names of scenes/make_references.py)")
-    ap.add_argument("--report", action="store_true",
-                    help="only rewrite docs/benchmarks.md from docs/benchmarks.json")
-    ap.add_argument("--worker", nargs=3, metavar=("SCENE", "CONFIG", "OUT"),
+    ap.add_argument("--external", nargs="+", default=[], metavar="NAME=XML",
+                    help="scenes not in the repository, e.g. Mitsuba's "
+                    "scenes/cbox/cbox.xml from its data repository")
+    ap.add_argument("--scenes", nargs="+", default=None,
+                    help=f"bundled or external scenes (default: all; bundled: {', '.join(SCENES)})")
+    ap.add_argument("--res", nargs="+", type=int, default=list(RESOLUTIONS))
+    ap.add_argument("--reference-spp", type=int, default=None,
+                    help="spp of each reference render (default: per scene)")
+    ap.add_argument("--references-only", action="store_true",
+                    help="only render (and cache) the references")
+    ap.add_argument("--walkthrough", action="store_true",
+                    help=f"also the {VIEWS}-view walkthrough of {WALKTHROUGH_SCENE}")
+    ap.add_argument("--worker", nargs=4, metavar=("SCENE", "RES", "CONFIG", "OUT"),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
+    add_external(args.external or json.loads(os.environ.get(EXTERNAL_ENV, "[]")))
+    args.scenes = args.scenes or list(SCENES)
+    unknown = [n for n in args.scenes if n not in SCENES]
+    if unknown:
+        sys.exit(f"benchmarks.py: unknown scene(s) {', '.join(unknown)}")
     if args.worker:
-        wavrad_worker(*args.worker)
+        name, res, config, out = args.worker
+        wavrad_worker(name, int(res), config, out)
         return
-    if args.report:
-        report_from_json()
-        return
+    if args.walkthrough:
+        os.environ["WAVRAD_BENCH_WALK"] = "1"
 
     start = time.perf_counter()
-    info = {"machine": machine(), "configs": CONFIGS, "scene_configs": SCENE_CONFIGS,
-            "scene_only": SCENE_ONLY, "render_args": RENDER_ARGS}
-    results = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        # wavrad first, each configuration in its own process.
-        for name in args.scenes:
-            results[name] = {"wavrad": {}}
-            for config in CONFIGS:
-                if name not in SCENE_ONLY.get(config, [name]):
-                    continue
-                print(f"wavrad {name} {config}", flush=True)
-                w = run_wavrad(name, config, os.path.join(tmp, name, config))
-                t = w["stats"]["times"]
-                w["solve_s"] = sum(v for k, v in t.items() if k != "render_s")
-                results[name]["wavrad"][config] = w
-                print(f"  solve {w['solve_s']:.2f} s render {w['render_s']:.2f} s "
-                      f"relRMSE {100 * w['rel_rmse']:.2f} %", flush=True)
-
+    info = {"machine": machine(), "configs": CONFIGS, "render_args": RENDER_ARGS,
+            "samplers": SAMPLERS, "reference_sampler": REFERENCE_SAMPLER}
     mitsuba = Mitsuba()
     info.update(mitsuba=mitsuba.mi.__version__, drjit=mitsuba.dr.__version__,
-                variant=mitsuba.variant,
-                libllvm=os.environ.get("DRJIT_LIBLLVM_PATH"))
-    walk = None
-    for name in args.scenes:
-        r = results[name]
-        xml, exr, integrator = scene_files(name)
-        reference = wavrad.read_exr(exr).astype(np.float64)
-        loaded = mitsuba.load(xml, integrator)
-        print(f"mitsuba {name}", flush=True)
-        r["warm_up_s"] = mitsuba.warm_up(loaded)
-        target = min(w["rel_rmse"] for w in r["wavrad"].values())
-        r["curves"] = [mitsuba_curve(mitsuba, loaded, reference, target)
-                       for _ in range(CURVES)]
-        r["curve"] = r["curves"][0]
-        r["match"] = {c: median_match(r["curves"], w["rel_rmse"])
-                      for c, w in r["wavrad"].items()}
-        r["reference_noise"] = REFERENCE_NOISE.get(name)
-        if name == WALKTHROUGH_SCENE:
-            first = WALKTHROUGH_CONFIG
-            spp = 2 * math.ceil(r["match"][first]["spp"] / 2)
-            mt = walkthrough(mitsuba, loaded, spp)
-            errors = {"0": {"wavrad": relative_rmse(r["wavrad"][first]["views"][0], reference),
-                            "mitsuba": relative_rmse(mt["views"][0], reference)}}
-            for k, ref in mt["references"].items():
-                e = relative_rmse(r["wavrad"][first]["views"][k], ref["image"])
-                errors[str(k)] = {
-                    "wavrad": e, "reference_noise": ref["noise"], "reference_spp": ref["spp"],
-                    "wavrad_corrected": math.sqrt(max(0.0, e**2 - ref["noise"] ** 2)),
-                }
-            w = r["wavrad"][first]
-            walk = {"scene": name, "reference_renders": REFERENCE_RENDERS,
-                    "config": first, "wavrad_solve_s": w["solve_s"],
-                    "wavrad_solve_cpu_s": w["solve_cpu_s"],
-                    "wavrad_view_render_s": w["view_render_s"],
-                    "wavrad_view_render_cpu_s": w["view_render_cpu_s"],
-                    "mitsuba": mt, "errors": errors, "views": walkthrough_views(),
-                    "view0_match_s": r["match"][first]["time_s"]}
-            os.makedirs(IMAGES, exist_ok=True)
-            wavrad.write_image(os.path.join(IMAGES, "walkthrough-wavrad.png"),
-                               mosaic(r["wavrad"][first]["views"]))
-            wavrad.write_image(os.path.join(IMAGES, "walkthrough-mitsuba.png"),
-                               mosaic(mt["views"]))
-    info["compile_ms"] = mitsuba.compile_ms
-    info["kernels_compiled"] = mitsuba.kernels_compiled
+                variant=mitsuba.variant)
+    runs, walk = [], None
+    with tempfile.TemporaryDirectory() as folder:
+        for res in args.res:
+            for name in args.scenes:
+                spp = args.reference_spp or SCENES[name].reference_spp
+                if args.references_only:
+                    reference(mitsuba, name, res, folder, spp)
+                    continue
+                run = bench_scene(mitsuba, name, res, folder, spp)
+                runs.append(run)
+                if args.walkthrough and name == WALKTHROUGH_SCENE and res == args.res[0]:
+                    best = run["best"][WALKTHROUGH_CONFIG]
+                    walk = walkthrough(mitsuba, folder, res, best,
+                                       2 * math.ceil(best["spp"] / 2),
+                                       run["wavrad"][WALKTHROUGH_CONFIG])
+    if args.references_only:
+        return
+    info["compile_s_left_out"] = mitsuba.compile_s
     info["machine"]["load_average_end"] = os.getloadavg()
     info["total_s"] = time.perf_counter() - start
-    write_report(info, results, walk)
-    raw = {"info": info, "scenes": results, "walkthrough": walk}
+    write_report(info, runs, walk)
     with open(os.path.join(DOCS, "benchmarks.json"), "w") as f:
-        json.dump(to_json(raw), f, indent=1)
+        json.dump(to_json({"info": info, "runs": runs, "walkthrough": walk}), f, indent=1)
         f.write("\n")
     print(f"wrote docs/benchmarks.md, docs/benchmarks.json ({info['total_s'] / 60:.1f} min)")
 
