@@ -69,6 +69,7 @@ const HEADER_LEN: usize = 56;
 
 /// Bytes of the header's wavrad version.
 const WRITER_LEN: usize = 32;
+const _: () = assert!(env!("CARGO_PKG_VERSION").len() <= WRITER_LEN);
 
 /// zstd's level for the body: its default, which on the bundled scenes
 /// compresses about as well as its higher levels in a fraction of their
@@ -178,7 +179,7 @@ pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>)
         settings: solution.settings,
         stats: Cow::Borrowed(&solution.stats),
     };
-    let encoded = postcard::to_allocvec(&body).map_err(|e| problem(path, e))?;
+    let encoded = postcard::to_allocvec(&body).map_err(|e| unencodable(path, e))?;
     let body = zstd::bulk::compress(&encoded, ZSTD_LEVEL).map_err(|e| Error::io(path, e))?;
     let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
     bytes.extend_from_slice(&MAGIC);
@@ -421,7 +422,7 @@ fn difference(solved: &Scene, now: &Scene) -> Option<String> {
 }
 
 /// A solution that postcard cannot write (a path that is not UTF-8).
-fn problem(path: &Path, e: postcard::Error) -> Error {
+fn unencodable(path: &Path, e: postcard::Error) -> Error {
     Error::io(
         path,
         std::io::Error::new(std::io::ErrorKind::InvalidData, e),
