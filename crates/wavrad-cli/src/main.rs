@@ -17,6 +17,7 @@ use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
+use wavrad_io::solution_file::{read_solution, write_solution, Source};
 
 /// Haar-wavelet global illumination (Pattanaik & Bouatouch 1994) for Mitsuba 3
 /// XML scenes.
@@ -32,7 +33,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Solve the scene and render its sensor to an EXR (linear) or PNG (sRGB) image.
+    /// Solve the scene, or read a solution written by `wavrad solve -o`,
+    /// and render its sensor to an EXR (linear) or PNG (sRGB) image.
     Render {
         #[command(flatten)]
         solve: SolveArgs,
@@ -42,10 +44,15 @@ enum Command {
         #[command(flatten)]
         settings: Given<RenderSettings>,
     },
-    /// Solve the scene (view-independent) and report statistics, without an image.
+    /// Solve the scene (view-independent) and report statistics; with
+    /// `-o`, write the solution to render later without solving again.
     Solve {
         #[command(flatten)]
         solve: SolveArgs,
+        /// Write the solution to this file (.wavrad); `wavrad render FILE.wavrad`
+        /// renders it.
+        #[arg(short, long, help_heading = "Output options")]
+        output: Option<PathBuf>,
     },
     /// Print the relative RMSE, sqrt(mean((a-b)^2))/mean(b), of an EXR image
     /// against an EXR reference of the same size.
@@ -59,7 +66,8 @@ enum Command {
 
 #[derive(Args, Debug)]
 struct SolveArgs {
-    /// Mitsuba 3 XML scene.
+    /// Mitsuba 3 XML scene; for `render`, also a solution file (.wavrad)
+    /// written by `wavrad solve -o`, rendered without solving again.
     scene: PathBuf,
     /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE", help_heading = "Scene options")]
@@ -67,9 +75,10 @@ struct SolveArgs {
     /// How the radiance system is solved: `gather` (every kernel projected
     /// up front, then Gauss–Seidel gathering; the paper's §4.2) or `shoot`
     /// (progressive shooting from the emitters, kernels projected only where
-    /// light flows; the paper's §6; diffuse scenes only for now).
-    #[arg(long, default_value = "gather", value_parser = |s: &str| s.parse::<Solver>(), help_heading = Group::Solve.heading())]
-    solver: Solver,
+    /// light flows; the paper's §6; diffuse scenes only for now) [default:
+    /// gather].
+    #[arg(long, value_parser = |s: &str| s.parse::<Solver>(), help_heading = Group::Solve.heading())]
+    solver: Option<Solver>,
     #[command(flatten)]
     settings: Given<SolveSettings>,
     /// With `--solver shoot`: after every shooting step, write a quick image
@@ -329,10 +338,27 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             println!("relative RMSE {:.5}", wavrad_io::relative_rmse(&a, &b));
             Ok(())
         }
-        Command::Solve { solve: args } => {
-            check_outputs(None, args.stats.as_deref())?;
-            let solution = load_and_solve(&args, progress)?;
+        Command::Solve {
+            solve: args,
+            output,
+        } => {
+            if is_solution_file(&args.scene) {
+                return Err(format!(
+                    "{}: a solution file is rendered (`wavrad render {0} -o IMAGE`), not solved",
+                    args.scene.display()
+                ));
+            }
+            if let Some(output) = &output {
+                check_solution_extension(output)?;
+            }
+            check_outputs(output.as_deref(), args.stats.as_deref())?;
+            let (solution, source) = load_and_solve(&args, progress)?;
             report(&solution, None, progress);
+            if let Some(output) = &output {
+                progress.note(&format!("writing {}", output.display()));
+                write_solution(output, &solution, Some(&source)).map_err(|e| e.to_string())?;
+                progress.note(&format!("wrote {}", output.display()));
+            }
             write_stats(&args, &solution, None)
         }
         Command::Render {
@@ -340,12 +366,17 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             output,
             settings,
         } => {
+            check_output_extension(&output)?;
             check_outputs(Some(&output), args.stats.as_deref())?;
             // Options that do not go together fail before the solve.
             let scene_free = wavrad_core::scene::Scene::from_surfaces(Vec::new());
             RenderSettings::from_values(&scene_free, &settings.values)
                 .map_err(|e| e.to_string())?;
-            let solution = load_and_solve(&args, progress)?;
+            let solution = if is_solution_file(&args.scene) {
+                read_solution_file(&args, progress)?
+            } else {
+                load_and_solve(&args, progress)?.0
+            };
             let settings = RenderSettings::from_values(&solution.scene, &settings.values)
                 .map_err(|e| e.to_string())?;
             let renderer = Renderer::new(solution);
@@ -365,7 +396,64 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
     }
 }
 
-fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<Solution, String> {
+/// Whether `path` names a solution file (by its extension, .wavrad), to be
+/// read rather than solved.
+fn is_solution_file(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case(SOLUTION_EXTENSION))
+}
+
+/// The extension of solution files.
+const SOLUTION_EXTENSION: &str = "wavrad";
+
+fn check_solution_extension(path: &Path) -> Result<(), String> {
+    if is_solution_file(path) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{}: a solution file's name ends in .{SOLUTION_EXTENSION}",
+            path.display()
+        ))
+    }
+}
+
+/// The solution in the file `args.scene`, with its warnings shown; the
+/// options of a solve are refused, since nothing is solved.
+fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution, String> {
+    let solving = [
+        (!args.define.is_empty()).then_some("-D"),
+        args.solver.map(|_| "--solver"),
+        args.progressive.as_ref().map(|_| "--progressive"),
+    ];
+    let given = solving
+        .into_iter()
+        .flatten()
+        .map(str::to_string)
+        .chain(
+            args.settings
+                .values
+                .iter()
+                .map(|(name, _)| format!("--{}", name.replace('_', "-"))),
+        )
+        .collect::<Vec<_>>();
+    if !given.is_empty() {
+        return Err(format!(
+            "{}: a solution file is rendered as it was solved; {} belong to `wavrad solve`",
+            args.scene.display(),
+            given.join(", ")
+        ));
+    }
+    progress.note(&format!("reading {}", args.scene.display()));
+    let read = read_solution(&args.scene).map_err(|e| e.to_string())?;
+    for warning in &read.warnings {
+        eprintln!("wavrad: warning: {warning}");
+    }
+    Ok(read.solution)
+}
+
+/// Load the scene of `args` and solve it; with where it came from, for a
+/// solution file.
+fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, Source), String> {
     let defines = args
         .define
         .iter()
@@ -381,10 +469,11 @@ fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<Solution, Str
         eprintln!("wavrad: warning: {warning}");
     }
     let scene = loaded.scene;
+    let source = Source::new(&args.scene, &defines).map_err(|e| e.to_string())?;
     let settings = SolveSettings::from_values(&args.settings.values)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
-    match (args.solver, &args.progressive) {
+    let solution = match (args.solver.unwrap_or_default(), &args.progressive) {
         (Solver::Gather, None) => solve(&scene, &settings, progress).map_err(in_scene),
         (Solver::Gather, Some(_)) => Err("--progressive needs --solver shoot".into()),
         (Solver::Shoot, None) => {
@@ -414,7 +503,8 @@ fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<Solution, Str
                 None => Ok(solution),
             }
         }
-    }
+    }?;
+    Ok((solution, source))
 }
 
 /// One progressive image: the solution after `step`, smoothly reconstructed
@@ -427,17 +517,14 @@ fn write_progressive_image(solution: &Solution, step: &Step, dir: &Path) -> Resu
     wavrad_io::write_image(&path, image.width, image.height, &image.rgb).map_err(|e| e.to_string())
 }
 
-/// Fail before any work where an output could not be written: the image's
-/// format, either file's directory, or statistics that would overwrite the
-/// image.
-fn check_outputs(image: Option<&Path>, stats: Option<&Path>) -> Result<(), String> {
-    if let Some(image) = image {
-        check_output_extension(image)?;
-    }
-    for path in image.iter().chain(stats.iter()) {
+/// Fail before any work where an output (an image or a solution file)
+/// could not be written: either file's directory, or statistics that would
+/// overwrite the output.
+fn check_outputs(output: Option<&Path>, stats: Option<&Path>) -> Result<(), String> {
+    for path in output.iter().chain(stats.iter()) {
         wavrad_io::check_writable(path).map_err(|e| e.to_string())?;
     }
-    if let (Some(image), Some(stats)) = (image, stats) {
+    if let (Some(output), Some(stats)) = (output, stats) {
         let canonical = |p: &Path| {
             let dir = match p.parent() {
                 Some(d) if !d.as_os_str().is_empty() => d,
@@ -447,7 +534,7 @@ fn check_outputs(image: Option<&Path>, stats: Option<&Path>) -> Result<(), Strin
                 .ok()
                 .map(|d| d.join(p.file_name().unwrap_or_default()))
         };
-        if canonical(image) == canonical(stats) {
+        if canonical(output) == canonical(stats) {
             return Err(format!(
                 "{}: --stats and --output name the same file",
                 stats.display()

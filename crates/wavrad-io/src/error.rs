@@ -59,6 +59,16 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A solution file ([`crate::solution_file`]) is not one, is of
+    /// another format version, is truncated or damaged, or its scene
+    /// changed since the solve.
+    #[error("{}: {problem}", path.display())]
+    Solution {
+        /// The solution file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: crate::solution_file::SolutionProblem,
+    },
 }
 
 impl Error {
@@ -75,6 +85,14 @@ impl Error {
         Error::Image {
             path: path.to_path_buf(),
             message: message.into(),
+        }
+    }
+
+    /// A solution file's `problem`.
+    pub(crate) fn solution(path: &Path, problem: crate::solution_file::SolutionProblem) -> Error {
+        Error::Solution {
+            path: path.to_path_buf(),
+            problem,
         }
     }
 

@@ -12,7 +12,9 @@
 //! - [`write_image`], [`read_exr_rgb`], [`relative_rmse`]: images and the
 //!   error metric against references;
 //! - [`block_links`]: a planned solve's blocks of items and of projected
-//!   links as bytes, between the processes of a distributed solve.
+//!   links as bytes, between the processes of a distributed solve;
+//! - [`solution_file`]: solutions written to `.wavrad` files and read back
+//!   to render, checked against their scene.
 //!
 //! Every failure is an [`Error`] whose message names the file — and for
 //! scene files the line — and the offending name, e.g.
@@ -37,6 +39,7 @@ mod error;
 pub mod image;
 pub mod mesh;
 pub mod mitsuba;
+pub mod solution_file;
 
 pub use error::{Error, Result};
 pub use image::{check_writable, read_exr_rgb, relative_rmse, write_atomic, write_image};

@@ -13,7 +13,7 @@ use glam::DVec3;
 use std::ops::Range;
 
 /// A node of the cluster tree: a set of surfaces with its bounding sphere.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Cluster {
     /// Centre of its bounding box.
     pub center: DVec3,
@@ -35,7 +35,7 @@ pub struct Cluster {
 }
 
 /// The cluster hierarchy of a scene's surfaces; node 0 is the root.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ClusterTree {
     /// Every cluster, parents before children.
     pub nodes: Vec<Cluster>,

@@ -134,7 +134,7 @@ impl Hierarchy for ElementTree {
 }
 
 /// A node of an [`ElementTree`].
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Node {
     /// Which element it is.
     pub id: ElementId,
@@ -146,7 +146,7 @@ pub struct Node {
 
 /// The quadtree of one surface; node 0 is the root, children of a node are
 /// consecutive and every inner node has exactly four.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ElementTree {
     /// Nodes, parents before children.
     pub nodes: Vec<Node>,

@@ -15,7 +15,7 @@
 use crate::geometry::hierarchy::{ElementId, Hierarchy};
 
 /// A node of a [`PairTree`]: the pair of elements (a on p, b on q).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct PairNode {
     /// Element of the sending (glossy) surface.
     pub a: ElementId,
@@ -27,7 +27,7 @@ pub struct PairNode {
 
 /// The tree of element pairs over which L_{p→q} is stored; node 0 is the
 /// pair of whole surfaces.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct PairTree {
     /// Nodes, parents before children.
     pub nodes: Vec<PairNode>,

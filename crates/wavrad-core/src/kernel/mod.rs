@@ -17,7 +17,7 @@ use crate::scene::{Patch, Scene};
 use glam::{DVec2, DVec3};
 
 /// Quadrature settings for kernel coefficients.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Quadrature {
     /// Gauss–Legendre order per axis on the outer (point) element.
     pub points: usize,

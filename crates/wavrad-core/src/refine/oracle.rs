@@ -20,7 +20,7 @@ use crate::refine::estimate::LightEstimate;
 use crate::setting::Choice;
 
 /// Which test decides that a link is projected finely enough.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum Oracle {
     /// The paper's: Haar details of the kernel alone ([`kernel_detail`]).
     #[default]

@@ -85,7 +85,7 @@ impl ChildShares {
 }
 
 /// Settings of the adaptive kernel projection.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RefineSettings {
     /// The oracle's threshold: the largest kernel detail the paper's
     /// oracle accepts (paper: 1e-4), or the largest relative radiance

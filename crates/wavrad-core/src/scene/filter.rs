@@ -29,7 +29,7 @@
 use crate::error::{Error, Result};
 
 /// Pixel reconstruction filter of the film (Mitsuba's `rfilter`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum PixelFilter {
     /// Box of radius 0.5 pixel.
     Box,

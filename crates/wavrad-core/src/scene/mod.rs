@@ -19,7 +19,7 @@ pub use filter::PixelFilter;
 
 /// The planar shape of a surface, parametrised over the unit square (paper §2:
 /// "each u,v pair taking the value in a unit square will span the full area").
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Patch {
     /// `origin + s·edge_s + t·edge_t`, (s,t) ∈ \[0,1\]². Normal is
     /// `edge_s × edge_t` normalised.
@@ -37,7 +37,7 @@ pub enum Patch {
 }
 
 /// One planar, one-sided surface: its reflection model and emission.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Surface {
     /// Where it came from, for messages and statistics (shape id or index).
     pub name: String,
@@ -50,7 +50,7 @@ pub struct Surface {
 }
 
 /// Film: image size and pixel filter (Mitsuba's `hdrfilm`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Film {
     /// Width in pixels.
     pub width: u32,
@@ -61,7 +61,7 @@ pub struct Film {
 }
 
 /// Projection of a sensor.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Projection {
     /// Pinhole camera; `fov_x_degrees` is the full horizontal field of view
     /// (any `fov_axis` is converted to x using the film's aspect ratio).
@@ -80,7 +80,7 @@ pub enum Projection {
 /// The film axis a perspective sensor's `fov` is measured along: Mitsuba's
 /// `fov_axis`, with `smaller` and `larger` resolved for the film's aspect
 /// ratio (conversions in [`crate::render::camera`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum FovAxis {
     /// The film's width (Mitsuba's default).
     #[default]
@@ -94,7 +94,7 @@ pub enum FovAxis {
 /// A sensor with Mitsuba's conventions: camera space looks along +z, +y is
 /// up and +x is *left* (what `lookat` produces), so that the same world ray
 /// lands on the same pixel as in Mitsuba 3.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     /// `to_world` of the sensor.
     pub world_from_camera: DMat4,
@@ -107,14 +107,14 @@ pub struct Camera {
 }
 
 /// Settings read from the scene's `integrator`/`sampler` that matter to wavrad.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct RenderHints {
     /// Samples per pixel asked for by the scene's sampler, if any.
     pub samples_per_pixel: Option<u32>,
 }
 
 /// A complete scene.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scene {
     /// All surfaces (after expanding two-sided materials into two surfaces).
     pub surfaces: Vec<Surface>,

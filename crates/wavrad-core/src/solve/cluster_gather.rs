@@ -58,7 +58,7 @@ const PARALLEL_MEMBERS: usize = 2048;
 
 /// A member of a cluster link's end: where it is, which way it faces, how
 /// large it is.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Member {
     surface: u32,
     node: u32,
@@ -68,7 +68,7 @@ struct Member {
 }
 
 /// One end of a cluster link, ready for gathering.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 enum Side {
     /// A node of the cluster tree (its members' roots).
     Cluster(u32),
@@ -77,14 +77,14 @@ enum Side {
 }
 
 /// A cluster link ready for gathering.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Transfer {
     sides: [Side; 2],
     visibility: f64,
 }
 
 /// The (link, side) pairs at each of a set of keys, stored flat.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 struct Incidence {
     start: Vec<u32>,
     items: Vec<(u32, u8)>,
@@ -117,7 +117,7 @@ impl Incidence {
 }
 
 /// The normals of a cluster's members: all within a half angle of `axis`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 struct NormalCone {
     axis: DVec3,
     /// sin of the half angle; 1 from a right angle on (every direction is
@@ -151,7 +151,7 @@ impl NormalCone {
 }
 
 /// The cluster links of a solution, arranged for gathering.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ClusterTransfers {
     /// The scene's cluster tree.
     pub clusters: ClusterTree,

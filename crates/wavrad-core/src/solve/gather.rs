@@ -37,7 +37,7 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 
 /// Directional radiance L_{p→q} of a glossy surface p towards surface q.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Directional {
     /// The glossy surface.
     pub p: u32,
@@ -48,7 +48,7 @@ pub struct Directional {
 }
 
 /// Where a transfer reads the radiance L_{c→a} it carries.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Source {
     /// A diffuse source element: `radiance[surface][node]`.
     Element {
@@ -91,7 +91,7 @@ pub fn reflected(reflectance: Rgb, form_factor: f64, radiance: Rgb) -> Rgb {
 }
 
 /// A two-point link in the direction of a diffuse receiver.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Transfer {
     /// Receiving node in the receiver's tree.
     pub receiver: u32,
@@ -106,7 +106,7 @@ pub struct Transfer {
 }
 
 /// A three-point link as seen by its receiving directional structure.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ThreePointTransfer {
     /// Nodes of the receiving pair tree that tile the pair (a, b), a range in
     /// [`Interactions::covers`].
@@ -118,7 +118,7 @@ pub struct ThreePointTransfer {
 }
 
 /// Every link of a scene, arranged for gathering.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Interactions {
     /// Incoming two-point transfers of every surface (empty for those
     /// without a Lambertian lobe),

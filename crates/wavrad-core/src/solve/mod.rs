@@ -39,7 +39,7 @@ use std::ops::Range;
 use std::time::Instant;
 
 /// Settings of a solve.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolveSettings {
     /// Kernel projection (oracle threshold, maximum level).
     pub refine: RefineSettings,

@@ -9,11 +9,11 @@ use crate::scene::Scene;
 use crate::setting::{Described, Value};
 use crate::solve::gather::Directional;
 use crate::solve::SolveSettings;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// Wall-clock seconds spent in each phase.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhaseTimes {
     /// Building the ray-tracing acceleration structure.
     pub visibility_build_s: f64,
@@ -46,7 +46,7 @@ impl Sweeps {
 }
 
 /// Statistics of one solve.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
     /// Number of surfaces (two-sided materials count twice).
     pub surfaces: usize,
@@ -68,6 +68,10 @@ pub struct Stats {
     pub interactions_per_level: Vec<usize>,
     /// Every setting of the solve by its described name
     /// ([`SolveSettings::SETTINGS`](crate::setting::Described::SETTINGS)).
+    /// Written in human-readable formats (JSON) only: a binary one (a
+    /// solution file) holds the settings themselves, and reads back an
+    /// empty map.
+    #[serde(with = "text_only")]
     pub settings: BTreeMap<&'static str, Value>,
     /// Leaves whose form factors summed above one (quadrature error, or
     /// surfaces closer together than their elements resolve), whose
@@ -169,6 +173,39 @@ impl Stats {
             unrefined_items: 0,
             peak_memory_bytes: peak_memory_bytes(),
         }
+    }
+}
+
+/// [`Stats::settings`] in human-readable formats (JSON) only
+/// ([`serde::Serializer::is_human_readable`]): its values are untagged,
+/// which only a self-describing format tells apart, so a binary one (a
+/// solution file) holds the [`SolveSettings`] they describe instead. Read
+/// back, from either, as an empty map.
+mod text_only {
+    use super::{BTreeMap, Value};
+    use serde::de::IgnoredAny;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(
+        settings: &BTreeMap<&'static str, Value>,
+        serializer: S,
+    ) -> Result<S::Ok, S::Error> {
+        if serializer.is_human_readable() {
+            settings.serialize(serializer)
+        } else {
+            serializer.serialize_unit()
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        deserializer: D,
+    ) -> Result<BTreeMap<&'static str, Value>, D::Error> {
+        if deserializer.is_human_readable() {
+            IgnoredAny::deserialize(deserializer)?;
+        } else {
+            <()>::deserialize(deserializer)?;
+        }
+        Ok(BTreeMap::new())
     }
 }
 

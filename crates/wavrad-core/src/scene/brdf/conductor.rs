@@ -26,7 +26,7 @@ use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 
 /// Rough conductor BRDF (Mitsuba 3 `roughconductor`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RoughConductor {
     /// The microfacet distribution (type and roughness).
     pub distribution: Microfacet,

@@ -10,7 +10,7 @@ use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
 
 /// Lambertian BRDF.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Diffuse {
     /// Albedo ρ per channel.
     pub reflectance: Rgb,

@@ -25,7 +25,7 @@ use glam::{DVec2, DVec3};
 use std::f64::consts::{FRAC_1_PI, PI};
 
 /// Which microfacet normal distribution.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum MicrofacetType {
     /// Beckmann: slopes of a Gaussian random surface (the default).
     Beckmann,
@@ -55,7 +55,7 @@ impl std::fmt::Display for MicrofacetType {
 
 /// A microfacet distribution with roughness `alpha_u` along local x and
 /// `alpha_v` along local y.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Microfacet {
     /// Beckmann or GGX.
     pub kind: MicrofacetType,

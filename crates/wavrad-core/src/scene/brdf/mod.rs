@@ -147,7 +147,7 @@ pub trait BrdfModel {
 }
 
 /// Every reflection model wavrad supports.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Brdf {
     /// Lambertian (Mitsuba's `diffuse`).
     Diffuse(Diffuse),

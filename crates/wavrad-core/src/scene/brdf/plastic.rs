@@ -47,7 +47,7 @@ pub const TRANSMITTANCE_RES: usize = 64;
 
 /// The user-facing parameters of [`RoughPlastic`] (Mitsuba's defaults by
 /// [`Default`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RoughPlasticParams {
     /// Beckmann or GGX.
     pub distribution: MicrofacetType,
@@ -80,8 +80,10 @@ impl Default for RoughPlasticParams {
 }
 
 /// Rough plastic BRDF (Mitsuba 3 `roughplastic`), with its precomputed
-/// coating transmittance; build it with [`RoughPlastic::new`].
-#[derive(Debug, Clone, PartialEq)]
+/// coating transmittance; build it with [`RoughPlastic::new`]. Serialised
+/// as its parameters, the table integrated again when read.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(into = "RoughPlasticParams", from = "RoughPlasticParams")]
 pub struct RoughPlastic {
     params: RoughPlasticParams,
     distribution: Microfacet,
@@ -89,6 +91,18 @@ pub struct RoughPlastic {
     specular_sampling_weight: f64,
     external_transmittance: Box<[f64; TRANSMITTANCE_RES]>,
     internal_reflectance: f64,
+}
+
+impl From<RoughPlasticParams> for RoughPlastic {
+    fn from(params: RoughPlasticParams) -> RoughPlastic {
+        RoughPlastic::new(params)
+    }
+}
+
+impl From<RoughPlastic> for RoughPlasticParams {
+    fn from(brdf: RoughPlastic) -> RoughPlasticParams {
+        brdf.params
+    }
 }
 
 impl Default for RoughPlastic {
@@ -236,6 +250,18 @@ impl BrdfModel for RoughPlastic {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn serialised_as_its_parameters_and_rebuilt_whole() {
+        let p = RoughPlastic::new(RoughPlasticParams {
+            alpha: 0.3,
+            nonlinear: true,
+            ..Default::default()
+        });
+        let json = serde_json::to_string(&p).unwrap();
+        assert!(!json.contains("transmittance"), "{json}");
+        assert_eq!(serde_json::from_str::<RoughPlastic>(&json).unwrap(), p);
+    }
 
     #[test]
     fn coating_transmits_what_it_does_not_reflect() {

@@ -35,7 +35,7 @@ use glam::{DVec2, DVec3};
 use std::f64::consts::{FRAC_1_PI, PI};
 
 /// Which normalisation of the Ward lobe.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum WardVariant {
     /// Ward 1992: 1/√(cos θ_i cos θ_o).
     Ward,
@@ -68,7 +68,7 @@ impl std::fmt::Display for WardVariant {
 }
 
 /// Anisotropic Ward BRDF (Mitsuba 0.6 `ward`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ward {
     /// Normalisation of the glossy lobe.
     pub variant: WardVariant,

@@ -1,0 +1,637 @@
+//! Solution files (`.wavrad`): a solve written once and rendered from any
+//! number of times, in this process or another, without solving again.
+//!
+//! A file is a fixed header and a body:
+//!
+//! | bytes | what |
+//! |---|---|
+//! | 0..8 | [`MAGIC`], `wavrad` and the kind of file |
+//! | 8..12 | [`FORMAT_VERSION`], little-endian |
+//! | 12..44 | the wavrad version that wrote it, ASCII, zero-padded |
+//! | 44..52 | the body's length in bytes, little-endian |
+//! | 52..56 | the body's CRC-32 (IEEE), little-endian |
+//! | 56.. | the body |
+//!
+//! The body is the solution in [postcard](https://docs.rs/postcard)
+//! (integers as varints, floats as their IEEE bytes, so a solution reads
+//! back bit for bit), compressed with [zstd](https://docs.rs/zstd): the
+//! scene as solved, the element trees, the radiance of every element and
+//! element pair, the links arranged for gathering, the settings and the
+//! statistics, and where the scene came from ([`Source`]). The ray queries
+//! are rebuilt from the scene on reading, as the solve built them.
+//!
+//! Reading refuses, each with its own [`SolutionProblem`]: a file that is
+//! not a solution, one of another format version, one cut short, one whose
+//! body does not match its checksum, and one whose scene file now loads to
+//! another scene than the one solved (the scene file, an included file or
+//! a mesh was edited since the solve), so a stale solution is never
+//! rendered as the current scene. The scene is embedded, so a solution
+//! whose scene file is gone still renders, with a warning that it could
+//! not be checked.
+//!
+//! ```
+//! use wavrad_core::progress::Silent;
+//! use wavrad_core::solve::{solve, SolveSettings};
+//! use wavrad_io::solution_file::{read_solution, write_solution};
+//!
+//! let scene = wavrad_core::testing::light_over_a_corner(0.3);
+//! let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("corner.wavrad");
+//! write_solution(&path, &solution, None).unwrap();
+//! let read = read_solution(&path).unwrap();
+//! assert_eq!(read.solution.radiance, solution.radiance);
+//! assert!(read.warnings.is_empty());
+//! ```
+
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+use wavrad_core::geometry::hierarchy::ElementTree;
+use wavrad_core::geometry::tracing::SceneTracer;
+use wavrad_core::scene::{Rgb, Scene};
+use wavrad_core::setting::Described;
+use wavrad_core::solve::gather::Interactions;
+use wavrad_core::solve::stats::Stats;
+use wavrad_core::solve::{Solution, SolveSettings};
+
+/// The first bytes of a solution file.
+pub const MAGIC: [u8; 8] = *b"wavradSF";
+
+/// The version of the format [`write_solution`] writes and
+/// [`read_solution`] reads; a change of the body, or of any type it holds,
+/// needs a new one.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Bytes before the body.
+const HEADER_LEN: usize = 56;
+
+/// Bytes of the header's wavrad version.
+const WRITER_LEN: usize = 32;
+const _: () = assert!(env!("CARGO_PKG_VERSION").len() <= WRITER_LEN);
+
+/// zstd's level for the body: its default, which on the bundled scenes
+/// compresses about as well as its higher levels in a fraction of their
+/// time.
+const ZSTD_LEVEL: i32 = 3;
+
+/// Where a solved scene came from: the scene file and the `-D` values it
+/// was loaded with. Reading a solution loads it again and compares.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Source {
+    /// The scene file, as an absolute path.
+    pub scene: PathBuf,
+    /// The parameters set on loading (`-D NAME=VALUE`), in order.
+    pub defines: Vec<(String, String)>,
+}
+
+impl Source {
+    /// The source of a scene loaded from `scene` with `defines`
+    /// ([`crate::load_scene_with`]).
+    pub fn new(scene: &Path, defines: &[(String, String)]) -> Result<Source> {
+        Ok(Source {
+            scene: std::fs::canonicalize(scene).map_err(|e| Error::io(scene, e))?,
+            defines: defines.to_vec(),
+        })
+    }
+}
+
+/// What [`read_solution`] read.
+pub struct ReadSolution {
+    /// The solution, ready to render.
+    pub solution: Solution,
+    /// Where its scene came from, if it was written with one.
+    pub source: Option<Source>,
+    /// The wavrad version that wrote it.
+    pub written_by: String,
+    /// What users should be told: that the scene file could not be
+    /// checked, because it is not there any more.
+    pub warnings: Vec<String>,
+}
+
+/// What is wrong with a solution file ([`Error::Solution`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SolutionProblem {
+    /// It does not start with [`MAGIC`].
+    #[error("not a wavrad solution file (it does not start with {:?})", String::from_utf8_lossy(&MAGIC))]
+    NotASolution,
+    /// Another format version.
+    #[error(
+        "format version {found}, written by wavrad {written_by}; this wavrad ({}) reads version \
+         {FORMAT_VERSION}: solve the scene again",
+        env!("CARGO_PKG_VERSION")
+    )]
+    Version {
+        /// The file's format version.
+        found: u32,
+        /// The wavrad version that wrote it.
+        written_by: String,
+    },
+    /// Shorter than its header says.
+    #[error("truncated: {found} bytes of {expected} (the write was cut short, or the copy)")]
+    Truncated {
+        /// The bytes the header promises.
+        expected: u64,
+        /// The bytes there are.
+        found: u64,
+    },
+    /// Longer than its header says.
+    #[error("{0} stray bytes after the solution")]
+    TrailingBytes(u64),
+    /// The body does not match its checksum.
+    #[error("damaged: the checksum is {computed:08x}, the header says {stored:08x}")]
+    Checksum {
+        /// The CRC-32 in the header.
+        stored: u32,
+        /// The CRC-32 of the body as read.
+        computed: u32,
+    },
+    /// The body matches its checksum but is not a solution (a writer's
+    /// bug, or a file made by hand).
+    #[error("damaged: {0}")]
+    Undecodable(String),
+    /// The scene file loads to another scene than the one solved.
+    #[error(
+        "the scene changed since the solve: {scene} now loads with {difference}; solve it again"
+    )]
+    SceneChanged {
+        /// The scene file.
+        scene: PathBuf,
+        /// What differs (or why it no longer loads).
+        difference: String,
+    },
+}
+
+/// Write `solution` to `path` atomically (a temporary file beside it,
+/// renamed into place), with the `source` its scene was loaded from, if
+/// any, for [`read_solution`] to check.
+pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>) -> Result<()> {
+    let body = Body {
+        source: source.map(Cow::Borrowed),
+        scene: Cow::Borrowed(&solution.scene),
+        pairs: Cow::Borrowed(&solution.pairs),
+        trees: Cow::Borrowed(&solution.trees),
+        radiance: Cow::Borrowed(&solution.radiance),
+        interactions: Cow::Borrowed(&solution.interactions),
+        directional: Cow::Borrowed(&solution.directional),
+        settings: solution.settings,
+        stats: Cow::Borrowed(&solution.stats),
+    };
+    let encoded = postcard::to_allocvec(&body).map_err(|e| unencodable(path, e))?;
+    let body = zstd::bulk::compress(&encoded, ZSTD_LEVEL).map_err(|e| Error::io(path, e))?;
+    let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
+    bytes.extend_from_slice(&MAGIC);
+    bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    let mut writer = [0u8; WRITER_LEN];
+    let version = env!("CARGO_PKG_VERSION").as_bytes();
+    writer[..version.len()].copy_from_slice(version);
+    bytes.extend_from_slice(&writer);
+    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
+    bytes.extend_from_slice(&body);
+    crate::write_atomic(path, &bytes)
+}
+
+/// Read the solution in `path`, rebuild its ray queries, and check that
+/// its scene file, if it was written with one and is still there, loads
+/// with the same `-D` values to the scene solved.
+///
+/// # Errors
+/// [`Error::Io`] if the file cannot be read; [`Error::Solution`] if it is
+/// not a solution file, is of another format version, is truncated or
+/// damaged, or its scene changed since the solve.
+pub fn read_solution(path: &Path) -> Result<ReadSolution> {
+    let metadata = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !metadata.is_file() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let (written_by, body) = decode(&bytes).map_err(|p| Error::solution(path, p))?;
+    let Body {
+        source,
+        scene,
+        pairs,
+        trees,
+        radiance,
+        interactions,
+        directional,
+        settings,
+        stats,
+    } = body;
+    let mut stats = stats.into_owned();
+    stats.settings = settings.values().into_iter().collect();
+    let scene = scene.into_owned();
+    scene
+        .check_bounds()
+        .map_err(|e| Error::solution(path, SolutionProblem::Undecodable(e.to_string())))?;
+    let solution = Solution {
+        tracer: SceneTracer::new(&scene),
+        scene,
+        pairs: pairs.into_owned(),
+        trees: trees.into_owned(),
+        radiance: radiance.into_owned(),
+        interactions: interactions.into_owned(),
+        directional: directional.into_owned(),
+        settings,
+        stats,
+    };
+    check_consistent(&solution).map_err(|p| Error::solution(path, p))?;
+    let source = source.map(Cow::into_owned);
+    let mut warnings = Vec::new();
+    if let Some(source) = &source {
+        if let Some(warning) = check_source(path, source, &solution.scene)? {
+            warnings.push(warning);
+        }
+    }
+    Ok(ReadSolution {
+        solution,
+        source,
+        written_by,
+        warnings,
+    })
+}
+
+/// What a solution file's body holds: every field of a [`Solution`] but
+/// its ray queries, and the scene's [`Source`]. Borrowed to write, owned
+/// when read.
+#[derive(Serialize, Deserialize)]
+struct Body<'a> {
+    source: Option<Cow<'a, Source>>,
+    scene: Cow<'a, Scene>,
+    pairs: Cow<'a, [(u32, u32)]>,
+    trees: Cow<'a, [ElementTree]>,
+    radiance: Cow<'a, [Vec<Rgb>]>,
+    interactions: Cow<'a, Interactions>,
+    directional: Cow<'a, [Vec<Rgb>]>,
+    settings: SolveSettings,
+    stats: Cow<'a, Stats>,
+}
+
+/// The writer's version and the body of a solution file's `bytes`.
+fn decode(bytes: &[u8]) -> std::result::Result<(String, Body<'static>), SolutionProblem> {
+    let magic = &bytes[..bytes.len().min(MAGIC.len())];
+    if magic != &MAGIC[..magic.len()] || bytes.is_empty() {
+        return Err(SolutionProblem::NotASolution);
+    }
+    if bytes.len() < HEADER_LEN {
+        return Err(SolutionProblem::Truncated {
+            expected: HEADER_LEN as u64,
+            found: bytes.len() as u64,
+        });
+    }
+    let field = |range: std::ops::Range<usize>| &bytes[range];
+    let version = u32::from_le_bytes(field(8..12).try_into().expect("4 bytes"));
+    let writer = field(12..12 + WRITER_LEN);
+    let written_by =
+        String::from_utf8_lossy(&writer[..writer.iter().take_while(|&&b| b != 0).count()])
+            .into_owned();
+    if version != FORMAT_VERSION {
+        return Err(SolutionProblem::Version {
+            found: version,
+            written_by,
+        });
+    }
+    let length = u64::from_le_bytes(field(44..52).try_into().expect("8 bytes"));
+    let stored = u32::from_le_bytes(field(52..56).try_into().expect("4 bytes"));
+    let body = &bytes[HEADER_LEN..];
+    let found = body.len() as u64;
+    if found < length {
+        return Err(SolutionProblem::Truncated {
+            expected: HEADER_LEN as u64 + length,
+            found: bytes.len() as u64,
+        });
+    }
+    if found > length {
+        return Err(SolutionProblem::TrailingBytes(found - length));
+    }
+    let computed = crc32fast::hash(body);
+    if computed != stored {
+        return Err(SolutionProblem::Checksum { stored, computed });
+    }
+    let undecodable = |e: &dyn std::fmt::Display| SolutionProblem::Undecodable(e.to_string());
+    let encoded = zstd::stream::decode_all(body).map_err(|e| undecodable(&e))?;
+    let body: Body = postcard::from_bytes(&encoded).map_err(|e| undecodable(&e))?;
+    Ok((written_by, body))
+}
+
+/// Check that the parts of `solution` agree in their counts, as the
+/// renderer assumes: a tree and a radiance per surface, a radiance per
+/// node, and per directional structure.
+fn check_consistent(solution: &Solution) -> std::result::Result<(), SolutionProblem> {
+    let surfaces = solution.scene.surfaces.len();
+    let interactions = &solution.interactions;
+    let per_surface = [
+        ("element trees", solution.trees.len()),
+        ("radiance lists", solution.radiance.len()),
+        ("exposure lists", interactions.exposure.len()),
+        ("reflection limits", interactions.limit.len()),
+    ];
+    if let Some((what, n)) = per_surface.iter().find(|(_, n)| *n != surfaces) {
+        return Err(SolutionProblem::Undecodable(format!(
+            "{n} {what} for {surfaces} surfaces"
+        )));
+    }
+    fn nodes<T>(lists: &[Vec<T>]) -> Vec<usize> {
+        lists.iter().map(Vec::len).collect()
+    }
+    let tree_nodes: Vec<usize> = solution.trees.iter().map(|t| t.nodes.len()).collect();
+    let pair_nodes: Vec<usize> = (interactions.directional.iter())
+        .map(|d| d.tree.nodes.len())
+        .collect();
+    let agree = [
+        ("radiance", nodes(&solution.radiance) == tree_nodes),
+        ("exposure", nodes(&interactions.exposure) == tree_nodes),
+        (
+            "directional radiance",
+            nodes(&solution.directional) == pair_nodes,
+        ),
+        (
+            "pair exposure",
+            nodes(&interactions.pair_exposure) == pair_nodes,
+        ),
+    ];
+    match agree.iter().find(|(_, ok)| !ok) {
+        Some((what, _)) => Err(SolutionProblem::Undecodable(format!(
+            "the {what} does not fit the element trees"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Load `source` again and compare it with the `solved` scene: an error
+/// if it loads differently or not at all, a warning if the scene file is
+/// not there to check.
+fn check_source(path: &Path, source: &Source, solved: &Scene) -> Result<Option<String>> {
+    if !source.scene.exists() {
+        return Ok(Some(format!(
+            "{}: its scene file {} is not there, so it is rendered as solved, unchecked",
+            path.display(),
+            source.scene.display()
+        )));
+    }
+    let changed = |difference: String| {
+        Error::solution(
+            path,
+            SolutionProblem::SceneChanged {
+                scene: source.scene.clone(),
+                difference,
+            },
+        )
+    };
+    let now = match crate::load_scene_with(&source.scene, &source.defines) {
+        Ok(loaded) => loaded.scene,
+        Err(e) => return Err(changed(format!("an error: {e}"))),
+    };
+    match difference(solved, &now) {
+        Some(difference) => Err(changed(difference)),
+        None => Ok(None),
+    }
+}
+
+/// The first difference between the scene `solved` and the scene loaded
+/// `now`, in words; `None` when they are equal.
+fn difference(solved: &Scene, now: &Scene) -> Option<String> {
+    if solved.surfaces.len() != now.surfaces.len() {
+        return Some(format!(
+            "{} surfaces, {} when solved",
+            now.surfaces.len(),
+            solved.surfaces.len()
+        ));
+    }
+    let surface = solved
+        .surfaces
+        .iter()
+        .zip(&now.surfaces)
+        .position(|(a, b)| a != b);
+    if let Some(s) = surface {
+        let name = &now.surfaces[s].name;
+        return Some(format!("another surface {s} ({name:?})"));
+    }
+    if solved.camera != now.camera {
+        return Some("another sensor".into());
+    }
+    if solved.film != now.film {
+        return Some("another film".into());
+    }
+    (solved.hints != now.hints).then(|| "another sampler".into())
+}
+
+/// A solution that postcard cannot write (a path that is not UTF-8).
+fn unencodable(path: &Path, e: postcard::Error) -> Error {
+    Error::io(
+        path,
+        std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wavrad_core::progress::Silent;
+    use wavrad_core::solve::solve;
+
+    /// A light over a floor of `floor_bsdf`, its radiance a parameter, and
+    /// a sensor.
+    fn scene_xml(floor_bsdf: &str) -> String {
+        format!(
+            r#"<scene version="3.0.0">
+    <default name="radiance" value="1"/>
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="rectangle" id="light">
+        <emitter type="area"><rgb name="radiance" value="$radiance"/></emitter>
+    </shape>
+    <shape type="rectangle" id="floor">
+        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
+        {floor_bsdf}
+    </shape>
+</scene>
+"#
+        )
+    }
+
+    const GLOSSY: &str = r#"<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>"#;
+
+    /// The scene in `dir`/scene.xml solved, with its source (radiance 2).
+    fn solved(dir: &Path, floor_bsdf: &str) -> (Solution, Source) {
+        let scene = dir.join("scene.xml");
+        std::fs::write(&scene, scene_xml(floor_bsdf)).unwrap();
+        let defines = [("radiance".to_string(), "2".to_string())];
+        let loaded = crate::load_scene_with(&scene, &defines).unwrap();
+        let settings = SolveSettings::default();
+        let solution = solve(&loaded.scene, &settings, &Silent).unwrap();
+        (solution, Source::new(&scene, &defines).unwrap())
+    }
+
+    /// `solution` written to `dir`/solution.wavrad with `source`, as bytes.
+    fn written(dir: &Path, solution: &Solution, source: Option<&Source>) -> (PathBuf, Vec<u8>) {
+        let path = dir.join("solution.wavrad");
+        write_solution(&path, solution, source).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        (path, bytes)
+    }
+
+    /// The problem reading `bytes` as a solution file in `dir`.
+    fn problem_of(dir: &Path, bytes: &[u8]) -> SolutionProblem {
+        let path = dir.join("damaged.wavrad");
+        std::fs::write(&path, bytes).unwrap();
+        match read_solution(&path) {
+            Err(Error::Solution {
+                path: named,
+                problem,
+            }) => {
+                assert_eq!(named, path);
+                problem
+            }
+            Err(e) => panic!("another error: {e}"),
+            Ok(_) => panic!("read"),
+        }
+    }
+
+    #[test]
+    fn solutions_round_trip_bit_for_bit() {
+        for floor in ["", GLOSSY] {
+            let dir = tempfile::tempdir().unwrap();
+            let (solution, source) = solved(dir.path(), floor);
+            assert_eq!(floor.is_empty(), solution.directional.is_empty());
+            let (path, bytes) = written(dir.path(), &solution, Some(&source));
+            let read = read_solution(&path).unwrap();
+            assert!(read.warnings.is_empty(), "{:?}", read.warnings);
+            assert_eq!(read.source.as_ref(), Some(&source));
+            assert_eq!(read.written_by, env!("CARGO_PKG_VERSION"));
+            let (a, b) = (&solution, &read.solution);
+            assert_eq!(a.scene, b.scene);
+            assert_eq!(a.pairs, b.pairs);
+            assert_eq!(a.trees, b.trees);
+            assert_eq!(a.radiance, b.radiance);
+            assert_eq!(a.interactions, b.interactions);
+            assert_eq!(a.directional, b.directional);
+            assert_eq!(a.settings, b.settings);
+            assert_eq!(a.stats, b.stats);
+            // Written again, the same bytes.
+            let again = dir.path().join("again.wavrad");
+            write_solution(&again, b, Some(&source)).unwrap();
+            assert_eq!(std::fs::read(&again).unwrap(), bytes);
+        }
+    }
+
+    #[test]
+    fn damaged_files_are_refused_with_their_problem() {
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, _) = solved(dir.path(), GLOSSY);
+        let (_, bytes) = written(dir.path(), &solution, None);
+        let dir = dir.path();
+
+        let problem = problem_of(dir, b"<scene version=\"3.0.0\"/>");
+        assert!(
+            matches!(problem, SolutionProblem::NotASolution),
+            "{problem}"
+        );
+        assert!(matches!(
+            problem_of(dir, b""),
+            SolutionProblem::NotASolution
+        ));
+
+        for cut in [4, HEADER_LEN - 1, HEADER_LEN, bytes.len() - 1] {
+            let problem = problem_of(dir, &bytes[..cut]);
+            let SolutionProblem::Truncated { found, .. } = problem else {
+                panic!("cut at {cut}: {problem}");
+            };
+            assert_eq!(found, cut as u64);
+            assert!(problem.to_string().contains("truncated"));
+        }
+        let longer = [&bytes[..], b"\0"].concat();
+        let problem = problem_of(dir, &longer);
+        assert!(
+            matches!(problem, SolutionProblem::TrailingBytes(1)),
+            "{problem}"
+        );
+
+        for at in [HEADER_LEN, bytes.len() / 2, bytes.len() - 1] {
+            let mut flipped = bytes.clone();
+            flipped[at] ^= 0x10;
+            let problem = problem_of(dir, &flipped);
+            assert!(
+                matches!(problem, SolutionProblem::Checksum { .. }),
+                "flipped at {at}: {problem}"
+            );
+            assert!(problem.to_string().contains("damaged"));
+        }
+
+        let mut newer = bytes.clone();
+        newer[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+        let problem = problem_of(dir, &newer);
+        let SolutionProblem::Version { found, written_by } = &problem else {
+            panic!("{problem}");
+        };
+        assert_eq!(
+            (*found, written_by.as_str()),
+            (FORMAT_VERSION + 1, env!("CARGO_PKG_VERSION"))
+        );
+        assert!(
+            problem.to_string().contains("format version 2"),
+            "{problem}"
+        );
+    }
+
+    #[test]
+    fn a_changed_scene_is_refused_and_a_missing_one_warned_of() {
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, source) = solved(dir.path(), "");
+        let (path, _) = written(dir.path(), &solution, Some(&source));
+        let scene = &source.scene;
+        let unchanged = scene_xml("");
+        let changed = |xml: String| {
+            std::fs::write(scene, xml).unwrap();
+            match read_solution(&path) {
+                Err(Error::Solution {
+                    problem:
+                        SolutionProblem::SceneChanged {
+                            scene: named,
+                            difference,
+                        },
+                    ..
+                }) => {
+                    assert_eq!(&named, scene);
+                    difference
+                }
+                Err(e) => panic!("another error: {e}"),
+                Ok(_) => panic!("a changed scene was read"),
+            }
+        };
+        // An edit that loads to the same scene is no change.
+        std::fs::write(scene, format!("<!-- edited -->\n{unchanged}")).unwrap();
+        assert!(read_solution(&path).unwrap().warnings.is_empty());
+        let floor = r#"<bsdf type="diffuse"><rgb name="reflectance" value="0.3"/></bsdf>"#;
+        assert!(changed(scene_xml(floor)).contains("surface 1 (\"floor\")"));
+        assert!(
+            changed(unchanged.replace("</film>", "<rfilter type=\"box\"/></film>"))
+                .contains("film")
+        );
+        assert!(changed(unchanged.replace(
+            "<shape type=\"rectangle\" id=\"light\">",
+            "<shape type=\"bogus\">"
+        ))
+        .contains("an error"));
+        // The -D value is the one solved with, whatever the file's default.
+        std::fs::write(scene, unchanged.replace("value=\"1\"", "value=\"3\"")).unwrap();
+        assert!(read_solution(&path).is_ok());
+
+        std::fs::remove_file(scene).unwrap();
+        let read = read_solution(&path).unwrap();
+        assert_eq!(read.warnings.len(), 1);
+        assert!(
+            read.warnings[0].contains("not there"),
+            "{}",
+            read.warnings[0]
+        );
+        assert_eq!(read.solution.radiance, solution.radiance);
+    }
+}
