@@ -47,6 +47,7 @@
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use wavrad_core::geometry::hierarchy::ElementTree;
 use wavrad_core::geometry::tracing::SceneTracer;
@@ -75,6 +76,11 @@ const _: () = assert!(env!("CARGO_PKG_VERSION").len() <= WRITER_LEN);
 /// compresses about as well as its higher levels in a fraction of their
 /// time.
 const ZSTD_LEVEL: i32 = 3;
+
+/// How many times its compressed size a body may decompress to: real
+/// solutions compress about 2–4×, and the bound keeps a crafted file from
+/// taking unbounded memory.
+const MAX_EXPANSION: u64 = 256;
 
 /// Where a solved scene came from: the scene file and the `-D` values it
 /// was loaded with. Reading a solution loads it again and compares.
@@ -314,7 +320,16 @@ fn decode(bytes: &[u8]) -> std::result::Result<(String, Body<'static>), Solution
         return Err(SolutionProblem::Checksum { stored, computed });
     }
     let undecodable = |e: &dyn std::fmt::Display| SolutionProblem::Undecodable(e.to_string());
-    let encoded = zstd::stream::decode_all(body).map_err(|e| undecodable(&e))?;
+    let limit = MAX_EXPANSION * length + (1 << 20);
+    let mut encoded = Vec::new();
+    zstd::stream::Decoder::new(body)
+        .and_then(|decoder| decoder.take(limit + 1).read_to_end(&mut encoded))
+        .map_err(|e| undecodable(&e))?;
+    if encoded.len() as u64 > limit {
+        return Err(undecodable(&format_args!(
+            "it decompresses to more than {limit} bytes ({MAX_EXPANSION} times its size)"
+        )));
+    }
     let body: Body = postcard::from_bytes(&encoded).map_err(|e| undecodable(&e))?;
     Ok((written_by, body))
 }
@@ -577,6 +592,26 @@ mod tests {
         );
         assert!(
             problem.to_string().contains("format version 2"),
+            "{problem}"
+        );
+    }
+
+    #[test]
+    fn a_body_that_decompresses_too_far_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, _) = solved(dir.path(), "");
+        let (_, bytes) = written(dir.path(), &solution, None);
+        // A well-formed header and checksum over a tiny body that expands
+        // 50 000 times: zeros, as a crafted file could hold.
+        let body = zstd::bulk::compress(&vec![0u8; 50 << 20], ZSTD_LEVEL).unwrap();
+        assert!((body.len() as u64) * MAX_EXPANSION + (1 << 20) < 50 << 20);
+        let mut crafted = bytes[..HEADER_LEN].to_vec();
+        crafted[44..52].copy_from_slice(&(body.len() as u64).to_le_bytes());
+        crafted[52..56].copy_from_slice(&crc32fast::hash(&body).to_le_bytes());
+        crafted.extend_from_slice(&body);
+        let problem = problem_of(dir.path(), &crafted);
+        assert!(
+            matches!(&problem, SolutionProblem::Undecodable(m) if m.contains("decompresses to more than")),
             "{problem}"
         );
     }
