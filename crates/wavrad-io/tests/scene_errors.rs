@@ -3,6 +3,7 @@
 
 use std::fs;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 use wavrad_io::{load_scene, load_scene_str};
 
@@ -22,13 +23,32 @@ fn assert_error(xml: &str, line: u32, needles: &[&str]) {
 
 #[track_caller]
 fn assert_error_in(dir: &Path, xml: &str, line: u32, needles: &[&str]) {
-    let msg = error_in(dir, xml);
+    assert_message(&error_in(dir, xml), "bad.xml", line, needles);
+}
+
+/// Assert `msg` is at `file:line` and mentions every needle.
+#[track_caller]
+fn assert_message(msg: &str, file: &str, line: u32, needles: &[&str]) {
     assert!(
-        msg.starts_with(&format!("bad.xml:{line}: ")),
-        "expected line {line}: {msg}"
+        msg.starts_with(&format!("{file}:{line}: ")),
+        "expected {file}:{line}: {msg}"
     );
     for needle in needles {
         assert!(msg.contains(needle), "expected {needle:?} in: {msg}");
+    }
+}
+
+/// Assert the error of `xml` loaded with `overrides` (as `-D name=value`)
+/// is at `bad.xml:line` and mentions every needle.
+#[track_caller]
+fn assert_override_error(xml: &str, overrides: &[(&str, &str)], line: u32, needles: &[&str]) {
+    let overrides: Vec<(String, String)> = overrides
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    match load_scene_str(xml, Path::new("."), "bad.xml", &overrides) {
+        Ok(_) => panic!("loaded without error:\n{xml}"),
+        Err(e) => assert_message(&e.to_string(), "bad.xml", line, needles),
     }
 }
 
@@ -641,5 +661,169 @@ fn glossy_bsdf_parameter_errors() {
         "ward",
         3,
         &["unknown parameter \"exponent\"", "bsdf \"ward\""],
+    );
+}
+
+/// A scene reading `$res` and declaring `spp` without reading it.
+const WITH_DEFAULTS: &str = "<scene version=\"3.0.0\">\n<default name=\"res\" value=\"8\"/>\n\
+    <default name=\"spp\" value=\"4\"/>\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n\
+    <integer name=\"width\" value=\"$res\"/></film></sensor>\n<shape type=\"cube\"/></scene>";
+
+#[test]
+fn overrides_no_parameter_reads() {
+    // Declared but never read: named at its <default>.
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("spp", "64")],
+        3,
+        &["spp=64 is used nowhere", "no attribute reads $spp", "$res"],
+    );
+    // Never declared (a misspelling): named at the <scene>.
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("rez", "64")],
+        1,
+        &[
+            "rez=64 is used nowhere",
+            "declares no such <default>",
+            "$res",
+        ],
+    );
+}
+
+#[test]
+fn overrides_with_bad_names() {
+    assert_override_error(WITH_DEFAULTS, &[("", "5")], 1, &["=5", "name is empty"]);
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("res-x", "5")],
+        1,
+        &["res-x=5", "letters, digits and _"],
+    );
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("res", "5"), ("res", "6")],
+        1,
+        &["res=6", "given twice"],
+    );
+}
+
+#[test]
+fn unknown_integrator_parameters() {
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integer name=\"samples\" value=\"4\"/>\n</integrator></scene>",
+        3,
+        &["unknown parameter \"samples\"", "integrator \"path\"", "max_depth", "rr_depth"],
+    );
+    // What another plugin reads is unknown to this one.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"direct\">\n\n<integer name=\"max_depth\" value=\"4\"/>\n</integrator></scene>",
+        4,
+        &["unknown parameter \"max_depth\"", "integrator \"direct\"", "emitter_samples"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<string name=\"rr_depth\" value=\"five\"/>\n</integrator></scene>",
+        3,
+        &["\"rr_depth\"", "must be an <integer>", "<string>"],
+    );
+}
+
+#[test]
+fn integrators_nest_only_where_mitsuba_nests_them() {
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integrator type=\"direct\"/>\n</integrator></scene>",
+        3,
+        &["integrator \"path\" cannot contain a <integrator>"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"aov\">\n<bsdf type=\"diffuse\"/>\n</integrator></scene>",
+        3,
+        &["integrator \"aov\" cannot contain a <bsdf>"],
+    );
+    // A nested integrator's parameters are checked too.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"aov\"><integrator type=\"path\" name=\"image\">\n<float name=\"max_depth\" value=\"1.5\"/>\n</integrator></integrator></scene>",
+        3,
+        &["\"max_depth\"", "must be an <integer>"],
+    );
+}
+
+#[test]
+fn includes_doubling_at_each_level_fail_fast_at_the_depth_bound() {
+    // 31 files each including the next twice would expand 2^31 files.
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..31 {
+        let next = format!("<include filename=\"{}.xml\"/>", i + 1);
+        fs::write(
+            dir.path().join(format!("{i}.xml")),
+            format!("<scene version=\"3.0.0\">\n{next}\n{next}\n</scene>"),
+        )
+        .unwrap();
+    }
+    fs::write(
+        dir.path().join("31.xml"),
+        "<scene version=\"3.0.0\"><shape type=\"cube\"/></scene>",
+    )
+    .unwrap();
+    let started = Instant::now();
+    let e = load_scene(&dir.path().join("0.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(started.elapsed() < Duration::from_secs(5), "{e}");
+    // Named at the include that would go one file deeper than Mitsuba goes.
+    let deepest = dir
+        .path()
+        .join(format!("{}.xml", wavrad_io::mitsuba::MAX_INCLUDE_DEPTH));
+    assert_message(
+        &e,
+        &deepest.display().to_string(),
+        2,
+        &["includes nested deeper than 14 files"],
+    );
+}
+
+#[test]
+fn includes_past_the_count_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("leaf.xml"), "<scene version=\"3.0.0\"/>").unwrap();
+    let n = wavrad_io::mitsuba::MAX_INCLUDES;
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n{}</scene>",
+        "<include filename=\"leaf.xml\"/>\n".repeat(n + 1)
+    );
+    // The first n load; the next is refused where it is written.
+    assert_error_in(
+        dir.path(),
+        &xml,
+        n as u32 + 2,
+        &["more than 4096 <include>s"],
+    );
+}
+
+#[test]
+fn includes_and_spectra_of_devices_and_directories() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("sub")).unwrap();
+    if Path::new("/dev/zero").exists() {
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\">\n<include filename=\"/dev/zero\"/></scene>",
+            2,
+            &["\"/dev/zero\"", "not a regular file"],
+        );
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"/dev/zero\"/></bsdf></scene>",
+            2,
+            &["\"/dev/zero\"", "not a regular file"],
+        );
+        let e = load_scene(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert_eq!(e, "/dev/zero: not a regular file");
+    }
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n\n<include filename=\"sub\"/></scene>",
+        3,
+        &["sub\"", "not a regular file"],
     );
 }
