@@ -10,6 +10,7 @@ from typing_extensions import TypeAlias, TypedDict, Unpack
 
 __all__ = [
     "__version__",
+    "ArgumentError",
     "Plan",
     "Projector",
     "Scene",
@@ -62,6 +63,11 @@ class SolveError(WavradError):
     empty scene, no light, no sensor, a diverging solve, pixels not
     finite)."""
 
+class ArgumentError(WavradError, ValueError):
+    """An argument wavrad cannot use (a wrongly typed setting, a wrongly
+    shaped image, a plan used up); also a ``ValueError``. An unknown
+    keyword raises ``TypeError``, as for any Python function."""
+
 @final
 class Scene:
     """A scene loaded from a Mitsuba 3 XML file."""
@@ -102,7 +108,7 @@ class Solution:
         the scene's ``fov_axis``; the film stays the scene's. Anything not
         given keeps the scene camera's value: its position, its view
         direction (so a new ``origin`` alone moves the camera without turning
-        it), its up axis, its field of view. Raises ``ValueError`` for a
+        it), its up axis, its field of view. Raises ``ArgumentError`` for a
         degenerate ``look_at`` (origin = target, up zero or along the view),
         a point that is not three finite numbers, a ``fov`` outside (0, 180)
         or a ``fov`` for an orthographic sensor.
@@ -163,7 +169,8 @@ class Solution:
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
     ``<default>`` values (converted with ``str()``), like Mitsuba's ``-D``.
-    Raises ``SceneError`` naming the file and line; what is loaded but not
+    Raises ``SceneError`` naming the file and line, also for an override
+    that no ``$name`` in the scene reads (as Mitsuba does); what is loaded but not
     as written (a mesh's triangles of zero area skipped, a sheared sphere
     kept a sphere) is reported as a ``UserWarning`` naming the file and
     line."""
@@ -240,7 +247,7 @@ def solve(
     shooting early (the Gauss-Seidel sweeps still finish the solution); an
     exception it raises stops shooting and is raised from ``solve``.
 
-    Raises ``TypeError`` for an unknown keyword, ``ValueError`` for a value
+    Raises ``TypeError`` for an unknown keyword, ``ArgumentError`` for a value
     of the wrong type or an ``on_step`` without ``solver="shoot"``, and
     ``SolveError`` for a value outside its range (the message names the
     setting and the range), an unknown ``oracle`` or ``solver``, the
@@ -275,7 +282,7 @@ class Plan:
         is released) and return their links as bytes for :meth:`finish`:
         a header naming the plan by its fingerprint, then the links in
         postcard. Raises ``SolveError`` for a block past the items and
-        ``ValueError`` for a step other than 1."""
+        ``ArgumentError`` for a step other than 1."""
     def items(self, block: range) -> bytes:
         """The items in ``block`` (a ``range`` with step 1) as bytes for
         :meth:`Projector.project`: a header naming the scene, settings and
@@ -286,7 +293,7 @@ class Plan:
         once, in any order: the emitters' links carried down, the element
         hierarchies built, the Gauss-Seidel sweeps (and the weighted
         oracles' refine-solve loop) run here. The plan is used up; using it
-        again raises ``ValueError``. Raises ``SceneError`` for bytes that
+        again raises ``ArgumentError``. Raises ``SceneError`` for bytes that
         are not a block or were projected from another plan (another scene,
         other settings), and ``SolveError`` for blocks that leave items out
         or hold some twice; the plan is kept then."""

@@ -31,7 +31,7 @@ use wavrad_io::block_links::{
     Fingerprint,
 };
 
-use error::{Error, Result, SceneError, SolveError, WavradError};
+use error::{argument_error, Error, Result, SceneError, SolveError, WavradError};
 
 /// A scene loaded from a Mitsuba 3 XML file.
 #[pyclass(module = "wavrad", frozen)]
@@ -592,6 +592,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("WavradError", py.get_type::<WavradError>())?;
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SolveError", py.get_type::<SolveError>())?;
+    m.add("ArgumentError", argument_error(py)?)?;
     m.add_class::<Scene>()?;
     m.add_class::<Solution>()?;
     m.add_class::<Plan>()?;
