@@ -45,7 +45,7 @@ def test_every_public_name_is_documented_as_its_stub() -> None:
 
 def test_help_shows_parameters_and_errors() -> None:
     text = pydoc.render_doc(wavrad.solve, renderer=pydoc.plaintext)
-    for needle in ["threshold", "max_level", "oracle", "Raises", "SolveError"]:
+    for needle in ["threshold", "max_level", "oracle", "progress", "Raises", "SolveError"]:
         assert needle in text, needle
     params = inspect.signature(wavrad.solve).parameters
     assert params["threshold"].kind is inspect.Parameter.KEYWORD_ONLY

@@ -32,6 +32,7 @@ __version__: str
 
 _Path: TypeAlias = str | PathLike[str]
 _Image: TypeAlias = npt.NDArray[np.float32]
+_Progress: TypeAlias = bool | Callable[[str, int, int], object] | None
 
 class _SolveSettings(TypedDict, total=False):
     """The settings :func:`solve` takes by keyword (documented there), as
@@ -98,6 +99,7 @@ class Solution:
         eye: bool = True,
         gather_cache: bool = False,
         gather_spp: int | None = None,
+        progress: _Progress = None,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
@@ -133,6 +135,9 @@ class Solution:
         later one, instead of gathering per camera ray: for many views of
         one solution. ``gather_spp``: for ``"gather"``, how many of an
         interior pixel's camera rays also final-gather (default ``spp`` / 32).
+        ``progress``: as :func:`solve`'s; the render is one step (phase
+        ``"rendering"``), and Ctrl-C raises ``KeyboardInterrupt`` once it is
+        done.
         Raises ``SolveError`` for an unknown mode, a value out of range, an
         option the mode has no use for (``eye=False`` with ``"gather"``,
         ``gather_cache=True`` with any other mode), a scene without a
@@ -192,6 +197,7 @@ def solve(
     max_memory: float | None = None,
     solver: Literal["gather", "shoot"] | None = None,
     on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
+    progress: _Progress = None,
 ) -> Solution:
     """Solve ``scene``; the solve runs without the GIL.
 
@@ -247,8 +253,24 @@ def solve(
     shooting early (the Gauss-Seidel sweeps still finish the solution); an
     exception it raises stops shooting and is raised from ``solve``.
 
+    ``progress``: how each phase (``"linking"``, ``"kernels"``, ``"3-point
+    kernels"``, ``"emitter links"``, ``"solving"``, ``"shooting"``, ...)
+    reports: ``True`` prints a line like tqdm's on ``sys.stderr`` (redrawn
+    in place on a terminal, else one line at each phase's end and every
+    10 s), ``False`` nothing, a callable is called as ``progress(phase,
+    done, total)`` at each phase's start (``done`` 0), at most every 0.1 s
+    during it and at its end, from any thread; default (``None``): ``True``
+    where ``sys.stderr`` is a terminal, else ``False``. An exception the
+    callable raises stops the solve, which finishes from what is done, and
+    is raised from ``solve``. The first Ctrl-C does the same: the solve
+    stops refining and sweeping, is finished from what is done
+    (``stats["stopped"]`` is ``"interrupted"``) and returned, with a
+    ``UserWarning``; a second one raises ``KeyboardInterrupt`` once it has
+    finished.
+
     Raises ``TypeError`` for an unknown keyword, ``ArgumentError`` for a value
-    of the wrong type or an ``on_step`` without ``solver="shoot"``, and
+    of the wrong type, a ``progress`` that is neither a bool nor callable
+    or an ``on_step`` without ``solver="shoot"``, and
     ``SolveError`` for a value outside its range (the message names the
     setting and the range), an unknown ``oracle`` or ``solver``, the
     importance oracle on a scene without a sensor, the shooting solver
