@@ -827,3 +827,216 @@ fn includes_and_spectra_of_devices_and_directories() {
         &["sub\"", "not a regular file"],
     );
 }
+
+/// `(body, line, needles)`: a scene of `body` at line 2 on fails at `line`
+/// with a message holding every needle.
+type Case = (&'static str, u32, &'static [&'static str]);
+
+#[track_caller]
+fn assert_cases(cases: &[Case]) {
+    for &(body, line, needles) in cases {
+        assert_error(
+            &format!("<scene version=\"3.0.0\">\n{body}\n</scene>"),
+            line,
+            needles,
+        );
+    }
+}
+
+#[test]
+fn sizes_past_their_bounds_name_the_line() {
+    assert_cases(&[
+        (
+            "<shape type=\"rectangle\">\n<transform name=\"to_world\"><scale value=\"1e19\"/></transform></shape>",
+            2,
+            &["shape \"rectangle\"", "vertex", "up to 1e12"],
+        ),
+        (
+            "<shape type=\"cube\">\n<transform name=\"to_world\"><scale value=\"1e38\"/></transform></shape>",
+            2,
+            &["shape \"cube\"", "up to 1e12"],
+        ),
+        (
+            "\n<shape type=\"sphere\"><float name=\"radius\" value=\"1e20\"/></shape>",
+            3,
+            &["shape \"sphere\"", "up to 1e12"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"4294967295\"/>\n<integer name=\"height\" value=\"4294967295\"/></film></sensor>",
+            3,
+            &["width = 4294967295", "at most 32768 pixels a side"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"100\"/>\n<integer name=\"height\" value=\"65536\"/></film></sensor>",
+            4,
+            &["height = 65536"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"20000\"/>\n<integer name=\"height\" value=\"20000\"/></film></sensor>",
+            4,
+            &["20000×20000", "at most 268435456 pixels"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"99999999999\"/></film></sensor>",
+            3,
+            &["width must be a positive integer", "99999999999"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"gaussian\">\n<float name=\"stddev\" value=\"1e6\"/></rfilter></film></sensor>",
+            3,
+            &["gaussian", "at most 6 pixels"],
+        ),
+        (
+            "<sensor type=\"perspective\"><sampler type=\"independent\">\n<integer name=\"sample_count\" value=\"2000000000\"/></sampler></sensor>",
+            3,
+            &["sample_count", "1 to 65536", "2000000000"],
+        ),
+        (
+            "<sampler type=\"independent\">\n\n<integer name=\"sample_count\" value=\"0\"/></sampler>",
+            4,
+            &["sample_count", "0"],
+        ),
+    ]);
+}
+
+#[test]
+fn values_that_are_not_numbers_or_out_of_range() {
+    assert_cases(&[
+        (
+            "<sensor type=\"perspective\">\n<float name=\"fov\" value=\"180\"/></sensor>",
+            3,
+            &["fov = 180", "(0, 180)"],
+        ),
+        (
+            "<sensor type=\"perspective\">\n<float name=\"fov\" value=\"nan\"/></sensor>",
+            3,
+            &["malformed number \"nan\"", "fov"],
+        ),
+        (
+            "<shape type=\"cube\"><transform name=\"to_world\">\n<translate x=\"inf\"/></transform></shape>",
+            3,
+            &["malformed number \"inf\"", "<translate>"],
+        ),
+        (
+            "<shape type=\"cube\"><emitter type=\"area\">\n<rgb name=\"radiance\" value=\"nan\"/></emitter></shape>",
+            3,
+            &["malformed number \"nan\"", "radiance"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"height\" value=\"0\"/></film></sensor>",
+            3,
+            &["height must be a positive integer", "0"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"4.5\"/></film></sensor>",
+            3,
+            &["malformed integer \"4.5\"", "width"],
+        ),
+        (
+            "<shape type=\"cube\" id=\"c\">\n<boolean name=\"flip_normals\" value=\"yes\"/></shape>",
+            3,
+            &["malformed boolean \"yes\"", "true or false"],
+        ),
+        (
+            "<bsdf type=\"diffuse\">\n<rgb name=\"reflectance\" value=\"0.1, 0.2\"/></bsdf>",
+            3,
+            &["1 or 3 values", "got 2"],
+        ),
+        (
+            "<shape type=\"cube\"><transform name=\"to_world\">\n<matrix value=\"1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\"/></transform></shape>",
+            3,
+            &["matrix"],
+        ),
+        (
+            "<sensor type=\"perspective\">\n<float name=\"near_clip\" value=\"10\"/><float name=\"far_clip\" value=\"1\"/></sensor>",
+            3,
+            &["near_clip < far_clip", "near_clip = 10"],
+        ),
+        (
+            "<sensor type=\"perspective\"><transform name=\"to_world\">\n<scale value=\"2\"/></transform></sensor>",
+            2,
+            &["must not scale"],
+        ),
+    ]);
+}
+
+#[test]
+fn structure_mitsuba_refuses() {
+    assert_cases(&[
+        ("\n<include/>", 3, &["<include> needs a \"filename\" attribute"]),
+        ("<default name=\"spp\"/>", 2, &["<default> needs a \"value\" attribute"]),
+        ("\n<default name=\"\" value=\"1\"/>", 3, &["<default> with an empty name"]),
+        (
+            "<default name=\"spp\" value=\"1\" type=\"int\"/>",
+            2,
+            &["unexpected attribute \"type\" in <default>"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\"/>\n<film type=\"hdrfilm\"/></sensor>",
+            3,
+            &["more than one <film>"],
+        ),
+        (
+            "<shape type=\"cube\"><bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></shape>",
+            3,
+            &["more than one <bsdf>"],
+        ),
+        (
+            "<bsdf type=\"diffuse\" id=\"w\"/>\n<ref id=\"w\"/>",
+            3,
+            &["<ref> at the top level"],
+        ),
+        (
+            "<sampler type=\"independent\">\n<rfilter type=\"box\"/></sampler>",
+            3,
+            &["cannot contain a <rfilter>"],
+        ),
+        ("\n<rfilter type=\"box\"/>", 3, &["must be nested in a <film>"]),
+        (
+            "<shape type=\"cube\">\n<spectrum name=\"x\" value=\"400:1\" filename=\"s.spd\"/></shape>",
+            3,
+            &["either \"value\" or \"filename\""],
+        ),
+        (
+            "<bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"missing.spd\"/></bsdf>",
+            3,
+            &["cannot read spectrum file", "missing.spd"],
+        ),
+    ]);
+    assert_error(
+        "<scene version=\"x.y\">\n</scene>",
+        1,
+        &["malformed scene version \"x.y\""],
+    );
+}
+
+#[test]
+fn mesh_files_that_cannot_be_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("meshes")).unwrap();
+    fs::write(
+        dir.path().join("far.obj"),
+        "v 1e20 0 0\nv 0 1e20 0\nv 0 0 1e20\nf 1 2 3\n",
+    )
+    .unwrap();
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n\n<shape type=\"obj\"><string name=\"filename\" value=\"far.obj\"/></shape></scene>",
+        3,
+        &["shape \"obj\"", "up to 1e12"],
+    );
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n<shape type=\"ply\">\n<string name=\"filename\" value=\"meshes\"/></shape></scene>",
+        3,
+        &["meshes", "not a regular file"],
+    );
+    if Path::new("/dev/zero").exists() {
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\">\n<shape type=\"obj\">\n<string name=\"filename\" value=\"/dev/zero\"/></shape></scene>",
+            3,
+            &["/dev/zero", "not a regular file"],
+        );
+    }
+}

@@ -64,7 +64,8 @@ use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use wavrad_core::scene::{Film, RenderHints, Scene};
+use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::{Film, RenderHints, Scene, Surface};
 
 use crate::error::{Error, Result};
 use document::{read_scene_document, Element, Location};
@@ -167,7 +168,9 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         }
         match n.tag() {
             "shape" => {
+                let first_surface = surfaces.len();
                 let emitter = shapes::build_shape(*n, doc, shape_index, &mut surfaces)?;
+                check_coordinates(&surfaces[first_surface..], n)?;
                 if let Some(e) = emitter {
                     if let Some(first) = attached.insert(e.element, e.at) {
                         return Err(e.at.error(format!(
@@ -233,4 +236,21 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 .or(top_level_samples),
         },
     })
+}
+
+/// The core's bound on coordinates ([`MAX_COORDINATE`]), checked for the
+/// surfaces of `shape` so that the error names its line.
+fn check_coordinates(surfaces: &[Surface], shape: &params::Nested) -> Result<()> {
+    let far = surfaces
+        .iter()
+        .flat_map(|s| s.patch.vertices())
+        .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE);
+    match far {
+        Some(v) => Err(shape.at.error(format!(
+            "shape \"{}\" has a vertex at {v} after to_world: wavrad accepts coordinates up to \
+             {MAX_COORDINATE:e} in magnitude",
+            shape.plugin()
+        ))),
+        None => Ok(()),
+    }
 }
