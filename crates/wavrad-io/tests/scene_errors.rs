@@ -1040,3 +1040,24 @@ fn mesh_files_that_cannot_be_meshes() {
         );
     }
 }
+
+#[test]
+fn values_that_would_make_pixels_infinite() {
+    assert_cases(&[
+        (
+            "<shape type=\"cube\"><emitter type=\"area\">\n<rgb name=\"radiance\" value=\"1e300\"/></emitter></shape>",
+            3,
+            &["radiance", "1e300", "up to 1e20"],
+        ),
+        (
+            "<emitter type=\"area\" id=\"e\">\n<spectrum name=\"radiance\" value=\"400:1e300, 700:1e300\"/></emitter>",
+            3,
+            &["radiance", "up to 1e20"],
+        ),
+        (
+            "<bsdf type=\"ward\">\n<float name=\"alpha_u\" value=\"1e-308\"/><float name=\"alpha_v\" value=\"0.1\"/></bsdf>",
+            3,
+            &["alpha_u = 1e-308", "at least 1e-4"],
+        ),
+    ]);
+}
