@@ -15,7 +15,13 @@ process or on another machine, then :meth:`Plan.finish` of the links they
 return; :mod:`wavrad.distributed` does so on Ray.
 """
 
-from wavrad._native import (
+from wavrad import _docs, _native
+
+# help() shows the stubs' docstrings and signatures (wavrad/_docs.py).
+_docs.document(_native)
+
+from wavrad._native import (  # noqa: E402  (documented first)
+    ArgumentError,
     Plan,
     Projector,
     Scene,
@@ -35,6 +41,7 @@ from wavrad._native import (
 
 __all__ = [
     "__version__",
+    "ArgumentError",
     "Plan",
     "Projector",
     "Scene",

@@ -10,6 +10,7 @@ from typing_extensions import TypeAlias, TypedDict, Unpack
 
 __all__ = [
     "__version__",
+    "ArgumentError",
     "Plan",
     "Projector",
     "Scene",
@@ -31,6 +32,7 @@ __version__: str
 
 _Path: TypeAlias = str | PathLike[str]
 _Image: TypeAlias = npt.NDArray[np.float32]
+_Progress: TypeAlias = bool | Callable[[str, int, int], object] | None
 
 class _SolveSettings(TypedDict, total=False):
     """The settings :func:`solve` takes by keyword (documented there), as
@@ -62,6 +64,11 @@ class SolveError(WavradError):
     empty scene, no light, no sensor, a diverging solve, pixels not
     finite)."""
 
+class ArgumentError(WavradError, ValueError):
+    """An argument wavrad cannot use (a wrongly typed setting, a wrongly
+    shaped image, a plan used up); also a ``ValueError``. An unknown
+    keyword raises ``TypeError``, as for any Python function."""
+
 @final
 class Scene:
     """A scene loaded from a Mitsuba 3 XML file."""
@@ -92,6 +99,7 @@ class Solution:
         eye: bool = True,
         gather_cache: bool = False,
         gather_spp: int | None = None,
+        progress: _Progress = None,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
@@ -102,7 +110,7 @@ class Solution:
         the scene's ``fov_axis``; the film stays the scene's. Anything not
         given keeps the scene camera's value: its position, its view
         direction (so a new ``origin`` alone moves the camera without turning
-        it), its up axis, its field of view. Raises ``ValueError`` for a
+        it), its up axis, its field of view. Raises ``ArgumentError`` for a
         degenerate ``look_at`` (origin = target, up zero or along the view),
         a point that is not three finite numbers, a ``fov`` outside (0, 180)
         or a ``fov`` for an orthographic sensor.
@@ -127,6 +135,9 @@ class Solution:
         later one, instead of gathering per camera ray: for many views of
         one solution. ``gather_spp``: for ``"gather"``, how many of an
         interior pixel's camera rays also final-gather (default ``spp`` / 32).
+        ``progress``: as :func:`solve`'s; the render is one step (phase
+        ``"rendering"``), and Ctrl-C raises ``KeyboardInterrupt`` once it is
+        done.
         Raises ``SolveError`` for an unknown mode, a value out of range, an
         option the mode has no use for (``eye=False`` with ``"gather"``,
         ``gather_cache=True`` with any other mode), a scene without a
@@ -163,7 +174,8 @@ class Solution:
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
     ``<default>`` values (converted with ``str()``), like Mitsuba's ``-D``.
-    Raises ``SceneError`` naming the file and line; what is loaded but not
+    Raises ``SceneError`` naming the file and line, also for an override
+    that no ``$name`` in the scene reads (as Mitsuba does); what is loaded but not
     as written (a mesh's triangles of zero area skipped, a sheared sphere
     kept a sphere) is reported as a ``UserWarning`` naming the file and
     line."""
@@ -185,6 +197,7 @@ def solve(
     max_memory: float | None = None,
     solver: Literal["gather", "shoot"] | None = None,
     on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
+    progress: _Progress = None,
 ) -> Solution:
     """Solve ``scene``; the solve runs without the GIL.
 
@@ -240,8 +253,24 @@ def solve(
     shooting early (the Gauss-Seidel sweeps still finish the solution); an
     exception it raises stops shooting and is raised from ``solve``.
 
-    Raises ``TypeError`` for an unknown keyword, ``ValueError`` for a value
-    of the wrong type or an ``on_step`` without ``solver="shoot"``, and
+    ``progress``: how each phase (``"linking"``, ``"kernels"``, ``"3-point
+    kernels"``, ``"emitter links"``, ``"solving"``, ``"shooting"``, ...)
+    reports: ``True`` prints a line like tqdm's on ``sys.stderr`` (redrawn
+    in place on a terminal, else one line at each phase's end and every
+    10 s), ``False`` nothing, a callable is called as ``progress(phase,
+    done, total)`` at each phase's start (``done`` 0), at most every 0.1 s
+    during it and at its end, from any thread; default (``None``): ``True``
+    where ``sys.stderr`` is a terminal, else ``False``. An exception the
+    callable raises stops the solve, which finishes from what is done, and
+    is raised from ``solve``. The first Ctrl-C does the same: the solve
+    stops refining and sweeping, is finished from what is done
+    (``stats["stopped"]`` is ``"interrupted"``) and returned, with a
+    ``UserWarning``; a second one raises ``KeyboardInterrupt`` once it has
+    finished.
+
+    Raises ``TypeError`` for an unknown keyword, ``ArgumentError`` for a value
+    of the wrong type, a ``progress`` that is neither a bool nor callable
+    or an ``on_step`` without ``solver="shoot"``, and
     ``SolveError`` for a value outside its range (the message names the
     setting and the range), an unknown ``oracle`` or ``solver``, the
     importance oracle on a scene without a sensor, the shooting solver
@@ -275,7 +304,7 @@ class Plan:
         is released) and return their links as bytes for :meth:`finish`:
         a header naming the plan by its fingerprint, then the links in
         postcard. Raises ``SolveError`` for a block past the items and
-        ``ValueError`` for a step other than 1."""
+        ``ArgumentError`` for a step other than 1."""
     def items(self, block: range) -> bytes:
         """The items in ``block`` (a ``range`` with step 1) as bytes for
         :meth:`Projector.project`: a header naming the scene, settings and
@@ -286,7 +315,7 @@ class Plan:
         once, in any order: the emitters' links carried down, the element
         hierarchies built, the Gauss-Seidel sweeps (and the weighted
         oracles' refine-solve loop) run here. The plan is used up; using it
-        again raises ``ValueError``. Raises ``SceneError`` for bytes that
+        again raises ``ArgumentError``. Raises ``SceneError`` for bytes that
         are not a block or were projected from another plan (another scene,
         other settings), and ``SolveError`` for blocks that leave items out
         or hold some twice; the plan is kept then."""

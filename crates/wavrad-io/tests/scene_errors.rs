@@ -3,6 +3,7 @@
 
 use std::fs;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 use wavrad_io::{load_scene, load_scene_str};
 
@@ -22,13 +23,32 @@ fn assert_error(xml: &str, line: u32, needles: &[&str]) {
 
 #[track_caller]
 fn assert_error_in(dir: &Path, xml: &str, line: u32, needles: &[&str]) {
-    let msg = error_in(dir, xml);
+    assert_message(&error_in(dir, xml), "bad.xml", line, needles);
+}
+
+/// Assert `msg` is at `file:line` and mentions every needle.
+#[track_caller]
+fn assert_message(msg: &str, file: &str, line: u32, needles: &[&str]) {
     assert!(
-        msg.starts_with(&format!("bad.xml:{line}: ")),
-        "expected line {line}: {msg}"
+        msg.starts_with(&format!("{file}:{line}: ")),
+        "expected {file}:{line}: {msg}"
     );
     for needle in needles {
         assert!(msg.contains(needle), "expected {needle:?} in: {msg}");
+    }
+}
+
+/// Assert the error of `xml` loaded with `overrides` (as `-D name=value`)
+/// is at `bad.xml:line` and mentions every needle.
+#[track_caller]
+fn assert_override_error(xml: &str, overrides: &[(&str, &str)], line: u32, needles: &[&str]) {
+    let overrides: Vec<(String, String)> = overrides
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    match load_scene_str(xml, Path::new("."), "bad.xml", &overrides) {
+        Ok(_) => panic!("loaded without error:\n{xml}"),
+        Err(e) => assert_message(&e.to_string(), "bad.xml", line, needles),
     }
 }
 
@@ -642,4 +662,402 @@ fn glossy_bsdf_parameter_errors() {
         3,
         &["unknown parameter \"exponent\"", "bsdf \"ward\""],
     );
+}
+
+/// A scene reading `$res` and declaring `spp` without reading it.
+const WITH_DEFAULTS: &str = "<scene version=\"3.0.0\">\n<default name=\"res\" value=\"8\"/>\n\
+    <default name=\"spp\" value=\"4\"/>\n<sensor type=\"perspective\"><film type=\"hdrfilm\">\n\
+    <integer name=\"width\" value=\"$res\"/></film></sensor>\n<shape type=\"cube\"/></scene>";
+
+#[test]
+fn overrides_no_parameter_reads() {
+    // Declared but never read: named at its <default>.
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("spp", "64")],
+        3,
+        &["spp=64 is used nowhere", "no attribute reads $spp", "$res"],
+    );
+    // Never declared (a misspelling): named at the <scene>.
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("rez", "64")],
+        1,
+        &[
+            "rez=64 is used nowhere",
+            "declares no such <default>",
+            "$res",
+        ],
+    );
+}
+
+#[test]
+fn overrides_with_bad_names() {
+    assert_override_error(WITH_DEFAULTS, &[("", "5")], 1, &["=5", "name is empty"]);
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("res-x", "5")],
+        1,
+        &["res-x=5", "letters, digits and _"],
+    );
+    assert_override_error(
+        WITH_DEFAULTS,
+        &[("res", "5"), ("res", "6")],
+        1,
+        &["res=6", "given twice"],
+    );
+}
+
+#[test]
+fn unknown_integrator_parameters() {
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integer name=\"samples\" value=\"4\"/>\n</integrator></scene>",
+        3,
+        &["unknown parameter \"samples\"", "integrator \"path\"", "max_depth", "rr_depth"],
+    );
+    // What another plugin reads is unknown to this one.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"direct\">\n\n<integer name=\"max_depth\" value=\"4\"/>\n</integrator></scene>",
+        4,
+        &["unknown parameter \"max_depth\"", "integrator \"direct\"", "emitter_samples"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<string name=\"rr_depth\" value=\"five\"/>\n</integrator></scene>",
+        3,
+        &["\"rr_depth\"", "must be an <integer>", "<string>"],
+    );
+}
+
+#[test]
+fn integrators_nest_only_where_mitsuba_nests_them() {
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integrator type=\"direct\"/>\n</integrator></scene>",
+        3,
+        &["integrator \"path\" cannot contain a <integrator>"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"aov\">\n<bsdf type=\"diffuse\"/>\n</integrator></scene>",
+        3,
+        &["integrator \"aov\" cannot contain a <bsdf>"],
+    );
+    // A nested integrator's parameters are checked too.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<integrator type=\"aov\"><integrator type=\"path\" name=\"image\">\n<float name=\"max_depth\" value=\"1.5\"/>\n</integrator></integrator></scene>",
+        3,
+        &["\"max_depth\"", "must be an <integer>"],
+    );
+}
+
+#[test]
+fn includes_doubling_at_each_level_fail_fast_at_the_depth_bound() {
+    // 31 files each including the next twice would expand 2^31 files.
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..31 {
+        let next = format!("<include filename=\"{}.xml\"/>", i + 1);
+        fs::write(
+            dir.path().join(format!("{i}.xml")),
+            format!("<scene version=\"3.0.0\">\n{next}\n{next}\n</scene>"),
+        )
+        .unwrap();
+    }
+    fs::write(
+        dir.path().join("31.xml"),
+        "<scene version=\"3.0.0\"><shape type=\"cube\"/></scene>",
+    )
+    .unwrap();
+    let started = Instant::now();
+    let e = load_scene(&dir.path().join("0.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(started.elapsed() < Duration::from_secs(5), "{e}");
+    // Named at the include that would go one file deeper than Mitsuba goes.
+    let deepest = dir
+        .path()
+        .join(format!("{}.xml", wavrad_io::mitsuba::MAX_INCLUDE_DEPTH));
+    assert_message(
+        &e,
+        &deepest.display().to_string(),
+        2,
+        &["includes nested deeper than 14 files"],
+    );
+}
+
+#[test]
+fn includes_past_the_count_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("leaf.xml"), "<scene version=\"3.0.0\"/>").unwrap();
+    let n = wavrad_io::mitsuba::MAX_INCLUDES;
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n{}</scene>",
+        "<include filename=\"leaf.xml\"/>\n".repeat(n + 1)
+    );
+    // The first n load; the next is refused where it is written.
+    assert_error_in(
+        dir.path(),
+        &xml,
+        n as u32 + 2,
+        &["more than 4096 <include>s"],
+    );
+}
+
+#[test]
+fn includes_and_spectra_of_devices_and_directories() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("sub")).unwrap();
+    if Path::new("/dev/zero").exists() {
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\">\n<include filename=\"/dev/zero\"/></scene>",
+            2,
+            &["\"/dev/zero\"", "not a regular file"],
+        );
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"/dev/zero\"/></bsdf></scene>",
+            2,
+            &["\"/dev/zero\"", "not a regular file"],
+        );
+        let e = load_scene(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert_eq!(e, "/dev/zero: not a regular file");
+    }
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n\n<include filename=\"sub\"/></scene>",
+        3,
+        &["sub\"", "not a regular file"],
+    );
+}
+
+/// `(body, line, needles)`: a scene of `body` at line 2 on fails at `line`
+/// with a message holding every needle.
+type Case = (&'static str, u32, &'static [&'static str]);
+
+#[track_caller]
+fn assert_cases(cases: &[Case]) {
+    for &(body, line, needles) in cases {
+        assert_error(
+            &format!("<scene version=\"3.0.0\">\n{body}\n</scene>"),
+            line,
+            needles,
+        );
+    }
+}
+
+#[test]
+fn sizes_past_their_bounds_name_the_line() {
+    assert_cases(&[
+        (
+            "<shape type=\"rectangle\">\n<transform name=\"to_world\"><scale value=\"1e19\"/></transform></shape>",
+            2,
+            &["shape \"rectangle\"", "vertex", "up to 1e12"],
+        ),
+        (
+            "<shape type=\"cube\">\n<transform name=\"to_world\"><scale value=\"1e38\"/></transform></shape>",
+            2,
+            &["shape \"cube\"", "up to 1e12"],
+        ),
+        (
+            "\n<shape type=\"sphere\"><float name=\"radius\" value=\"1e20\"/></shape>",
+            3,
+            &["shape \"sphere\"", "up to 1e12"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"4294967295\"/>\n<integer name=\"height\" value=\"4294967295\"/></film></sensor>",
+            3,
+            &["width = 4294967295", "at most 32768 pixels a side"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"100\"/>\n<integer name=\"height\" value=\"65536\"/></film></sensor>",
+            4,
+            &["height = 65536"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"20000\"/>\n<integer name=\"height\" value=\"20000\"/></film></sensor>",
+            4,
+            &["20000×20000", "at most 268435456 pixels"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"99999999999\"/></film></sensor>",
+            3,
+            &["width must be a positive integer", "99999999999"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\"><rfilter type=\"gaussian\">\n<float name=\"stddev\" value=\"1e6\"/></rfilter></film></sensor>",
+            3,
+            &["gaussian", "at most 6 pixels"],
+        ),
+        (
+            "<sensor type=\"perspective\"><sampler type=\"independent\">\n<integer name=\"sample_count\" value=\"2000000000\"/></sampler></sensor>",
+            3,
+            &["sample_count", "1 to 65536", "2000000000"],
+        ),
+        (
+            "<sampler type=\"independent\">\n\n<integer name=\"sample_count\" value=\"0\"/></sampler>",
+            4,
+            &["sample_count", "0"],
+        ),
+    ]);
+}
+
+#[test]
+fn values_that_are_not_numbers_or_out_of_range() {
+    assert_cases(&[
+        (
+            "<sensor type=\"perspective\">\n<float name=\"fov\" value=\"180\"/></sensor>",
+            3,
+            &["fov = 180", "(0, 180)"],
+        ),
+        (
+            "<sensor type=\"perspective\">\n<float name=\"fov\" value=\"nan\"/></sensor>",
+            3,
+            &["malformed number \"nan\"", "fov"],
+        ),
+        (
+            "<shape type=\"cube\"><transform name=\"to_world\">\n<translate x=\"inf\"/></transform></shape>",
+            3,
+            &["malformed number \"inf\"", "<translate>"],
+        ),
+        (
+            "<shape type=\"cube\"><emitter type=\"area\">\n<rgb name=\"radiance\" value=\"nan\"/></emitter></shape>",
+            3,
+            &["malformed number \"nan\"", "radiance"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"height\" value=\"0\"/></film></sensor>",
+            3,
+            &["height must be a positive integer", "0"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\">\n<integer name=\"width\" value=\"4.5\"/></film></sensor>",
+            3,
+            &["malformed integer \"4.5\"", "width"],
+        ),
+        (
+            "<shape type=\"cube\" id=\"c\">\n<boolean name=\"flip_normals\" value=\"yes\"/></shape>",
+            3,
+            &["malformed boolean \"yes\"", "true or false"],
+        ),
+        (
+            "<bsdf type=\"diffuse\">\n<rgb name=\"reflectance\" value=\"0.1, 0.2\"/></bsdf>",
+            3,
+            &["1 or 3 values", "got 2"],
+        ),
+        (
+            "<shape type=\"cube\"><transform name=\"to_world\">\n<matrix value=\"1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\"/></transform></shape>",
+            3,
+            &["matrix"],
+        ),
+        (
+            "<sensor type=\"perspective\">\n<float name=\"near_clip\" value=\"10\"/><float name=\"far_clip\" value=\"1\"/></sensor>",
+            3,
+            &["near_clip < far_clip", "near_clip = 10"],
+        ),
+        (
+            "<sensor type=\"perspective\"><transform name=\"to_world\">\n<scale value=\"2\"/></transform></sensor>",
+            2,
+            &["must not scale"],
+        ),
+    ]);
+}
+
+#[test]
+fn structure_mitsuba_refuses() {
+    assert_cases(&[
+        ("\n<include/>", 3, &["<include> needs a \"filename\" attribute"]),
+        ("<default name=\"spp\"/>", 2, &["<default> needs a \"value\" attribute"]),
+        ("\n<default name=\"\" value=\"1\"/>", 3, &["<default> with an empty name"]),
+        (
+            "<default name=\"spp\" value=\"1\" type=\"int\"/>",
+            2,
+            &["unexpected attribute \"type\" in <default>"],
+        ),
+        (
+            "<sensor type=\"perspective\"><film type=\"hdrfilm\"/>\n<film type=\"hdrfilm\"/></sensor>",
+            3,
+            &["more than one <film>"],
+        ),
+        (
+            "<shape type=\"cube\"><bsdf type=\"diffuse\"/>\n<bsdf type=\"diffuse\"/></shape>",
+            3,
+            &["more than one <bsdf>"],
+        ),
+        (
+            "<bsdf type=\"diffuse\" id=\"w\"/>\n<ref id=\"w\"/>",
+            3,
+            &["<ref> at the top level"],
+        ),
+        (
+            "<sampler type=\"independent\">\n<rfilter type=\"box\"/></sampler>",
+            3,
+            &["cannot contain a <rfilter>"],
+        ),
+        ("\n<rfilter type=\"box\"/>", 3, &["must be nested in a <film>"]),
+        (
+            "<shape type=\"cube\">\n<spectrum name=\"x\" value=\"400:1\" filename=\"s.spd\"/></shape>",
+            3,
+            &["either \"value\" or \"filename\""],
+        ),
+        (
+            "<bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"missing.spd\"/></bsdf>",
+            3,
+            &["cannot read spectrum file", "missing.spd"],
+        ),
+    ]);
+    assert_error(
+        "<scene version=\"x.y\">\n</scene>",
+        1,
+        &["malformed scene version \"x.y\""],
+    );
+}
+
+#[test]
+fn mesh_files_that_cannot_be_meshes() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("meshes")).unwrap();
+    fs::write(
+        dir.path().join("far.obj"),
+        "v 1e20 0 0\nv 0 1e20 0\nv 0 0 1e20\nf 1 2 3\n",
+    )
+    .unwrap();
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n\n<shape type=\"obj\"><string name=\"filename\" value=\"far.obj\"/></shape></scene>",
+        3,
+        &["shape \"obj\"", "up to 1e12"],
+    );
+    assert_error_in(
+        dir.path(),
+        "<scene version=\"3.0.0\">\n<shape type=\"ply\">\n<string name=\"filename\" value=\"meshes\"/></shape></scene>",
+        3,
+        &["meshes", "not a regular file"],
+    );
+    if Path::new("/dev/zero").exists() {
+        assert_error_in(
+            dir.path(),
+            "<scene version=\"3.0.0\">\n<shape type=\"obj\">\n<string name=\"filename\" value=\"/dev/zero\"/></shape></scene>",
+            3,
+            &["/dev/zero", "not a regular file"],
+        );
+    }
+}
+
+#[test]
+fn values_that_would_make_pixels_infinite() {
+    assert_cases(&[
+        (
+            "<shape type=\"cube\"><emitter type=\"area\">\n<rgb name=\"radiance\" value=\"1e300\"/></emitter></shape>",
+            3,
+            &["radiance", "1e300", "up to 1e20"],
+        ),
+        (
+            "<emitter type=\"area\" id=\"e\">\n<spectrum name=\"radiance\" value=\"400:1e300, 700:1e300\"/></emitter>",
+            3,
+            &["radiance", "up to 1e20"],
+        ),
+        (
+            "<bsdf type=\"ward\">\n<float name=\"alpha_u\" value=\"1e-308\"/><float name=\"alpha_v\" value=\"0.1\"/></bsdf>",
+            3,
+            &["alpha_u = 1e-308", "at least 1e-4"],
+        ),
+    ]);
 }

@@ -493,8 +493,7 @@ fn film_filter_sampler_and_orthographic() {
                 <rfilter type="box"/>
             </film>
         </sensor>
-        <sensor type="perspective"/>
-        <integrator type="path"><integer name="max_depth" value="-1"/><whatever/></integrator>"#,
+        <integrator type="path"><integer name="max_depth" value="-1"/></integrator>"#,
     );
     let c = s.camera.unwrap();
     assert_eq!(c.projection, Projection::Orthographic);

@@ -6,7 +6,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use wavrad_core::scene::{PixelFilter, Rgb, Scene};
+use wavrad_core::scene::{PixelFilter, Projection, Rgb, Scene};
 use wavrad_io::{load_scene, load_scene_str, Loaded};
 
 fn fixture(name: &str) -> PathBuf {
@@ -136,6 +136,8 @@ fn unhonoured_integrator_settings_warn_once_each() {
     };
     for quiet in [
         r#"<integrator type="path"/>"#,
+        r#"<integrator type="ptracer"><integer name="samples_per_pass" value="4"/><float name="timeout" value="60"/></integrator>"#,
+        r#"<integrator type="aov"><string name="aovs" value="dd.y:depth"/><integrator type="path" name="image"/></integrator>"#,
         r#"<integrator type="path"><integer name="max_depth" value="-1"/></integrator>"#,
         r#"<integrator type="volpath"><integer name="max_depth" value="65"/><integer name="rr_depth" value="5"/></integrator>"#,
         r#"<integrator type="path"><boolean name="hide_emitters" value="false"/></integrator>"#,
@@ -160,6 +162,16 @@ fn unhonoured_integrator_settings_warn_once_each() {
             r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#,
             "hide_emitters",
         ),
+        // Nested integrators are read as integrators.
+        (
+            r#"<integrator type="aov"><integrator type="direct" name="image"/></integrator>"#,
+            "direct lighting only",
+        ),
+        // A plugin Mitsuba 3 does not ship: its parameters go unchecked.
+        (
+            r#"<integrator type="mypath"><float name="anything" value="1"/></integrator>"#,
+            "not one of Mitsuba 3's",
+        ),
     ] {
         let w = warnings(loud);
         assert_eq!(w.len(), 1, "{loud}: {w:?}");
@@ -171,4 +183,61 @@ fn unhonoured_integrator_settings_warn_once_each() {
         .unwrap_err()
         .to_string();
     assert!(msg.starts_with("i.xml:3:") && msg.contains("-2"), "{msg}");
+}
+
+#[test]
+fn a_second_sensor_warns_and_the_first_is_rendered() {
+    let xml = "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n\
+        <sensor type=\"orthographic\"/>\n\
+        <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/></sensor>\n</scene>";
+    let loaded = load_scene_str(xml, Path::new("."), "s.xml", &[]).unwrap();
+    let camera = loaded.scene.camera.unwrap();
+    assert_eq!(camera.projection, Projection::Orthographic);
+    let [warning] = &loaded.warnings[..] else {
+        panic!("{:?}", loaded.warnings)
+    };
+    assert_eq!((warning.file.as_str(), warning.line), ("s.xml", 4));
+    assert!(
+        warning.message.contains("second sensor") && warning.message.contains("s.xml:3"),
+        "{warning}"
+    );
+}
+
+#[test]
+fn a_repeated_default_warns_once_and_the_first_wins() {
+    let dir = tempfile::tempdir().unwrap();
+    // The same declaration read twice (a file included twice) is no news.
+    fs::write(
+        dir.path().join("defaults.xml"),
+        "<scene version=\"3.0.0\">\n<default name=\"r\" value=\"0.5\"/>\n</scene>",
+    )
+    .unwrap();
+    let xml = "<scene version=\"3.0.0\">\n<include filename=\"defaults.xml\"/>\n\
+        <include filename=\"defaults.xml\"/>\n<default name=\"r\" value=\"0.5\"/>\n\
+        <default name=\"r\" value=\"0.9\"/>\n\
+        <shape type=\"cube\"><bsdf type=\"diffuse\"><float name=\"reflectance\" value=\"$r\"/></bsdf></shape>\n</scene>";
+    let loaded = load_scene_str(xml, dir.path(), "d.xml", &[]).unwrap();
+    assert_eq!(
+        loaded.scene.surfaces[0].brdf.lambertian(),
+        Some(Rgb::splat(0.5))
+    );
+    let [warning] = &loaded.warnings[..] else {
+        panic!("{:?}", loaded.warnings)
+    };
+    assert_eq!((warning.file.as_str(), warning.line), ("d.xml", 5));
+    assert!(
+        warning.message.contains("\"0.9\" is ignored")
+            && warning.message.contains("defaults.xml:2")
+            && warning.message.contains("stays \"0.5\""),
+        "{warning}"
+    );
+    // An override wins over both, and the repeated one still warns.
+    let overrides = [("r".to_string(), "0.1".to_string())];
+    let loaded = load_scene_str(xml, dir.path(), "d.xml", &overrides).unwrap();
+    assert_eq!(
+        loaded.scene.surfaces[0].brdf.lambertian(),
+        Some(Rgb::splat(0.1))
+    );
+    assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
+    assert!(loaded.warnings[0].message.contains("stays \"0.1\""));
 }

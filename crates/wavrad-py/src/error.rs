@@ -4,19 +4,25 @@
 //! ```text
 //! Exception
 //! └── WavradError
-//!     ├── SceneError   wavrad-io: scene files, meshes, images (file and line),
-//!     │                blocks of links (wavrad.Plan)
-//!     └── SolveError   wavrad-core: settings, empty scene, no light, missing sensor,
-//!                      a diverging solve, an image with pixels not finite,
-//!                      blocks that do not cover a plan
+//!     ├── SceneError     wavrad-io: scene files, meshes, images (file and line),
+//!     │                  blocks of links (wavrad.Plan)
+//!     ├── SolveError     wavrad-core: settings, empty scene, no light, missing sensor,
+//!     │                  a diverging solve, an image with pixels not finite,
+//!     │                  blocks that do not cover a plan
+//!     └── ArgumentError  (also a ValueError) an argument wavrad cannot use: a
+//!                        wrongly typed setting, a wrongly shaped image, a plan
+//!                        used up, an option without its companion
 //! ```
 //! Settings outside their described range or choices, and settings that do
-//! not go together, are `SolveError`s; arguments Python cannot convert (a
-//! wrongly typed setting, a wrongly shaped image) raise the built-in
-//! `ValueError`, an unknown keyword `TypeError`.
+//! not go together, are `SolveError`s. Python's own `TypeError` stays for
+//! what any Python function raises it for: an unknown keyword, an argument
+//! PyO3 cannot convert.
 
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::prelude::*;
+use pyo3::sync::GILOnceCell;
+use pyo3::types::{PyDict, PyTuple, PyType};
 use pyo3::PyErr;
 
 create_exception!(
@@ -37,6 +43,33 @@ create_exception!(
     WavradError,
     "The solver or renderer refused its input or failed (invalid settings, empty scene, no light, no sensor, a diverging solve, pixels not finite)."
 );
+
+/// `wavrad.ArgumentError`, made once: `create_exception!` takes one base,
+/// and it has two (`WavradError`, `ValueError`), so that `except
+/// ValueError` keeps catching it.
+static ARGUMENT_ERROR: GILOnceCell<Py<PyType>> = GILOnceCell::new();
+
+/// The type `wavrad.ArgumentError`.
+pub fn argument_error(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    ARGUMENT_ERROR
+        .get_or_try_init(py, || {
+            let bases = PyTuple::new(
+                py,
+                [py.get_type::<WavradError>(), py.get_type::<PyValueError>()],
+            )?;
+            let namespace = PyDict::new(py);
+            namespace.set_item("__module__", "wavrad")?;
+            namespace.set_item(
+                "__doc__",
+                "An argument wavrad cannot use (a wrongly typed setting, a wrongly shaped image, a plan used up); also a ValueError.",
+            )?;
+            let made = py
+                .get_type::<PyType>()
+                .call1(("ArgumentError", bases, namespace))?;
+            Ok(made.downcast_into::<PyType>()?.unbind())
+        })
+        .map(|t| t.bind(py))
+}
 
 /// Everything the binding can fail with.
 #[derive(Debug)]
@@ -77,7 +110,10 @@ impl From<Error> for PyErr {
         match e {
             Error::Scene(e) => SceneError::new_err(e.to_string()),
             Error::Solve(e) => SolveError::new_err(e.to_string()),
-            Error::Argument(message) => PyValueError::new_err(message),
+            Error::Argument(message) => Python::with_gil(|py| match argument_error(py) {
+                Ok(kind) => PyErr::from_type(kind.clone(), message),
+                Err(e) => e,
+            }),
             Error::Python(e) => e,
         }
     }

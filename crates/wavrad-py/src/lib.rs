@@ -7,6 +7,7 @@
 //! and every file format in `wavrad-io`.
 
 mod error;
+mod progress;
 
 use std::path::PathBuf;
 
@@ -20,7 +21,7 @@ use pyo3::exceptions::{PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyRange, PyRangeMethods};
 use std::ops::ControlFlow;
-use wavrad_core::progress::Silent;
+use wavrad_core::progress::{Progress, Silent};
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::Rgb;
 use wavrad_core::setting::{Described, Domain, Value};
@@ -31,7 +32,8 @@ use wavrad_io::block_links::{
     Fingerprint,
 };
 
-use error::{Error, Result, SceneError, SolveError, WavradError};
+use error::{argument_error, Error, Result, SceneError, SolveError, WavradError};
+use progress::PyProgress;
 
 /// A scene loaded from a Mitsuba 3 XML file.
 #[pyclass(module = "wavrad", frozen)]
@@ -79,7 +81,7 @@ impl Solution {
     /// linear RGB radiance. The render settings (`mode`, `spp`, and by
     /// keyword `gather_spp`, `eye`, `gather_cache`) are those of
     /// [`RenderSettings::SETTINGS`].
-    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, **settings))]
+    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, progress=None, **settings))]
     #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
@@ -90,8 +92,10 @@ impl Solution {
         target: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         fov: Option<f64>,
+        progress: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
+        let progress = PyProgress::new(py, progress)?;
         let scene = &self.0.solution().scene;
         let positional = PyDict::new(py);
         if let Some(mode) = mode {
@@ -130,7 +134,13 @@ impl Solution {
                 })
             })?;
         }
-        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings))?;
+        // The renderer reports no progress of its own, nor stops early: one
+        // step, the image (Ctrl-C raises KeyboardInterrupt once it is done).
+        progress.start("rendering", 1);
+        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings));
+        progress.advance(1);
+        progress.finish();
+        let image = progress.raise_kept().and(image.map_err(Error::from))?;
         Ok(pixels(py, image.width, image.height, image.rgb))
     }
 
@@ -403,14 +413,16 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
 /// Solve `scene` with the settings given by name (those of
 /// [`SolveSettings::SETTINGS`]); unset ones keep the defaults of the oracle.
 #[pyfunction]
-#[pyo3(signature = (scene, *, solver=None, on_step=None, **settings))]
+#[pyo3(signature = (scene, *, solver=None, on_step=None, progress=None, **settings))]
 fn solve(
     py: Python<'_>,
     scene: &Scene,
     solver: Option<&str>,
     on_step: Option<PyObject>,
+    progress: Option<&Bound<'_, PyAny>>,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> Result<Solution> {
+    let progress = PyProgress::new(py, progress)?;
     let solver: Solver = solver.map_or(Ok(Solver::default()), str::parse)?;
     let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
     if on_step.is_some() && solver != Solver::Shoot {
@@ -434,17 +446,17 @@ fn solve(
             })
         }
     });
-    let solution = py.allow_threads(|| match solver {
-        Solver::Gather => wavrad_core::solve::solve(&scene.0, &settings, &Silent),
+    let solution = progress.watch(py, || match solver {
+        Solver::Gather => wavrad_core::solve::solve(&scene.0, &settings, &progress),
         Solver::Shoot => solve_shooting(
             &scene.0,
             &settings,
-            &Silent,
+            &progress,
             step_callback
                 .as_mut()
                 .map(|f| f as wavrad_core::solve::shoot::OnStep<'_>),
         ),
-    })?;
+    })??;
     if let Some(e) = raised {
         return Err(Error::Python(e));
     }
@@ -592,6 +604,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("WavradError", py.get_type::<WavradError>())?;
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SolveError", py.get_type::<SolveError>())?;
+    m.add("ArgumentError", argument_error(py)?)?;
     m.add_class::<Scene>()?;
     m.add_class::<Solution>()?;
     m.add_class::<Plan>()?;

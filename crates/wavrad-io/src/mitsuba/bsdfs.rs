@@ -6,7 +6,7 @@
 //! |------------------|--------------------------------------------------|----------------------|-----------------|
 //! | `diffuse`        | `reflectance`                                    | colour               | 0.5             |
 //! | `ward` (0.6)     | `variant`: `ward`, `ward-duer`, `balanced`       | `<string>`           | `balanced`      |
-//! |                  | `alpha`; `alpha_u`/`alphaU`, `alpha_v`/`alphaV`  | `<float>` > 0        | 0.1; `alpha`    |
+//! |                  | `alpha`; `alpha_u`/`alphaU`, `alpha_v`/`alphaV`  | `<float>` ≥ 1e-4     | 0.1; `alpha`    |
 //! |                  | `specular_reflectance` (`specularReflectance`)   | colour               | 0.2             |
 //! |                  | `diffuse_reflectance` (`diffuseReflectance`)     | colour, ρ_s + ρ_d ≤ 1 | 0.5            |
 //! | `roughconductor` | `distribution`: `beckmann`, `ggx`                | `<string>`           | `beckmann`      |
@@ -186,12 +186,28 @@ fn both_not_allowed(obj: &Object, a: &str, b: &str) -> Result<()> {
     Ok(())
 }
 
-/// Roughness `name` must be ≥ `min` (exclusive when `strict`).
+/// Smallest roughness of `ward`: its lobe divides by αu·αv and their
+/// squares, which overflow long before α reaches 0; smaller is a mirror,
+/// and Mitsuba 3 clamps its microfacet roughness to the same 1e-4.
+const MIN_WARD_ALPHA: f64 = 1e-4;
+
+/// Roughness `name` must be non-negative, or when `strict` (ward) at least
+/// [`MIN_WARD_ALPHA`].
 fn check_alpha(obj: &Object, name: &str, alpha: f64, strict: bool) -> Result<f64> {
-    if alpha < 0.0 || (strict && alpha == 0.0) {
-        let bound = if strict { "positive" } else { "non-negative" };
+    if alpha < 0.0 || (strict && alpha < MIN_WARD_ALPHA) {
+        let bound = if strict {
+            format!("positive, at least {MIN_WARD_ALPHA:e} (smaller is a mirror)")
+        } else {
+            "non-negative".to_string()
+        };
+        // Tiny and huge values in scientific notation, not 300 digits.
+        let shown = if alpha == 0.0 || (1e-3..1e6).contains(&alpha.abs()) {
+            alpha.to_string()
+        } else {
+            format!("{alpha:e}")
+        };
         return Err(obj.location_of(name).error(format!(
-            "roughness {name} = {alpha} of {} must be {bound}",
+            "roughness {name} = {shown} of {} must be {bound}",
             obj.describe()
         )));
     }

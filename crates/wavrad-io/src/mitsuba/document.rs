@@ -7,6 +7,18 @@
 //! added by `<path value="..."/>` elements, the latest first, then beside
 //! the file that names it, then in the scene file's directory.
 //!
+//! Bounds, so that no scene file can exhaust the machine: includes nest at
+//! most [`MAX_INCLUDE_DEPTH`] deep (Mitsuba 3's own limit), at most
+//! [`MAX_INCLUDES`] are expanded in all, the XML files read hold at most
+//! [`MAX_XML_BYTES`] together and must be regular files, and elements nest
+//! at most [`MAX_NESTING`] deep in a file.
+//!
+//! Parameter overrides (`-D name=value`, Python's `load_scene(path,
+//! name=value)`) are checked as Mitsuba 3 checks them: one that no `$name`
+//! reads is an error, as are an empty or malformed name and a name given
+//! twice. A second `<default>` of a name is ignored (the first wins, as in
+//! Mitsuba) with a warning.
+//!
 //! Scenes of version 0.x (Mitsuba 0.5, 0.6) are upgraded as Mitsuba 3's
 //! loader upgrades them (`upgrade_tree` in its `src/core/xml.cpp`): every
 //! `name` but a `<default>`'s from camelCase to snake_case (`toWorld` →
@@ -14,7 +26,8 @@
 //! `diffuse` BSDF's `diffuse_reflectance` → `reflectance`. (Mitsuba's
 //! `uoffset`/`uscale` → `to_uv` is a texture's, and textures are refused.)
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -114,9 +127,59 @@ impl Element {
     }
 }
 
-/// Deepest element nesting (and include depth) accepted; deeper input is an
-/// error rather than a stack overflow.
-const MAX_DEPTH: usize = 64;
+/// Deepest nesting of elements within one file; deeper input is an error
+/// rather than a stack overflow.
+pub const MAX_NESTING: usize = 64;
+
+/// Deepest nesting of included files below the scene file: Mitsuba 3's
+/// parser refuses the same (its `max_include_depth` of 15 counts the scene
+/// file), so every scene Mitsuba reads, wavrad reads.
+pub const MAX_INCLUDE_DEPTH: usize = 14;
+
+/// Most `<include>`s expanded in one scene, all files together. Depth alone
+/// does not bound the work: files that each include the next twice expand
+/// 2^depth times. Hand-written and exported scenes include a few files.
+pub const MAX_INCLUDES: usize = 4096;
+
+/// Most bytes of XML one scene reads, its included files (each time it is
+/// included) together: 256 MiB. Mitsuba scenes keep geometry in mesh files,
+/// so their XML is kilobytes to a few megabytes; the bound keeps a runaway
+/// expansion from exhausting memory.
+pub const MAX_XML_BYTES: u64 = 256 << 20;
+
+/// Read the text file `path`, which must be a regular file (not a device
+/// or a pipe, which could be read forever) of at most `limit` bytes;
+/// `too_long` says why a longer one is refused.
+pub(crate) fn read_text_file(
+    path: &Path,
+    limit: u64,
+    too_long: impl FnOnce() -> String,
+) -> std::io::Result<String> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    let mut text = String::new();
+    std::fs::File::open(path)?
+        .take(limit.saturating_add(1))
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > limit {
+        return Err(std::io::Error::other(too_long()));
+    }
+    Ok(text)
+}
+
+/// Read the XML file `path` of at most `limit` bytes ([`read_text_file`]).
+pub(crate) fn read_xml(path: &Path, limit: u64) -> std::io::Result<String> {
+    read_text_file(path, limit, too_much_xml)
+}
+
+/// Why more XML is refused.
+fn too_much_xml() -> String {
+    format!(
+        "the scene's XML files (includes counted each time) would hold more than \
+         {MAX_XML_BYTES} bytes, wavrad's bound"
+    )
+}
 
 /// Where relative file names are looked up, as Mitsuba 3's file resolver
 /// does: the directories of `<path>` elements (the latest first), then the
@@ -156,24 +219,51 @@ impl SearchPath {
     }
 }
 
-/// Parse the scene document `xml` and return the children of its `<scene>`
-/// root, expanded, and where relative file names are looked up. `own_path`
-/// (canonical) is the file itself when it has one, for include-cycle
-/// detection.
+/// A scene document expanded.
+#[derive(Debug)]
+pub(crate) struct Expanded {
+    /// The children of its `<scene>` root.
+    pub elements: Vec<Element>,
+    /// Where relative file names are looked up.
+    pub search: SearchPath,
+    /// What was read, but not as written (a repeated `<default>`).
+    pub warnings: Vec<Warning>,
+}
+
+/// Parse the scene document `xml` and expand it. `own_path` (canonical) is
+/// the file itself when it has one, for include-cycle detection;
+/// `overrides` (`name`, `value`) win over the `<default>`s, and each must
+/// be read by some `$name`.
 pub(crate) fn read_scene_document(
     xml: &str,
     name: &str,
     dir: &Path,
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
-) -> Result<(Vec<Element>, SearchPath)> {
+) -> Result<Expanded> {
+    let mut params = HashMap::new();
+    for (key, value) in overrides {
+        params.entry(key.clone()).or_insert_with(|| value.clone());
+    }
     let mut expander = Expander {
-        params: overrides.iter().cloned().collect(),
+        params,
+        defaults: HashMap::new(),
+        read: HashSet::new(),
         include_stack: own_path.into_iter().collect(),
+        include_depth: 0,
+        includes: 0,
+        xml_bytes: 0,
         search: SearchPath::new(dir),
+        scene_at: None,
+        warnings: Vec::new(),
     };
     let elements = expander.document(xml, name, dir)?;
-    Ok((elements, expander.search))
+    expander.check_overrides(overrides)?;
+    Ok(Expanded {
+        elements,
+        search: expander.search,
+        warnings: expander.warnings,
+    })
 }
 
 /// The file being expanded.
@@ -189,17 +279,39 @@ struct Expander {
     /// `$name` values: overrides first, then `<default>`s in document order
     /// (the first definition wins, as in Mitsuba).
     params: HashMap<String, String>,
+    /// Where each `<default>` name was first declared, and its value there.
+    defaults: HashMap<String, (Location, String)>,
+    /// The names some `$name` read.
+    read: HashSet<String>,
     /// Canonical paths of the files being read, outermost first.
     include_stack: Vec<PathBuf>,
+    /// Included files open now (0 in the scene file itself).
+    include_depth: usize,
+    /// `<include>`s expanded so far.
+    includes: usize,
+    /// Bytes of XML read so far.
+    xml_bytes: u64,
     /// Where relative file names are looked up, `<path>`s read so far
     /// included.
     search: SearchPath,
+    /// The scene file's `<scene>` element, once read.
+    scene_at: Option<Location>,
+    /// Warnings so far.
+    warnings: Vec<Warning>,
 }
 
 impl Expander {
     fn document(&mut self, xml: &str, name: &str, dir: &Path) -> Result<Vec<Element>> {
         let file: Arc<str> = Arc::from(name);
         let dir: Arc<Path> = Arc::from(dir);
+        self.xml_bytes += xml.len() as u64;
+        if self.xml_bytes > MAX_XML_BYTES {
+            return Err(Error::Scene {
+                file: name.to_string(),
+                line: 1,
+                message: too_much_xml(),
+            });
+        }
         let options = roxmltree::ParsingOptions {
             allow_dtd: false,
             ..Default::default()
@@ -222,6 +334,7 @@ impl Expander {
                 root.tag_name().name()
             )));
         }
+        self.scene_at.get_or_insert_with(|| at.clone());
         let mut legacy = false;
         for attr in root.attributes() {
             match attr.name() {
@@ -257,8 +370,8 @@ impl Expander {
                 line: source.doc.text_pos_at(child.range().start).row,
                 dir: source.dir.clone(),
             };
-            if depth > MAX_DEPTH {
-                return Err(at.error(format!("elements nested deeper than {MAX_DEPTH} levels")));
+            if depth > MAX_NESTING {
+                return Err(at.error(format!("elements nested deeper than {MAX_NESTING} levels")));
             }
             let mut attrs = Vec::new();
             for a in child.attributes() {
@@ -278,7 +391,7 @@ impl Expander {
                     if name.is_empty() {
                         return Err(element.at.error("<default> with an empty name"));
                     }
-                    self.params.entry(name).or_insert(value);
+                    self.default(name, value, &element.at);
                 }
                 "include" => {
                     element.check_attrs(&["filename"])?;
@@ -302,6 +415,67 @@ impl Expander {
                     }
                     out.push(element);
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// `<default name value>`: the first one of a name counts, as in
+    /// Mitsuba; a later one with another value is a warning.
+    fn default(&mut self, name: String, value: String, at: &Location) {
+        match self.defaults.get(&name) {
+            Some((_, first_value)) if *first_value == value => {}
+            Some((first, _)) => {
+                // Declared names all have values (the first, or an override's).
+                let winner = &self.params[&name];
+                self.warnings.push(at.warning(format!(
+                    "<default name=\"{name}\"> is declared again (first at {first}); this \
+                     value \"{value}\" is ignored and ${name} stays \"{winner}\", as in Mitsuba"
+                )));
+            }
+            None => {
+                self.defaults
+                    .insert(name.clone(), (at.clone(), value.clone()));
+                self.params.entry(name).or_insert(value);
+            }
+        }
+    }
+
+    /// Fail on an override no `$name` read, with an empty or malformed
+    /// name, or given twice: Mitsuba 3 refuses unused ones too, and a
+    /// misspelt name would otherwise change nothing, silently.
+    fn check_overrides(&self, overrides: &[(String, String)]) -> Result<()> {
+        let scene_at = self.scene_at.as_ref().expect("the scene document was read");
+        for (i, (name, value)) in overrides.iter().enumerate() {
+            let what = format!("parameter override {name}={value}");
+            if name.is_empty() {
+                return Err(scene_at.error(format!("{what}: the name is empty")));
+            }
+            if !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(scene_at.error(format!(
+                    "{what}: a parameter name holds only letters, digits and _"
+                )));
+            }
+            if overrides[..i].iter().any(|(earlier, _)| earlier == name) {
+                return Err(scene_at.error(format!("{what}: \"{name}\" is given twice")));
+            }
+            if !self.read.contains(name) {
+                let at = self.defaults.get(name).map_or(scene_at, |(at, _)| at);
+                let declared = if self.defaults.contains_key(name) {
+                    format!("<default name=\"{name}\"> is declared here, but")
+                } else {
+                    "the scene declares no such <default>, and".to_string()
+                };
+                let mut known: Vec<&str> = self.read.iter().map(String::as_str).collect();
+                known.sort_unstable();
+                let known = if known.is_empty() {
+                    "it reads no parameters".to_string()
+                } else {
+                    format!("it reads ${}", known.join(", $"))
+                };
+                return Err(at.error(format!(
+                    "{what} is used nowhere: {declared} no attribute reads ${name} ({known})"
+                )));
             }
         }
         Ok(())
@@ -347,10 +521,20 @@ impl Expander {
                 chain.join(" -> ")
             )));
         }
-        if self.include_stack.len() > MAX_DEPTH {
-            return Err(at.error(format!("includes nested deeper than {MAX_DEPTH} levels")));
+        if self.include_depth >= MAX_INCLUDE_DEPTH {
+            return Err(at.error(format!(
+                "includes nested deeper than {MAX_INCLUDE_DEPTH} files below the scene file \
+                 (Mitsuba's limit too)"
+            )));
         }
-        let xml = std::fs::read_to_string(&path).map_err(|e| {
+        self.includes += 1;
+        if self.includes > MAX_INCLUDES {
+            return Err(at.error(format!(
+                "more than {MAX_INCLUDES} <include>s expanded in all, wavrad's bound (do files \
+                 include each other more than once?)"
+            )));
+        }
+        let xml = read_xml(&path, MAX_XML_BYTES - self.xml_bytes).map_err(|e| {
             at.error(format!(
                 "cannot read included file \"{}\": {e}",
                 path.display()
@@ -360,7 +544,9 @@ impl Expander {
             .parent()
             .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
         self.include_stack.push(canonical);
+        self.include_depth += 1;
         let elements = self.document(&xml, &path.display().to_string(), &dir);
+        self.include_depth -= 1;
         self.include_stack.pop();
         out.extend(elements?);
         Ok(())
@@ -368,7 +554,7 @@ impl Expander {
 
     /// Replace every `$name` in `value` (name: letters, digits, `_`); a `$`
     /// not followed by a name stays as is.
-    fn substitute(&self, value: &str, at: &Location) -> Result<String> {
+    fn substitute(&mut self, value: &str, at: &Location) -> Result<String> {
         if !value.contains('$') {
             return Ok(value.to_string());
         }
@@ -390,6 +576,9 @@ impl Expander {
                     ))
                 })?;
                 out.push_str(v);
+                if !self.read.contains(name) {
+                    self.read.insert(name.to_string());
+                }
             }
             rest = &after[len..];
         }
@@ -481,7 +670,7 @@ mod tests {
             .iter()
             .map(|(a, b)| (a.to_string(), b.to_string()))
             .collect();
-        read_scene_document(xml, "t.xml", Path::new("."), None, &o).map(|(e, _)| e)
+        read_scene_document(xml, "t.xml", Path::new("."), None, &o).map(|e| e.elements)
     }
 
     #[test]
@@ -505,6 +694,34 @@ mod tests {
         let msg = read(xml, &[]).unwrap_err().to_string();
         assert!(
             msg.starts_with("t.xml:2:") && msg.contains("$nope"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn text_files_are_read_up_to_their_bound() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        std::fs::write(&path, "12345").unwrap();
+        assert_eq!(read_text_file(&path, 5, String::new).unwrap(), "12345");
+        let e = read_text_file(&path, 4, || "too long".into()).unwrap_err();
+        assert_eq!(e.to_string(), "too long");
+        let e = read_text_file(dir.path(), 5, String::new).unwrap_err();
+        assert_eq!(e.to_string(), "not a regular file");
+    }
+
+    #[test]
+    fn overrides_must_be_read() {
+        let xml = "<scene>\n<default name=\"a\" value=\"1\"/>\n<integer name=\"x\" value=\"$a\"/></scene>";
+        assert_eq!(
+            read(xml, &[("a", "2")]).unwrap()[0].attr("value"),
+            Some("2")
+        );
+        let msg = read(xml, &[("a", "2"), ("b", "3")])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("t.xml:1:") && msg.contains("b=3 is used nowhere"),
             "{msg}"
         );
     }
@@ -576,9 +793,8 @@ mod tests {
             std::fs::write(dir.path().join(sub).join("m.obj"), "").unwrap();
         }
         std::fs::write(dir.path().join("m.obj"), "").unwrap();
-        let read_in = |xml: &str| {
-            read_scene_document(xml, "t.xml", dir.path(), None, &[]).map(|(_, search)| search)
-        };
+        let read_in =
+            |xml: &str| read_scene_document(xml, "t.xml", dir.path(), None, &[]).map(|e| e.search);
         // The latest <path> first; relative ones beside the file.
         let search = read_in(r#"<scene><path value="a"/><path value="b"/></scene>"#).unwrap();
         assert_eq!(

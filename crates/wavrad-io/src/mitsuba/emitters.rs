@@ -2,10 +2,10 @@
 //! level with an `id` and referenced from one shape (`<ref id="..."/>`), as
 //! Mitsuba 3 attaches it.
 //!
-//! | parameter         | type                                   | default |
-//! |-------------------|----------------------------------------|---------|
-//! | `radiance`        | `<rgb>`, `<float>`, `<spectrum value>` | 1       |
-//! | `sampling_weight` | `<float>` (ignored)                    | 1       |
+//! | parameter         | type                                   | range     | default |
+//! |-------------------|----------------------------------------|-----------|---------|
+//! | `radiance`        | `<rgb>`, `<float>`, `<spectrum value>` | 0 to 1e20 | 1       |
+//! | `sampling_weight` | `<float>` (ignored)                    |           | 1       |
 //!
 //! ```xml
 //! <shape type="rectangle">
@@ -33,6 +33,11 @@ use wavrad_core::scene::Rgb;
 use super::params::{Document, Nested, Object};
 use crate::error::Result;
 
+/// Largest radiance component: far above anything physical (the sun's disk
+/// is about 2e7 W m⁻² sr⁻¹), and low enough that sums of it stay finite in
+/// the `f32` pixels of an image (a radiance of 1e300 rendered as +inf).
+pub(crate) const MAX_RADIANCE: f64 = 1e20;
+
 /// The emitted radiance of an `area` emitter.
 pub(crate) fn parse_area_emitter(emitter: Nested, doc: &Document) -> Result<Rgb> {
     let mut obj = Object::parse(emitter.element, doc)?;
@@ -43,6 +48,12 @@ pub(crate) fn parse_area_emitter(emitter: Nested, doc: &Document) -> Result<Rgb>
     if let Some(c) = radiance.0.iter().find(|c| **c < 0.0) {
         return Err(obj.location_of("radiance").error(format!(
             "radiance {radiance} of emitter \"area\" has a negative component ({c})"
+        )));
+    }
+    if let Some(c) = radiance.0.iter().find(|c| **c > MAX_RADIANCE) {
+        return Err(obj.location_of("radiance").error(format!(
+            "radiance {radiance} of emitter \"area\" has a component of {c}: wavrad accepts \
+             up to {MAX_RADIANCE:e}"
         )));
     }
     obj.ignore(&["sampling_weight"]);

@@ -5,18 +5,23 @@
 //! - `<scene version="2.x|3.x">`, and `0.x` (Mitsuba 0.5, 0.6) upgraded as
 //!   Mitsuba 3's loader upgrades it (`mitsuba/document.rs`); `<default name
 //!   value/>` with `$name` substitution in every attribute (overrides, like
-//!   `mitsuba -D`, win), `<include filename/>`, `<path value/>` (search
+//!   `mitsuba -D`, win; one that no `$name` reads is an error, as in
+//!   Mitsuba 3), `<include filename/>`, `<path value/>` (search
 //!   directories for every relative file name: `<path>`s latest first, then
 //!   beside the naming file, then the scene's directory; cycles of includes
-//!   are errors), `<ref id/>` to any object with an `id`;
+//!   are errors, and includes are bounded: [`MAX_INCLUDE_DEPTH`],
+//!   [`MAX_INCLUDES`], [`MAX_XML_BYTES`]), `<ref id/>` to any object with an
+//!   `id`;
 //! - shapes `rectangle`, `cube`, `disk`, `cylinder`, `sphere` (tessellated),
 //!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs
 //!   (`mitsuba/bsdfs.rs`), the `area` emitter nested in a shape or declared at
 //!   the top level and referenced by one (`mitsuba/emitters.rs`), sensors
 //!   `perspective` and `orthographic` with `hdrfilm`, every Mitsuba 3
-//!   `rfilter` and any sampler (`mitsuba/sensors.rs`); any `integrator`, its
-//!   unhonoured settings warned about (`mitsuba/integrators.rs`), and
-//!   top-level `sampler` elements (only `sample_count` is read);
+//!   `rfilter` and any sampler (`mitsuba/sensors.rs`; of several sensors the
+//!   first is rendered, with a warning); any `integrator`, its parameters
+//!   checked and its unhonoured settings warned about
+//!   (`mitsuba/integrators.rs`), and top-level `sampler` elements (only
+//!   `sample_count` is read);
 //! - parameters `<float>`, `<integer>`, `<boolean>`, `<string>`, `<point>`,
 //!   `<vector>`, `<rgb>`, `<spectrum>` (converted to RGB as Mitsuba 3's RGB
 //!   variants do: `mitsuba/spectrum.rs`) and `<transform>`
@@ -59,10 +64,12 @@ use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use wavrad_core::scene::{Film, RenderHints, Scene};
+use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::{Film, RenderHints, Scene, Surface};
 
 use crate::error::{Error, Result};
 use document::{read_scene_document, Element, Location};
+pub use document::{MAX_INCLUDES, MAX_INCLUDE_DEPTH, MAX_NESTING, MAX_XML_BYTES};
 use params::{Document, Object};
 
 /// A scene as loaded, with the warnings the loader had about it.
@@ -103,7 +110,7 @@ pub fn load_scene(path: &Path) -> Result<Loaded> {
 /// which take precedence over the file's `<default>`s like Mitsuba's
 /// `-D name=value`.
 pub fn load_scene_with(path: &Path, defaults: &[(String, String)]) -> Result<Loaded> {
-    let xml = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let xml = document::read_xml(path, document::MAX_XML_BYTES).map_err(|e| Error::io(path, e))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -130,9 +137,12 @@ fn load(
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
 ) -> Result<Loaded> {
-    let (children, search) = read_scene_document(xml, name, dir, own_path, overrides)?;
-    let root = Element::root(children, name, dir);
-    let doc = Document::new(&root, search)?;
+    let expanded = read_scene_document(xml, name, dir, own_path, overrides)?;
+    let root = Element::root(expanded.elements, name, dir);
+    let doc = Document::new(&root, expanded.search)?;
+    for warning in expanded.warnings {
+        doc.warn(warning);
+    }
     let scene = build_scene(&root, &doc)?;
     Ok(Loaded {
         scene,
@@ -144,7 +154,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
     let scene = Object::parse(root, doc)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
-    let mut sensor = None;
+    let mut sensor: Option<(sensors::Sensor, &Location)> = None;
     let mut top_level_samples = None;
     let mut shape_index = 0;
     let mut top_level_emitters = Vec::new();
@@ -158,7 +168,9 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         }
         match n.tag() {
             "shape" => {
+                let first_surface = surfaces.len();
                 let emitter = shapes::build_shape(*n, doc, shape_index, &mut surfaces)?;
+                check_coordinates(&surfaces[first_surface..], n)?;
                 if let Some(e) = emitter {
                     if let Some(first) = attached.insert(e.element, e.at) {
                         return Err(e.at.error(format!(
@@ -179,7 +191,13 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             }
             "sensor" => {
                 let s = sensors::parse_sensor(*n, doc)?;
-                sensor.get_or_insert(s);
+                match sensor {
+                    None => sensor = Some((s, n.at)),
+                    Some((_, first)) => doc.warn(n.at.warning(format!(
+                        "a second sensor: wavrad renders only the scene's first (at {first}), \
+                         as Mitsuba does unless told another"
+                    ))),
+                }
             }
             "sampler" => {
                 let count = sensors::parse_sampler(*n, doc)?;
@@ -207,6 +225,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             ));
         }
     }
+    let sensor = sensor.map(|(s, _)| s);
     Ok(Scene {
         surfaces,
         camera: sensor.map(|s| s.camera),
@@ -217,4 +236,21 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 .or(top_level_samples),
         },
     })
+}
+
+/// The core's bound on coordinates ([`MAX_COORDINATE`]), checked for the
+/// surfaces of `shape` so that the error names its line.
+fn check_coordinates(surfaces: &[Surface], shape: &params::Nested) -> Result<()> {
+    let far = surfaces
+        .iter()
+        .flat_map(|s| s.patch.vertices())
+        .find(|v| !v.is_finite() || v.abs().max_element() > MAX_COORDINATE);
+    match far {
+        Some(v) => Err(shape.at.error(format!(
+            "shape \"{}\" has a vertex at {v} after to_world: wavrad accepts coordinates up to \
+             {MAX_COORDINATE:e} in magnitude",
+            shape.plugin()
+        ))),
+        None => Ok(()),
+    }
 }

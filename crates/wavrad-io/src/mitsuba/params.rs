@@ -13,7 +13,7 @@ use std::collections::HashMap;
 use glam::{DMat4, DVec3};
 use wavrad_core::scene::Rgb;
 
-use super::document::{Element, Location, SearchPath};
+use super::document::{read_text_file, Element, Location, SearchPath};
 use super::spectrum::{ColorRole, Spectrum};
 use super::transform::parse_transform;
 use super::Warning;
@@ -528,6 +528,10 @@ fn parse_value(e: &Element, search: &SearchPath) -> Result<Value> {
     })
 }
 
+/// Longest spectrum file read (1 MiB): a spectrum is a few hundred lines
+/// of wavelength–value pairs.
+const MAX_SPECTRUM_FILE_BYTES: u64 = 1 << 20;
+
 /// A `<spectrum>` given by `value` or by `filename`.
 fn parse_spectrum(e: &Element, search: &SearchPath) -> Result<Spectrum> {
     if let Some(plugin) = e.attr("type") {
@@ -547,7 +551,10 @@ fn parse_spectrum(e: &Element, search: &SearchPath) -> Result<Spectrum> {
         (Some(value), None) => Spectrum::parse(value).map_err(malformed),
         (None, Some(filename)) => {
             let path = search.resolve(filename, &e.at.dir);
-            let text = std::fs::read_to_string(&path).map_err(|err| {
+            let text = read_text_file(&path, MAX_SPECTRUM_FILE_BYTES, || {
+                format!("longer than {MAX_SPECTRUM_FILE_BYTES} bytes, wavrad's bound")
+            })
+            .map_err(|err| {
                 malformed(format!(
                     "cannot read spectrum file \"{}\": {err}",
                     path.display()
@@ -637,7 +644,8 @@ mod tests {
 
     /// The root of `xml` read in `dir`.
     fn root_in(xml: &str, dir: &Path) -> (Element, SearchPath) {
-        let (children, search) = read_scene_document(xml, "p.xml", dir, None, &[]).unwrap();
+        let expanded = read_scene_document(xml, "p.xml", dir, None, &[]).unwrap();
+        let (children, search) = (expanded.elements, expanded.search);
         (Element::root(children, "p.xml", dir), search)
     }
 

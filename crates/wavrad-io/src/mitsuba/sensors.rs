@@ -38,6 +38,8 @@
 //! ```
 
 use glam::DMat4;
+use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
+use wavrad_core::scene::bounds::{MAX_FILM_PIXELS, MAX_FILM_SIDE};
 use wavrad_core::scene::{Camera, Film, FovAxis, PixelFilter, Projection};
 
 use super::params::{Document, Nested, Object};
@@ -227,6 +229,19 @@ fn parse_film(film: Nested, doc: &Document) -> Result<Film> {
     };
     let width = size("width", 768)?;
     let height = size("height", 576)?;
+    // The core's bounds, checked here too so that the error names the line.
+    for (name, side) in [("width", width), ("height", height)] {
+        if side > MAX_FILM_SIDE {
+            return Err(obj.location_of(name).error(format!(
+                "film {name} = {side}: wavrad renders films of at most {MAX_FILM_SIDE} pixels a side"
+            )));
+        }
+    }
+    if u64::from(width) * u64::from(height) > MAX_FILM_PIXELS {
+        return Err(obj.location_of("height").error(format!(
+            "the film is {width}×{height} pixels: wavrad renders at most {MAX_FILM_PIXELS} pixels"
+        )));
+    }
     for (name, full) in [
         ("crop_offset_x", 0),
         ("crop_offset_y", 0),
@@ -316,10 +331,17 @@ pub(crate) fn parse_sampler(sampler: Nested, doc: &Document) -> Result<Option<u3
     let mut obj = Object::parse(sampler.element, doc)?;
     let count = match obj.integer("sample_count")? {
         None => None,
-        Some(v) => Some(u32::try_from(v).ok().filter(|v| *v > 0).ok_or_else(|| {
-            obj.location_of("sample_count")
-                .error(format!("sample_count must be a positive integer, got {v}"))
-        })?),
+        Some(v) => Some(
+            u32::try_from(v)
+                .ok()
+                .filter(|v| (1..=MAX_SAMPLES_PER_PIXEL).contains(v))
+                .ok_or_else(|| {
+                    obj.location_of("sample_count").error(format!(
+                        "sample_count must be an integer from 1 to {MAX_SAMPLES_PER_PIXEL} (the \
+                         most samples per pixel wavrad renders), got {v}"
+                    ))
+                })?,
+        ),
     };
     obj.ignore_all();
     if let Some(n) = obj.nested.first() {

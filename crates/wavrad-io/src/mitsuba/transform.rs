@@ -128,7 +128,9 @@ mod tests {
 
     fn transform(inner: &str) -> Result<DMat4> {
         let xml = format!("<scene><transform name=\"t\">{inner}</transform></scene>");
-        let (e, _) = read_scene_document(&xml, "t.xml", Path::new("."), None, &[]).unwrap();
+        let e = read_scene_document(&xml, "t.xml", Path::new("."), None, &[])
+            .unwrap()
+            .elements;
         parse_transform(&e[0])
     }
 
