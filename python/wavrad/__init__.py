@@ -7,6 +7,7 @@ General Surface Properties* (EG Rendering Workshop 1994).
 >>> solution = wavrad.solve(scene)
 >>> image = solution.render()  # (64, 64, 3) float32, linear RGB
 >>> wavrad.write_image("cornell.exr", image)
+>>> solution.save("cornell.wavrad")  # wavrad.load_solution() renders it again
 
 A solve's kernel projection can run elsewhere in blocks: :func:`plan`, then
 for each of ``plan.blocks(n)`` its items (:meth:`Plan.items`, bytes)
@@ -31,6 +32,7 @@ from wavrad._native import (  # noqa: E402  (documented first)
     WavradError,
     __version__,
     load_scene,
+    load_solution,
     plan,
     projector,
     read_exr,
@@ -50,6 +52,7 @@ __all__ = [
     "SolveError",
     "WavradError",
     "load_scene",
+    "load_solution",
     "plan",
     "projector",
     "read_exr",

@@ -144,6 +144,14 @@ class Solution:
         sensor and an image with pixels that are not finite (never returned);
         ``TypeError`` for an unknown keyword.
         """
+    def save(self, path: _Path) -> None:
+        """Write the solution to ``path`` as a solution file (the format of
+        ``wavrad solve -o NAME.wavrad``), atomically: the scene, its
+        elements, links, radiance and directional radiance, the settings
+        and statistics, and the scene file and ``load_scene`` keywords it
+        came from. :func:`load_solution` reads it back, in this process or
+        another, and renders it without solving again. Raises
+        ``SceneError`` naming the file if it cannot be written."""
     @property
     def radiance(self) -> npt.NDArray[np.float64]:
         """Average radiance of every element: an (elements, 3) float64
@@ -170,6 +178,16 @@ class Solution:
         ``limited_leaves``, the leaves whose form factors summed so far
         above one that they would reflect more light than reached them,
         and whose reflection was scaled down."""
+
+def load_solution(path: _Path) -> Solution:
+    """Read a solution file written by :meth:`Solution.save` or ``wavrad
+    solve -o``; its renders are those of the solution that was saved.
+    The scene file it was solved from is loaded again (with the same
+    keywords) and compared with the one solved: a scene that changed since
+    raises ``SceneError`` saying what differs; a scene file that is gone
+    gives a ``UserWarning`` and the solution still renders. A file that is
+    not a solution, of another format version, truncated or damaged raises
+    ``SceneError`` naming the file and the problem."""
 
 def load_scene(path: _Path, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its

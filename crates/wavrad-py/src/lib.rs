@@ -31,13 +31,15 @@ use wavrad_io::block_links::{
     decode_items, decode_links, encode_items, encode_links, fingerprint, projector_fingerprint,
     Fingerprint,
 };
+use wavrad_io::solution_file::{read_solution, write_solution, Source};
 
 use error::{argument_error, Error, Result, SceneError, SolveError, WavradError};
 use progress::PyProgress;
 
-/// A scene loaded from a Mitsuba 3 XML file.
+/// A scene loaded from a Mitsuba 3 XML file, with where it came from (for
+/// the solution files of its solutions).
 #[pyclass(module = "wavrad", frozen)]
-struct Scene(wavrad_core::scene::Scene);
+struct Scene(wavrad_core::scene::Scene, Option<Source>);
 
 #[pymethods]
 impl Scene {
@@ -69,12 +71,20 @@ impl Scene {
     }
 }
 
-/// A view-independent radiance solution, with the renderer of its views.
+/// A view-independent radiance solution, with the renderer of its views and
+/// where its scene came from.
 #[pyclass(module = "wavrad", frozen)]
-struct Solution(Renderer);
+struct Solution(Renderer, Option<Source>);
 
 #[pymethods]
 impl Solution {
+    /// Write the solution to `path` (a solution file, read back by
+    /// `load_solution`), atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> Result<()> {
+        py.allow_threads(|| write_solution(&path, self.0.solution(), self.1.as_ref()))?;
+        Ok(())
+    }
+
     /// Render the scene's sensor, or another view of the solution (moved by
     /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
     /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
@@ -188,6 +198,8 @@ fn rows<'py>(py: Python<'py>, trees: &[Vec<Rgb>]) -> Bound<'py, PyArray2<f64>> {
 /// whose items other processes can project in blocks.
 #[pyclass(module = "wavrad")]
 struct Plan {
+    /// Where the planned scene came from.
+    source: Option<Source>,
     /// `None` once finished (the solution took its scene and ray queries).
     plan: Option<wavrad_core::solve::Plan>,
     fingerprint: Fingerprint,
@@ -259,7 +271,7 @@ impl Plan {
         self.planned()?.check_cover(&links)?;
         let plan = self.plan.take().expect("checked above");
         let solution = py.allow_threads(|| plan.finish(links, &Silent))?;
-        Ok(Solution(Renderer::new(solution)))
+        Ok(Solution(Renderer::new(solution), self.source.clone()))
     }
 
     /// The two-point and three-point links in `block`, bytes that `project`
@@ -407,7 +419,9 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
         let category = py.get_type::<PyUserWarning>();
         warnings.call_method1("warn", (warning.to_string(), category, 2))?;
     }
-    Ok(Scene(loaded.scene))
+    // A scene whose file cannot be named again has no source to check.
+    let source = Source::new(&path, &overrides).ok();
+    Ok(Scene(loaded.scene, source))
 }
 
 /// Solve `scene` with the settings given by name (those of
@@ -460,7 +474,19 @@ fn solve(
     if let Some(e) = raised {
         return Err(Error::Python(e));
     }
-    Ok(Solution(Renderer::new(solution)))
+    Ok(Solution(Renderer::new(solution), scene.1.clone()))
+}
+
+/// Read a solution file written by `Solution.save` (or `wavrad solve -o`).
+#[pyfunction]
+fn load_solution(py: Python<'_>, path: PathBuf) -> Result<Solution> {
+    let read = py.allow_threads(|| read_solution(&path))?;
+    let warnings = py.import("warnings")?;
+    for warning in &read.warnings {
+        let category = py.get_type::<PyUserWarning>();
+        warnings.call_method1("warn", (warning.as_str(), category, 2))?;
+    }
+    Ok(Solution(Renderer::new(read.solution), read.source))
 }
 
 /// Plan the gathering solve of `scene` with the settings given by name (as
@@ -471,6 +497,7 @@ fn plan(py: Python<'_>, scene: &Scene, settings: Option<&Bound<'_, PyDict>>) -> 
     let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
     let plan = py.allow_threads(|| wavrad_core::solve::plan(&scene.0, &settings, &Silent))?;
     Ok(Plan {
+        source: scene.1.clone(),
         fingerprint: fingerprint(&plan),
         plan: Some(plan),
     })
@@ -610,6 +637,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Plan>()?;
     m.add_class::<Projector>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(load_solution, m)?)?;
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(plan, m)?)?;
     m.add_function(wrap_pyfunction!(projector, m)?)?;
