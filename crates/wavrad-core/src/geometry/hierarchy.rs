@@ -219,7 +219,13 @@ impl ElementTree {
 
     /// Leaf containing parameter `uv` of the surface, and `uv` in that leaf.
     pub fn locate(&self, uv: DVec2) -> (u32, DVec2) {
-        let (mut node, mut local) = (0u32, uv);
+        self.locate_from(0, uv)
+    }
+
+    /// Leaf below `node` containing parameter `local` of that node's
+    /// element, and the parameter of the same point in that leaf.
+    pub fn locate_from(&self, node: u32, local: DVec2) -> (u32, DVec2) {
+        let (mut node, mut local) = (node, local);
         while let Some(first) = self.nodes[node as usize].first_child {
             let (k, child_uv) = self.nodes[node as usize].patch.locate_child(local);
             node = first + k as u32;

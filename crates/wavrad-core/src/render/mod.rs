@@ -387,10 +387,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     fn element_radiance(&self, reconstruction: Reconstruction, s: usize, uv: DVec2) -> Rgb {
         let solution = self.solution();
         let (tree, radiance) = (&solution.trees[s], &solution.radiance[s]);
-        match reconstruction {
-            Reconstruction::Haar => radiance_at(tree, radiance, uv, reconstruction),
-            Reconstruction::Smooth => self.reader().smooth[s].radiance(tree, radiance, uv),
-        }
+        self.reader().lookup[s].radiance(tree, radiance, uv, reconstruction)
     }
 
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`

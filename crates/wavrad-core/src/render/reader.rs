@@ -4,7 +4,7 @@
 use super::discrete::SurfaceDistribution;
 use super::gather::{self, GatherPoint};
 use super::mirror::MirrorImages;
-use super::reconstruct::{directional_radiance, radiance_at, Reconstruction, SmoothLookup};
+use super::reconstruct::{directional_radiance, TreeLookup};
 use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
@@ -15,8 +15,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 /// What gather rays read from a solution on diffuse surfaces: the radiance
-/// of the element they hit (piecewise constant; `smooth`, the bilinear
-/// reconstruction, is what camera rays show); on a surface with an entry in
+/// of the element they hit (piecewise constant; the bilinear reconstruction
+/// is what camera rays show; both through each tree's `lookup`); on a surface with an entry in
 /// `beyond_first` (the solution's radiance less its first bounce,
 /// [`Solution::first_bounce`]), that element's value of it plus the light
 /// reflected straight from the `emitters` evaluated at the point hit.
@@ -45,7 +45,7 @@ use rayon::prelude::*;
 /// the `emitters`, by power (emission, the mean of the channels, times
 /// area), from which shadow rays and glossy points' light samples draw.
 pub(super) struct SolutionReader {
-    pub(super) smooth: Vec<SmoothLookup>,
+    pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
     beyond_first: Vec<Option<Vec<Rgb>>>,
     pub(super) emitters: SurfaceDistribution,
@@ -152,7 +152,7 @@ impl SolutionReader {
             })
             .collect();
         SolutionReader {
-            smooth: solution.trees.par_iter().map(SmoothLookup::new).collect(),
+            lookup: solution.trees.par_iter().map(TreeLookup::new).collect(),
             non_lambertian,
             beyond_first,
             emitters,
@@ -277,9 +277,7 @@ impl SolutionReader {
         let surface = &solution.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let i = q as usize;
-        let element = |radiance: &[Rgb]| {
-            radiance_at(&solution.trees[i], radiance, uv_y, Reconstruction::Haar)
-        };
+        let element = |radiance: &[Rgb]| self.lookup[i].haar(&solution.trees[i], radiance, uv_y);
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&solution.radiance[i]);
             let glossy = directional_radiance(solution, q, y, to.surface, to.position);

@@ -10,7 +10,7 @@
 //!   within a surface. Near a level change the neighbours are looked up
 //!   through the tree, so mixed resolutions blend without seams. Within half
 //!   an element of a parallelogram's boundary there is no centre beyond the
-//!   point to interpolate towards, so [`SmoothLookup`] extrapolates the
+//!   point to interpolate towards, so [`TreeLookup`] extrapolates the
 //!   line through the two nearest centres (clamped at zero): a radiance
 //!   that falls off towards an edge, as it does across a directly lit
 //!   floor or towards a contact line, keeps its slope up to the edge instead
@@ -47,19 +47,46 @@ pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Recons
     }
 }
 
-/// The smooth reconstruction of one element tree with its neighbour
-/// lookups done once: for each quadrant of each leaf of a parallelogram the
-/// four nodes the hat stencil blends there (they are the same everywhere in
-/// the quadrant), so that a lookup descends the tree once instead of five
-/// times. At the boundary the stencil is moved inwards by one element and
-/// blends with weights beyond [0, 1]: linear extrapolation. Triangle trees,
-/// whose leaves do not follow the stencil's square grid, are looked up as
+/// Most levels of an element tree that a [`TreeLookup`] indexes with a
+/// grid (4⁶ cells, 32 KiB); a deeper tree is descended from the grid's
+/// cells.
+const GRID_LEVELS: u32 = 6;
+
+/// One element tree's lookups done once: where each point lies (a grid of
+/// the nodes at its finest levels, so that locating a point reads one cell
+/// instead of descending the tree), and for the smooth reconstruction, for
+/// each quadrant of each leaf of a parallelogram the four nodes the hat
+/// stencil blends there (they are the same everywhere in the quadrant), so
+/// that a smooth lookup also locates the point once instead of five times.
+/// At the boundary the stencil is moved inwards by one element and blends
+/// with weights beyond [0, 1]: linear extrapolation. Triangle trees, whose
+/// leaves do not follow a square grid, are descended and looked up as
 /// [`radiance_at`] does.
 #[derive(Debug, Clone, Default)]
-pub struct SmoothLookup {
+pub struct TreeLookup {
+    /// For a parallelogram's tree, the node containing each cell.
+    grid: Option<NodeGrid>,
     /// Per node (leaves only; empty for triangles): per quadrant
     /// (x ≥ ½) + 2·(y ≥ ½) of the leaf, the stencil.
     neighbours: Vec<[Stencil; 4]>,
+}
+
+/// The `side` × `side` cells of a parallelogram's parameter square, row by
+/// row, each with the deepest node of at most the grid's level that
+/// contains it.
+#[derive(Debug, Clone)]
+struct NodeGrid {
+    side: usize,
+    cells: Vec<Cell>,
+    /// Some nodes of the grid have children (the tree is deeper than it).
+    deeper: bool,
+}
+
+/// A grid cell's node and that node's level.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    node: u32,
+    level: u32,
 }
 
 /// The four nodes a quadrant of a leaf blends, at offsets (0,0), (1,0),
@@ -71,12 +98,52 @@ struct Stencil {
     shift: [i8; 2],
 }
 
-impl SmoothLookup {
-    /// Look up the stencil neighbours of every leaf of `tree`.
-    pub fn new(tree: &ElementTree) -> SmoothLookup {
+impl NodeGrid {
+    fn new(tree: &ElementTree) -> NodeGrid {
+        let root = &tree.nodes[0].patch;
+        let level = tree.depth().min(GRID_LEVELS);
+        let side = 1usize << level;
+        let cells = (0..side * side)
+            .map(|c| {
+                let centre = DVec2::new((c % side) as f64 + 0.5, (c / side) as f64 + 0.5);
+                let path = ElementId::path_to(root, centre / side as f64, level);
+                let node = tree.node_containing(path[level as usize]);
+                let level = tree.nodes[node as usize].id.level;
+                Cell { node, level }
+            })
+            .collect();
+        NodeGrid {
+            side,
+            cells,
+            deeper: tree.depth() > level,
+        }
+    }
+
+    /// [`ElementTree::locate`] of `tree`, the tree this grid was made for:
+    /// the same leaf and local parameter, bit for bit (scaling by a power
+    /// of two and taking the integer part off are exact, as the descent's
+    /// halvings are), also outside the unit square.
+    fn locate(&self, tree: &ElementTree, uv: DVec2) -> (u32, DVec2) {
+        let index = |v: f64, side: usize| v.floor().clamp(0.0, (side - 1) as f64);
+        let cell = |v: f64| index(v * self.side as f64, self.side) as usize;
+        let Cell { node, level } = self.cells[cell(uv.y) * self.side + cell(uv.x)];
+        let side = 1usize << level;
+        let at = uv * side as f64;
+        let local = at - DVec2::new(index(at.x, side), index(at.y, side));
+        match self.deeper {
+            true => tree.locate_from(node, local),
+            false => (node, local),
+        }
+    }
+}
+
+impl TreeLookup {
+    /// Index the leaves of `tree` and look up the stencil neighbours of
+    /// every leaf.
+    pub fn new(tree: &ElementTree) -> TreeLookup {
         let root = tree.nodes[0].patch;
         if !matches!(root, Patch::Parallelogram { .. }) {
-            return SmoothLookup::default();
+            return TreeLookup::default();
         }
         let neighbours = tree
             .nodes
@@ -105,16 +172,34 @@ impl SmoothLookup {
                 })
             })
             .collect();
-        SmoothLookup { neighbours }
+        TreeLookup {
+            grid: Some(NodeGrid::new(tree)),
+            neighbours,
+        }
     }
 
-    /// The smooth radiance of `tree` (the tree this lookup was made for)
-    /// at `uv`: [`radiance_at`] with [`Reconstruction::Smooth`].
-    pub fn radiance(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2) -> Rgb {
+    /// The leaf of `tree` (the tree this lookup was made for) containing
+    /// `uv`, and `uv` in that leaf: [`ElementTree::locate`].
+    pub fn locate(&self, tree: &ElementTree, uv: DVec2) -> (u32, DVec2) {
+        match &self.grid {
+            Some(grid) => grid.locate(tree, uv),
+            None => tree.locate(uv),
+        }
+    }
+
+    /// The piecewise-constant radiance of `tree` at `uv`: [`radiance_at`]
+    /// with [`Reconstruction::Haar`].
+    pub fn haar(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2) -> Rgb {
+        radiance[self.locate(tree, uv).0 as usize]
+    }
+
+    /// The smooth radiance of `tree` at `uv`: [`radiance_at`] with
+    /// [`Reconstruction::Smooth`].
+    pub fn smooth(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2) -> Rgb {
         if self.neighbours.is_empty() {
             return radiance_at(tree, radiance, uv, Reconstruction::Smooth);
         }
-        let (leaf, local) = tree.locate(uv);
+        let (leaf, local) = self.locate(tree, uv);
         let (qx, qy) = (local.x >= 0.5, local.y >= 0.5);
         let stencil = self.neighbours[leaf as usize][usize::from(qx) + 2 * usize::from(qy)];
         // Position within the stencil: half an element past the quadrant's
@@ -125,6 +210,20 @@ impl SmoothLookup {
         )
         .clamp(DVec2::splat(-0.5), DVec2::splat(1.5));
         blend(stencil.nodes.map(|n| radiance[n as usize]), f).map(|v| v.max(0.0))
+    }
+
+    /// The radiance of `tree` at `uv` reconstructed as `mode`.
+    pub fn radiance(
+        &self,
+        tree: &ElementTree,
+        radiance: &[Rgb],
+        uv: DVec2,
+        mode: Reconstruction,
+    ) -> Rgb {
+        match mode {
+            Reconstruction::Haar => self.haar(tree, radiance, uv),
+            Reconstruction::Smooth => self.smooth(tree, radiance, uv),
+        }
     }
 }
 
@@ -232,6 +331,40 @@ mod tests {
         }
     }
 
+    /// A tree refined unevenly, down to two levels below the lookup's
+    /// grid in one corner: locating through the grid finds the leaf and
+    /// local parameter the tree's descent finds, to the bit, on cell
+    /// boundaries and outside the unit square too.
+    #[test]
+    fn tree_lookup_locates_as_the_tree_descent_does() {
+        let root = crate::testing::unit_floor();
+        let deep = GRID_LEVELS + 2;
+        let mut ids = BTreeSet::new();
+        ids.insert(ElementId {
+            level: deep,
+            path: 0,
+        });
+        ids.insert(ElementId { level: 3, path: 63 });
+        ids.insert(ElementId { level: 2, path: 6 });
+        let tree = ElementTree::build(&root, &ids);
+        assert_eq!(tree.depth(), deep);
+        let lookup = TreeLookup::new(&tree);
+        let n = 97;
+        let edges = [0.0, 0.5, 1.0, 1.0 / 256.0, -0.25, 1.5, 0.999_999_999];
+        let coords: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).chain(edges).collect();
+        for &s in &coords {
+            for &t in &coords {
+                let uv = DVec2::new(s, t);
+                let (want, got) = (tree.locate(uv), lookup.locate(&tree, uv));
+                assert_eq!(want.0, got.0, "leaf at {uv}");
+                assert_eq!(
+                    want.1.to_array().map(f64::to_bits),
+                    got.1.to_array().map(f64::to_bits)
+                );
+            }
+        }
+    }
+
     #[test]
     fn smooth_lookup_keeps_a_ramps_slope_up_to_the_boundary() {
         let root = crate::testing::unit_floor();
@@ -252,7 +385,7 @@ mod tests {
             .iter()
             .map(|n| Rgb::splat(ramp(n.patch.centroid())))
             .collect();
-        let lookup = SmoothLookup::new(&tree);
+        let lookup = TreeLookup::new(&tree);
         for &(s, t) in &[
             (0.01, 0.5),
             (0.99, 0.02),
@@ -262,7 +395,7 @@ mod tests {
             (1.0, 1.0),
         ] {
             let uv = DVec2::new(s, t);
-            let got = lookup.radiance(&tree, &radiance, uv)[0];
+            let got = lookup.smooth(&tree, &radiance, uv)[0];
             let want = ramp(DVec3::new(s, t, 0.0));
             assert!((got - want).abs() < 1e-12, "at ({s}, {t}): {got} vs {want}");
         }
@@ -273,6 +406,6 @@ mod tests {
             .iter()
             .map(|n| Rgb::splat(4.0 * n.patch.centroid().x - 0.2))
             .collect();
-        assert_eq!(lookup.radiance(&tree, &steep, DVec2::new(0.0, 0.5))[0], 0.0);
+        assert_eq!(lookup.smooth(&tree, &steep, DVec2::new(0.0, 0.5))[0], 0.0);
     }
 }
