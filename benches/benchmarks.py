@@ -764,6 +764,18 @@ def main() -> None:
     info.update(mitsuba=mitsuba.mi.__version__, drjit=mitsuba.dr.__version__,
                 variant=mitsuba.variant)
     runs, walk = [], None
+
+    def report() -> None:
+        """docs/benchmarks.md and .json from what is measured so far (a run
+        cut short keeps its finished scenes)."""
+        info["machine"]["load_average_end"] = os.getloadavg()
+        info["compile_s_left_out"] = mitsuba.compile_s
+        info["total_s"] = time.perf_counter() - start
+        write_report(info, runs, walk)
+        with open(os.path.join(DOCS, "benchmarks.json"), "w") as f:
+            json.dump(to_json({"info": info, "runs": runs, "walkthrough": walk}), f, indent=1)
+            f.write("\n")
+
     with tempfile.TemporaryDirectory() as folder:
         for res in args.res:
             for name in args.scenes:
@@ -773,6 +785,7 @@ def main() -> None:
                     continue
                 run = bench_scene(mitsuba, name, res, folder, spp)
                 runs.append(run)
+                report()
                 if args.walkthrough and name == WALKTHROUGH_SCENE and res == args.res[0]:
                     best = run["best"][WALKTHROUGH_CONFIG]
                     walk = walkthrough(mitsuba, folder, res, best,
@@ -780,13 +793,7 @@ def main() -> None:
                                        run["wavrad"][WALKTHROUGH_CONFIG])
     if args.references_only:
         return
-    info["compile_s_left_out"] = mitsuba.compile_s
-    info["machine"]["load_average_end"] = os.getloadavg()
-    info["total_s"] = time.perf_counter() - start
-    write_report(info, runs, walk)
-    with open(os.path.join(DOCS, "benchmarks.json"), "w") as f:
-        json.dump(to_json({"info": info, "runs": runs, "walkthrough": walk}), f, indent=1)
-        f.write("\n")
+    report()
     print(f"wrote docs/benchmarks.md, docs/benchmarks.json ({info['total_s'] / 60:.1f} min)")
 
 
