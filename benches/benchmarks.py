@@ -66,7 +66,7 @@ class SceneSpec:
     """A bundled scene as the benchmark runs it."""
 
     xml: str  # relative to scenes/
-    integrators: tuple[str, ...]  # Mitsuba integrators timed
+    integrators: tuple[str, ...]  # Mitsuba integrators timed, the likely fastest first
     reference_integrator: str
     reference_spp: int  # per reference render
     region: str | None = None  # "indirect": also report the indirectly lit pixels
@@ -80,7 +80,7 @@ SCENES: dict[str, SceneSpec] = {
     # The paper's experiment: emitter -> Ward reflector -> diffuse receiver,
     # seen from the receiver. Its receiver is lit mostly through the
     # reflector, a path the light tracer samples far better.
-    "figure3-specular": SceneSpec("figure3/specular.xml", ("path", "ptracer"), "ptracer",
+    "figure3-specular": SceneSpec("figure3/specular.xml", ("ptracer", "path"), "ptracer",
                                   8192, region="indirect"),
 }
 # Scenes not in the repository (--external NAME=XML: public scenes keep their
