@@ -678,6 +678,35 @@ def to_json(x):
     return x
 
 
+def log_report(path: str) -> None:
+    """Print the headline (wavrad against each sampler at wavrad's error)
+    from the lines a run printed, for a run cut short before its report."""
+    runs, curve, name = {}, [], ""
+    for line in open(path).read().splitlines():
+        if m := re.match(r"(\S+ \d+)²: reference \d+ spp", line):
+            name = m.group(1)
+            runs[name] = {"wavrad": {}, "curves": {}}
+        elif m := re.match(r"\s+wavrad (\w+): solve ([\d.]+) s render ([\d.]+) s error ([\d.]+) %",
+                           line):
+            runs[name]["wavrad"][m.group(1)] = [float(x) for x in m.groups()[1:]]
+        elif m := re.match(r"\s+mitsuba (\w+) (\w+)$", line):
+            curve = runs[name]["curves"].setdefault(f"{m.group(1)}/{m.group(2)}", [])
+        elif m := re.match(r"\s+(\d+) spp\s+([\d.]+) s \(\s*([\d.]+) s CPU\) relRMSE ([\d.]+) %",
+                           line):
+            spp, seconds, cpu, error = (float(x) for x in m.groups())
+            curve.append({"spp": spp, "time_s": seconds, "cpu_s": cpu, "rel_rmse": error / 100})
+    for name, run in runs.items():
+        for config, (solve, render, error) in run["wavrad"].items():
+            matches = {k: match(c, error / 100) for k, c in run["curves"].items() if c}
+            best = min(matches, key=lambda k: matches[k]["time_s"])
+            mt = matches[best]
+            print(f"{name}² {config}: wavrad {error:.2f} % in {solve:.2f} + {render:.2f} s; "
+                  f"fastest {best} {mt['time_s']:.1f} s ({mt['spp']:.0f} spp): "
+                  f"{mt['time_s'] / (solve + render):.1f}×")
+            for key, mt in matches.items():
+                print(f"    {key}: {mt['time_s']:.1f} s, {mt['spp']:.0f} spp ({mt['method']})")
+
+
 def bench_scene(mitsuba: Mitsuba, name: str, res: int, folder: str, reference_spp: int) -> dict:
     """One scene at one resolution: reference, wavrad, Mitsuba's curves."""
     spec = SCENES[name]
@@ -742,6 +771,8 @@ def main() -> None:
                     help="only render (and cache) the references")
     ap.add_argument("--walkthrough", action="store_true",
                     help=f"also the {VIEWS}-view walkthrough of {WALKTHROUGH_SCENE}")
+    ap.add_argument("--log-report", metavar="LOG",
+                    help="only print the headline from a run's printed lines")
     ap.add_argument("--worker", nargs=4, metavar=("SCENE", "RES", "CONFIG", "OUT"),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -753,6 +784,9 @@ def main() -> None:
     if args.worker:
         name, res, config, out = args.worker
         wavrad_worker(name, int(res), config, out)
+        return
+    if args.log_report:
+        log_report(args.log_report)
         return
     if args.walkthrough:
         os.environ["WAVRAD_BENCH_WALK"] = "1"
