@@ -89,7 +89,7 @@ EXTERNAL_ENV = "WAVRAD_BENCH_EXTERNAL"
 RESOLUTIONS = (256, 512)
 # Mitsuba 3's samplers that suit path tracing, the likely fastest first: a
 # curve stops once one render takes longer than the fastest time to wavrad's
-# error so far (it cannot be faster; its own time is then extrapolated).
+# error so far, reached or extrapolated (its own time is then extrapolated).
 SAMPLERS = ("multijitter", "orthogonal", "stratified", "ldsampler", "independent")
 REFERENCE_SAMPLER = "multijitter"
 REFERENCE_RENDERS = 4
@@ -559,7 +559,7 @@ def write_report(info: dict, runs: list[dict], walk: dict | None) -> None:
         "clock and CPU time of the process, each configuration in a fresh process. "
         "Mitsuba's: the wall clock of its `mi.render` calls, interpolated log-log between "
         "the two renders that bracket wavrad's error (`extrapolated` below: a curve "
-        f"stops past {CURVE_TIME_CAP_S:.0f} s, or past the fastest sampler's time, "
+        f"stops past {info['cap_s']:.0f} s, or past the fastest sampler's time, "
         "and is extrapolated with error ∝ spp^−½).",
         "",
         "### Every sampler: Mitsuba's time to the default configuration's error",
@@ -707,8 +707,10 @@ def log_report(path: str) -> None:
                 print(f"    {key}: {mt['time_s']:.1f} s, {mt['spp']:.0f} spp ({mt['method']})")
 
 
-def bench_scene(mitsuba: Mitsuba, name: str, res: int, folder: str, reference_spp: int) -> dict:
-    """One scene at one resolution: reference, wavrad, Mitsuba's curves."""
+def bench_scene(mitsuba: Mitsuba, name: str, res: int, folder: str, reference_spp: int,
+                cap_s: float = CURVE_TIME_CAP_S) -> dict:
+    """One scene at one resolution: reference, wavrad, Mitsuba's curves
+    (no render longer than `cap_s`)."""
     spec = SCENES[name]
     ref = reference(mitsuba, name, res, folder, reference_spp)
     run = {"scene": name, "res": res, "integrators": list(spec.integrators),
@@ -725,16 +727,17 @@ def bench_scene(mitsuba: Mitsuba, name: str, res: int, folder: str, reference_sp
         print(f"  wavrad {config}: solve {w['solve_wall_s']:.2f} s render {w['render_s']:.2f} s"
               f" error {pct(w['errors']['no-emitter']['corrected'])}", flush=True)
     target = min(w["errors"]["no-emitter"]["corrected"] for w in run["wavrad"].values())
-    run["curves"], fastest = {}, CURVE_TIME_CAP_S
+    run["curves"], fastest = {}, cap_s
     for integrator in spec.integrators:
         for sampler in SAMPLERS:
             print(f"  mitsuba {sampler} {integrator}", flush=True)
             xml = bench_xml(name, sampler, folder)
             curve = mitsuba_curve(mitsuba, xml, res, integrator, ref, target,
-                                  min(CURVE_TIME_CAP_S, fastest))
+                                  min(cap_s, fastest))
             run["curves"][f"{sampler}/{integrator}"] = curve
-            if curve[-1]["rel_rmse"] < target:
-                fastest = min(fastest, match(curve, target)["time_s"])
+            # Reached or extrapolated: a render slower than that, still
+            # above the target, cannot reach it sooner.
+            fastest = min(fastest, match(curve, target)["time_s"])
     run["matches"], run["best"], run["best_indirect"] = {}, {}, {}
     for config, w in run["wavrad"].items():
         run["matches"][config] = {
@@ -771,6 +774,8 @@ def main() -> None:
                     help="only render (and cache) the references")
     ap.add_argument("--walkthrough", action="store_true",
                     help=f"also the {VIEWS}-view walkthrough of {WALKTHROUGH_SCENE}")
+    ap.add_argument("--cap", type=float, default=CURVE_TIME_CAP_S, metavar="SECONDS",
+                    help="longest Mitsuba render; beyond, its time is extrapolated")
     ap.add_argument("--log-report", metavar="LOG",
                     help="only print the headline from a run's printed lines")
     ap.add_argument("--worker", nargs=4, metavar=("SCENE", "RES", "CONFIG", "OUT"),
@@ -793,7 +798,7 @@ def main() -> None:
 
     start = time.perf_counter()
     info = {"machine": machine(), "configs": CONFIGS, "render_args": RENDER_ARGS,
-            "samplers": SAMPLERS, "reference_sampler": REFERENCE_SAMPLER}
+            "samplers": SAMPLERS, "reference_sampler": REFERENCE_SAMPLER, "cap_s": args.cap}
     mitsuba = Mitsuba()
     info.update(mitsuba=mitsuba.mi.__version__, drjit=mitsuba.dr.__version__,
                 variant=mitsuba.variant)
@@ -817,7 +822,7 @@ def main() -> None:
                 if args.references_only:
                     reference(mitsuba, name, res, folder, spp)
                     continue
-                run = bench_scene(mitsuba, name, res, folder, spp)
+                run = bench_scene(mitsuba, name, res, folder, spp, args.cap)
                 runs.append(run)
                 report()
                 if args.walkthrough and name == WALKTHROUGH_SCENE and res == args.res[0]:
