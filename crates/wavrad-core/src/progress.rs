@@ -31,6 +31,20 @@ pub trait Progress: Sync {
 pub struct Silent;
 impl Progress for Silent {}
 
+/// A driver's stop request without its reports: for work nested inside a
+/// phase that already reports its own progress (the refinement inside one
+/// shooting step), which must still stop when asked.
+pub struct StopOnly<'a>(pub &'a dyn Progress);
+
+impl Progress for StopOnly<'_> {
+    fn interrupted(&self) -> bool {
+        self.0.interrupted()
+    }
+    fn cut_short(&self, items: u64) {
+        self.0.cut_short(items)
+    }
+}
+
 /// What cut a solve short.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]

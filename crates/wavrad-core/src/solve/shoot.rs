@@ -62,7 +62,7 @@ use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::exposed_fractions;
 use crate::kernel::KernelContext;
-use crate::progress::{Budgeted, Progress, Silent};
+use crate::progress::{Budgeted, Progress, StopOnly};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::Oracle;
@@ -192,7 +192,7 @@ pub fn solve_shooting(
         if remaining <= settings.tolerance {
             break;
         }
-        shooting.shoot(shooter);
+        shooting.shoot(shooter, progress);
         progress.advance(1);
         let Some(on_step) = on_step.as_deref_mut() else {
             continue;
@@ -233,6 +233,7 @@ pub fn solve_shooting(
     solution.stats = Stats {
         limited_leaves: system.interactions.limited_leaves,
         stopped: budget.stopped(),
+        unrefined_items: budget.coarse_items(),
         ..shooting.stats(&system.trees, sweeps)
     };
     solution.trees = system.trees;
@@ -408,8 +409,9 @@ impl<'a> Shooting<'a> {
         (best.0, relative)
     }
 
-    /// Send the unshot radiance of surface `s` to every surface it can light.
-    fn shoot(&mut self, s: usize) {
+    /// Send the unshot radiance of surface `s` to every surface it can
+    /// light; refinement stops splitting once `stop` asks it to.
+    fn shoot(&mut self, s: usize, stop: &dyn Progress) {
         let (ctx, settings) = (&self.ctx, self.settings);
         let scene = ctx.scene;
         let tree = self.states[s].tree.clone();
@@ -426,11 +428,12 @@ impl<'a> Shooting<'a> {
             .iter()
             .map(|&(_, i)| (i, self.links[i].take()))
             .collect();
+        let stop = &StopOnly(stop);
         work.par_iter_mut().for_each(|(i, links)| {
             let pair = self.pairs[*i];
             *links = Some(match (links.take(), &estimate) {
-                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), roots(pair), &Silent),
-                (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, &Silent).0,
+                (None, e) => refine_pair(ctx, settings.refine, e.as_ref(), roots(pair), stop),
+                (Some(old), Some(e)) => refine_further(ctx, settings.refine, e, old, stop).0,
                 (Some(old), None) => old,
             });
         });
@@ -491,6 +494,7 @@ impl<'a> Shooting<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::{Silent, Stop};
     use crate::scene::brdf::Brdf;
     use crate::scene::{Patch, Surface};
     use crate::solve::solve;
@@ -637,6 +641,43 @@ mod tests {
         assert!(seen
             .windows(2)
             .all(|w| w[1].2 >= w[0].2 && w[1].1 <= w[0].1));
+    }
+
+    /// A driver that asks the work to stop from its `after`-th question on.
+    struct InterruptAfter {
+        asked: std::sync::atomic::AtomicUsize,
+        after: usize,
+    }
+    impl Progress for InterruptAfter {
+        fn interrupted(&self) -> bool {
+            let asked = self
+                .asked
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            asked + 1 >= self.after
+        }
+    }
+
+    #[test]
+    fn a_stop_during_a_step_cuts_its_refinement_short() {
+        let scene = open_box();
+        let mut settings = settings(Oracle::Kernel, 8);
+        settings.refine.threshold = 0.0;
+        let stop = InterruptAfter {
+            asked: Default::default(),
+            after: 40,
+        };
+        let cut = solve_shooting(&scene, &settings, &stop, None).unwrap();
+        assert_eq!(cut.stats.stopped, Some(Stop::Interrupted));
+        assert!(cut.stats.unrefined_items > 0, "{:?}", cut.stats);
+        assert_eq!(cut.stats.shooting_steps, 1);
+        // The first step's links stop at the level reached when asked,
+        // far above the finest an uninterrupted step would make.
+        assert!(cut.stats.two_point_interactions < 2_000, "{:?}", cut.stats);
+        assert!(cut
+            .radiance
+            .iter()
+            .flatten()
+            .all(|r| r.0.iter().all(|v| v.is_finite())));
     }
 
     #[test]
