@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use wavrad_core::progress::Progress;
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::setting::{Described, Domain, Group, Value};
@@ -185,8 +185,36 @@ struct Phase {
 /// stop ([`Progress::interrupted`]).
 struct Reporter {
     show: Show,
-    phase: Mutex<Option<Phase>>,
+    phase: Arc<Mutex<Option<Phase>>>,
     interrupted: Arc<AtomicBool>,
+}
+
+impl Phase {
+    /// The plain line of this phase now: done of total, time so far and,
+    /// once something is done, the time left at this rate.
+    fn line(&mut self) -> String {
+        self.printed = Instant::now();
+        let elapsed = self.started.elapsed().as_secs_f64();
+        let share = self.done as f64 / self.total.max(1) as f64;
+        let mut line = format!(
+            "wavrad: {} {}/{} ({:.0} %), {:.0} s",
+            self.name,
+            self.done,
+            self.total,
+            100.0 * share,
+            elapsed
+        );
+        if self.done > 0 {
+            let left = elapsed * (1.0 - share) / share;
+            line += &format!(", about {left:.0} s left");
+        }
+        line
+    }
+
+    /// Whether a plain line is due.
+    fn line_due(&self) -> bool {
+        self.bar.is_none() && self.printed.elapsed().as_secs_f64() >= LINE_INTERVAL_S
+    }
 }
 
 impl Reporter {
@@ -196,11 +224,29 @@ impl Reporter {
             (false, true) => Show::Bars,
             (false, false) => Show::Lines,
         };
-        Reporter {
+        let reporter = Reporter {
             show,
-            phase: Mutex::new(None),
+            phase: Arc::new(Mutex::new(None)),
             interrupted: Arc::new(AtomicBool::new(false)),
+        };
+        if show == Show::Lines {
+            reporter.print_lines_while_silent();
         }
+        reporter
+    }
+
+    /// Plain lines keep coming while a phase advances too slowly to print
+    /// them itself (a few surface pairs refined for minutes each): a thread
+    /// looks every second whether a line is due.
+    fn print_lines_while_silent(&self) {
+        let phase = Arc::clone(&self.phase);
+        std::thread::spawn(move || loop {
+            std::thread::sleep(Duration::from_secs(1));
+            let mut phase = phase.lock().expect("progress lock");
+            if let Some(phase) = phase.as_mut().filter(|p| p.line_due()) {
+                eprintln!("{}", phase.line());
+            }
+        });
     }
 
     /// A note between phases (loading, writing), unless quiet.
@@ -270,20 +316,8 @@ impl Progress for Reporter {
         phase.done += steps;
         if let Some(bar) = &phase.bar {
             bar.inc(steps);
-        } else if phase.printed.elapsed().as_secs_f64() >= LINE_INTERVAL_S {
-            phase.printed = Instant::now();
-            let elapsed = phase.started.elapsed().as_secs_f64();
-            let share = phase.done as f64 / phase.total.max(1) as f64;
-            let left = elapsed * (1.0 - share) / share.max(1e-9);
-            eprintln!(
-                "wavrad: {} {}/{} ({:.0} %), {:.0} s, about {:.0} s left",
-                phase.name,
-                phase.done,
-                phase.total,
-                100.0 * share,
-                elapsed,
-                left
-            );
+        } else if phase.line_due() {
+            eprintln!("{}", phase.line());
         }
     }
 
