@@ -150,6 +150,13 @@ pub fn check_writable(path: &Path) -> Result<()> {
             std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory"),
         ));
     }
+    temporary_beside(path).map(drop)
+}
+
+/// A temporary file in the folder of `path`, to be renamed onto it. A
+/// folder that does not exist or cannot be written is named in the error
+/// (not the temporary file's name).
+fn temporary_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let dir: PathBuf = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -158,23 +165,26 @@ pub fn check_writable(path: &Path) -> Result<()> {
         .prefix(".wavrad-")
         .suffix(".tmp")
         .tempfile_in(&dir)
-        .map(drop)
-        .map_err(|e| Error::io(path, e))
+        .map_err(|e| {
+            // tempfile's error names the temporary file, not the folder.
+            let cause = if dir.is_dir() {
+                e.kind().to_string()
+            } else {
+                "no such folder".to_string()
+            };
+            let message = format!(
+                "cannot make a file in the folder \"{}\": {cause}",
+                dir.display()
+            );
+            Error::io(path, std::io::Error::new(e.kind(), message))
+        })
 }
 
 fn write_atomically(
     path: &Path,
     encode: impl FnOnce(&mut fs::File) -> std::result::Result<(), String>,
 ) -> Result<()> {
-    let dir: PathBuf = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".wavrad-")
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| Error::io(path, e))?;
+    let mut tmp = temporary_beside(path)?;
     encode(tmp.as_file_mut()).map_err(|m| Error::image(path, m))?;
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     // Temporary files are private (0600); give the result ordinary
