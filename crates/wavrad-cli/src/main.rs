@@ -53,6 +53,14 @@ enum Command {
         /// renders it.
         #[arg(short, long, help_heading = "Output options")]
         output: Option<PathBuf>,
+        /// Resume the solve written to this solution file (.wavrad) when a
+        /// limit or Ctrl-C cut it short: the items it refined are kept,
+        /// only those it left are refined, then the solution is finished
+        /// as an uninterrupted solve's. Its settings are kept (a setting
+        /// that changes refinement may not differ); --time-limit and
+        /// --max-memory are this run's own.
+        #[arg(long, value_name = "FILE", help_heading = Group::Solve.heading())]
+        resume: Option<PathBuf>,
     },
     /// Print the relative RMSE, sqrt(mean((a-b)^2))/mean(b), of an EXR image
     /// against an EXR reference of the same size.
@@ -341,6 +349,7 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
         Command::Solve {
             solve: args,
             output,
+            resume,
         } => {
             if is_solution_file(&args.scene) {
                 return Err(format!(
@@ -351,13 +360,26 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             if let Some(output) = &output {
                 check_solution_extension(output)?;
             }
+            if let Some(resume) = &resume {
+                check_solution_extension(resume)?;
+            }
             check_outputs(output.as_deref(), args.stats.as_deref())?;
-            let (solution, source) = load_and_solve(&args, progress)?;
+            let (solution, source) = load_and_solve(&args, resume.as_deref(), progress)?;
             report(&solution, None, progress);
             if let Some(output) = &output {
                 progress.note(&format!("writing {}", output.display()));
                 write_solution(output, &solution, Some(&source)).map_err(|e| e.to_string())?;
                 progress.note(&format!("wrote {}", output.display()));
+            }
+            if solution.checkpoint.is_some() {
+                let scene = args.scene.display();
+                progress.note(&match &output {
+                    Some(output) => format!(
+                        "to finish the solve: wavrad solve {scene} --resume {} -o NEW.wavrad",
+                        output.display()
+                    ),
+                    None => "the solve can be resumed only from a solution file (-o)".into(),
+                });
             }
             write_stats(&args, &solution, None)
         }
@@ -375,7 +397,7 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             let solution = if is_solution_file(&args.scene) {
                 read_solution_file(&args, progress)?
             } else {
-                load_and_solve(&args, progress)?.0
+                load_and_solve(&args, None, progress)?.0
             };
             let settings = RenderSettings::from_values(&solution.scene, &settings.values)
                 .map_err(|e| e.to_string())?;
@@ -448,12 +470,25 @@ fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution,
     for warning in &read.warnings {
         eprintln!("wavrad: warning: {warning}");
     }
+    if let Some(stop) = read.solution.stats.stopped {
+        eprintln!(
+            "wavrad: warning: {}: {stop} cut this solve short ({} surface pairs, triples or \
+             links left unrefined); `wavrad solve SCENE --resume {0}` finishes it",
+            args.scene.display(),
+            read.solution.stats.unrefined_items
+        );
+    }
     Ok(read.solution)
 }
 
-/// Load the scene of `args` and solve it; with where it came from, for a
-/// solution file.
-fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, Source), String> {
+/// Load the scene of `args` and solve it, or resume the solve in the
+/// solution file `resume` ([`wavrad_core::solve::resume`]); with where it
+/// came from, for a solution file.
+fn load_and_solve(
+    args: &SolveArgs,
+    resume: Option<&Path>,
+    progress: &Reporter,
+) -> Result<(Solution, Source), String> {
     let defines = args
         .define
         .iter()
@@ -470,9 +505,28 @@ fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, So
     }
     let scene = loaded.scene;
     let source = Source::new(&args.scene, &defines).map_err(|e| e.to_string())?;
+    let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
+    if let Some(resume) = resume {
+        if args.solver == Some(Solver::Shoot) || args.progressive.is_some() {
+            return Err("--resume resumes a gathering solve; --solver shoot and \
+                        --progressive do not go with it"
+                .into());
+        }
+        progress.note(&format!("reading {}", resume.display()));
+        let read = read_solution(resume).map_err(|e| e.to_string())?;
+        for warning in &read.warnings {
+            eprintln!("wavrad: warning: {warning}");
+        }
+        let from = read.solution;
+        let settings = (from.settings)
+            .for_resuming(&args.settings.values)
+            .map_err(in_scene)?;
+        let solution = wavrad_core::solve::resume(&scene, &settings, &from, progress)
+            .map_err(|e| format!("{}: {e}", resume.display()))?;
+        return Ok((solution, source));
+    }
     let settings = SolveSettings::from_values(&args.settings.values)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
-    let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
     let solution = match (args.solver.unwrap_or_default(), &args.progressive) {
         (Solver::Gather, None) => solve(&scene, &settings, progress).map_err(in_scene),
         (Solver::Gather, Some(_)) => Err("--progressive needs --solver shoot".into()),

@@ -37,6 +37,10 @@ pub enum Error {
         /// What does not fit.
         problem: String,
     },
+    /// A solve cannot be resumed from the checkpoint given
+    /// ([`crate::solve::checkpoint::resume`]).
+    #[error("cannot resume: {0}")]
+    Resume(String),
     /// No surface emits: the solution would be black everywhere.
     #[error(
         "the scene has no light: no surface emits (only area emitters on shapes, with positive \

@@ -283,6 +283,31 @@ impl Scene {
             hints: RenderHints::default(),
         }
     }
+
+    /// The first difference of `now` from this scene, in words ("another
+    /// surface 3 (\"floor\")", "another film"); `None` when they are
+    /// equal.
+    pub fn difference(&self, now: &Scene) -> Option<String> {
+        if self.surfaces.len() != now.surfaces.len() {
+            return Some(format!(
+                "{} surfaces, {} before",
+                now.surfaces.len(),
+                self.surfaces.len()
+            ));
+        }
+        let surface = (self.surfaces.iter().zip(&now.surfaces)).position(|(a, b)| a != b);
+        if let Some(s) = surface {
+            let name = &now.surfaces[s].name;
+            return Some(format!("another surface {s} ({name:?})"));
+        }
+        if self.camera != now.camera {
+            return Some("another sensor".into());
+        }
+        if self.film != now.film {
+            return Some("another film".into());
+        }
+        (self.hints != now.hints).then(|| "another sampler".into())
+    }
 }
 
 impl Surface {
