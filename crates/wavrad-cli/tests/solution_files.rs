@@ -266,3 +266,49 @@ fn a_solve_cut_short_resumes_to_the_uninterrupted_solution() {
         "--solver shoot",
     );
 }
+
+#[test]
+fn the_sensor_to_render_is_picked_by_number() {
+    let dir = tempfile::tempdir().unwrap();
+    // The small scene with a second sensor, 5×4, seeing the floor from above.
+    let second = r#"<sensor type="perspective">
+        <transform name="to_world"><lookat origin="0,2,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="5"/><integer name="height" value="4"/></film>
+    </sensor>
+    <shape"#;
+    let xml = small_scene("").replacen("<shape", second, 1);
+    let scene = write(dir.path(), "two.xml", &xml);
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    succeed(&["solve", &scene, "--max-level", "2", "-o", &at("two.wavrad")]);
+    let fast = ["--mode", "smooth", "--spp", "4"];
+    for (input, sensor, size) in [
+        (&scene, None, (8, 6)),
+        (&scene, Some("1"), (5, 4)),
+        (&at("two.wavrad"), Some("0"), (8, 6)),
+        (&at("two.wavrad"), Some("1"), (5, 4)),
+    ] {
+        let image = at("view.exr");
+        let pick = sensor.map(|n| vec!["--sensor", n]).unwrap_or_default();
+        let solve = if input == &scene {
+            vec!["--max-level", "2"]
+        } else {
+            vec![]
+        };
+        succeed(&[&["render", input, "-o", &image], &fast[..], &pick, &solve].concat());
+        let (w, h, _) = wavrad_io::read_exr_rgb(Path::new(&image)).unwrap();
+        assert_eq!((w, h), size, "{input} --sensor {sensor:?}");
+    }
+    // One past the last: an error naming how many there are, before the
+    // solve, and no image.
+    for input in [&scene, &at("two.wavrad")] {
+        let o = wavrad(&["render", input, "-o", &at("none.exr"), "--sensor", "2"]);
+        assert_eq!(o.status.code(), Some(1));
+        let message = stderr(&o);
+        assert!(
+            message.contains("sensor 2: the scene has 2 sensors"),
+            "{message}"
+        );
+        assert!(!message.contains("iterations"), "{message}");
+        assert!(!Path::new(&at("none.exr")).exists());
+    }
+}

@@ -452,7 +452,8 @@ mod tests {
         assert!(resume(&scene, &longer, &cut(), &Silent).is_ok());
 
         let mut other = scene.clone();
-        other.surfaces[1].emission = other.surfaces[1].emission * 2.0;
+        let light = other.surfaces.last_mut().unwrap();
+        light.emission = light.emission * 2.0;
         let refused = message(resume(&other, &settings, &cut(), &Silent));
         assert!(refused.contains("scene changed"), "{refused}");
 
