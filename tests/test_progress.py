@@ -1,5 +1,6 @@
 """Progress of a solve and a render, reported to a callable or as lines on
-stderr; a callable's exception and Ctrl-C stop the solve."""
+stderr; a callable's exception and Ctrl-C stop the solve (which finishes
+from what is done) and the render (which raises)."""
 
 from __future__ import annotations
 
@@ -38,9 +39,12 @@ def test_a_callable_sees_every_phase_from_start_to_end(scene: wavrad.Scene) -> N
     assert done == total > 0
     assert solution.stats["stopped"] is None
 
+    # A render reports its rows.
     rendered: list[tuple[str, int, int]] = []
     solution.render(spp=1, progress=lambda *call: rendered.append(call))
-    assert rendered == [("rendering", 0, 1), ("rendering", 1, 1)]
+    assert {phase for phase, _, _ in rendered} == {"rendering"}
+    assert rendered[0] == ("rendering", 0, 16) and rendered[-1] == ("rendering", 16, 16)
+    assert [done for _, done, _ in rendered] == sorted(done for _, done, _ in rendered)
 
 
 def test_a_callable_raising_stops_the_solve_and_is_raised(scene: wavrad.Scene) -> None:
@@ -91,3 +95,38 @@ def test_ctrl_c_finishes_the_solve_from_what_is_done(scene: wavrad.Scene) -> Non
     assert solution.stats["unrefined_items"] > 0
     assert time.monotonic() - started < 30
     assert solution.render(mode="haar", spp=1).shape == (16, 16, 3)
+
+
+@pytest.fixture(scope="module")
+def coarse(scene: wavrad.Scene) -> wavrad.Solution:
+    return wavrad.solve(scene, progress=False, **COARSE)
+
+
+# A render of minutes: every camera ray final-gathers many times.
+LONG_RENDER = {"spp": 4096, "gather_spp": 4096}
+
+
+def test_ctrl_c_stops_a_render_and_raises(coarse: wavrad.Solution) -> None:
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    started = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        coarse.render(progress=False, **LONG_RENDER)
+    timer.join()
+    assert time.monotonic() - started < 10
+    # Nothing was left half done: the solution renders again.
+    assert coarse.render("smooth", 1, progress=False).shape == (16, 16, 3)
+
+
+def test_a_callable_raising_stops_a_render_and_is_raised(coarse: wavrad.Solution) -> None:
+    class Enough(Exception):
+        pass
+
+    def stop(phase: str, done: int, total: int) -> None:
+        if done > 0:
+            raise Enough(f"{phase} {done}/{total}")
+
+    started = time.monotonic()
+    with pytest.raises(Enough, match="rendering"):
+        coarse.render(progress=stop, **LONG_RENDER)
+    assert time.monotonic() - started < 10

@@ -89,3 +89,47 @@ def test_saving_where_nothing_can_be_written_is_a_scene_error(
     with pytest.raises(wavrad.SceneError, match="missing"):
         solution.save(tmp_path / "missing" / "cornell.wavrad")
     assert not (tmp_path / "missing").exists()
+
+
+def test_a_solve_cut_short_resumes_to_the_uninterrupted_solution(
+    scene_file: Path, tmp_path: Path
+) -> None:
+    scene = wavrad.load_scene(scene_file, res=24)
+    settings = {"threshold": 1e-3, "max_level": 4, "progress": False}
+    whole = wavrad.solve(scene, **settings)
+    assert whole.checkpoint is None
+    # Cut short by a time limit of a third of the kernels' time.
+    limit = whole.stats["times"]["kernels_s"] / 3
+    cut = wavrad.solve(scene, time_limit=limit, **settings)
+    assert cut.stats["stopped"] == "time_limit"
+    finished, items = cut.checkpoint
+    assert 0 < finished < items == whole.stats["projected_items"]
+    saved = tmp_path / "cut.wavrad"
+    cut.save(saved)
+    assert wavrad.load_solution(saved).checkpoint == (finished, items)
+    # From the solution or its file, with its own settings: only the items
+    # left are projected, and the solution is the uninterrupted one.
+    for resume in (cut, saved):
+        resumed = wavrad.solve(scene, resume=resume, progress=False)
+        assert resumed.checkpoint is None and resumed.stats["stopped"] is None
+        assert resumed.stats["resumed_items"] == finished
+        assert resumed.stats["projected_items"] == items - finished
+        np.testing.assert_array_equal(resumed.radiance, whole.radiance)
+    np.testing.assert_array_equal(resumed.render("smooth", SPP), whole.render("smooth", SPP))
+
+
+def test_resuming_what_does_not_fit_is_refused(scene_file: Path) -> None:
+    scene = wavrad.load_scene(scene_file, res=24)
+    cut = wavrad.solve(scene, threshold=1e-2, max_level=3, time_limit=1e-9, progress=False)
+    assert cut.checkpoint is not None
+    with pytest.raises(wavrad.SolveError, match="threshold is 1e-4"):
+        wavrad.solve(scene, resume=cut, threshold=1e-4, progress=False)
+    with pytest.raises(wavrad.SolveError, match="the scene changed since the solve"):
+        wavrad.solve(wavrad.load_scene(scene_file, res=16), resume=cut, progress=False)
+    with pytest.raises(wavrad.ArgumentError, match="shoot"):
+        wavrad.solve(scene, resume=cut, solver="shoot")
+    with pytest.raises(wavrad.ArgumentError, match="resume expects"):
+        wavrad.solve(scene, resume=42)
+    whole = wavrad.solve(scene, resume=cut, progress=False)
+    with pytest.raises(wavrad.SolveError, match="nothing is left to resume"):
+        wavrad.solve(scene, resume=whole, progress=False)

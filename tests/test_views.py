@@ -106,3 +106,41 @@ def test_a_gather_cache_serves_every_view_alike(solution: wavrad.Solution) -> No
     np.testing.assert_array_equal(again, first)
     per_ray = solution.render("gather", SPP, **here)
     assert wavrad.relative_rmse(first, per_ray) < 0.05
+
+
+TWO_SENSORS = """<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="60"/>
+        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm">
+            <integer name="width" value="8"/><integer name="height" value="6"/>
+        </film>
+    </sensor>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,2,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm">
+            <integer name="width" value="5"/><integer name="height" value="4"/>
+        </film>
+    </sensor>
+    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+    <shape type="rectangle">
+        <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>
+    </shape>
+</scene>
+"""
+
+
+def test_each_sensor_renders_with_its_own_film(tmp_path: Path) -> None:
+    path = tmp_path / "two-sensors.xml"
+    path.write_text(TWO_SENSORS)
+    scene = wavrad.load_scene(path)
+    assert scene.sensor_count == 2
+    solution = wavrad.solve(scene, max_level=2, progress=False)
+    first = solution.render("smooth", 4)
+    assert first.shape == (6, 8, 3)
+    np.testing.assert_array_equal(solution.render("smooth", 4, sensor=0), first)
+    second = solution.render("smooth", 4, sensor=1)
+    assert second.shape == (4, 5, 3) and second.max() > 0
+    with pytest.raises(wavrad.SolveError, match="sensor 2: the scene has 2 sensors"):
+        solution.render("smooth", 4, sensor=2)

@@ -77,6 +77,11 @@ class Scene:
     def surface_count(self) -> int:
         """Number of surfaces (two-sided materials count twice)."""
     @property
+    def sensor_count(self) -> int:
+        """Number of sensors: views ``Solution.render(sensor=N)`` renders,
+        numbered from 0 in the scene file's order (0: the first, rendered
+        by default; ``width`` and ``height`` are its film's)."""
+    @property
     def width(self) -> int:
         """Film width in pixels."""
     @property
@@ -92,6 +97,7 @@ class Solution:
         mode: Literal["gather", "direct", "smooth", "haar"] | None = None,
         spp: int | None = None,
         *,
+        sensor: int = 0,
         origin: npt.ArrayLike | None = None,
         target: npt.ArrayLike | None = None,
         up: npt.ArrayLike | None = None,
@@ -103,6 +109,11 @@ class Solution:
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
         (height, width, 3) float32 array of linear RGB radiance.
+
+        ``sensor``: which of the scene's sensors (:attr:`Scene.sensor_count`
+        of them, numbered from 0 in the scene file's order; default the
+        first), with its own film and sampler's ``sample_count``. Raises
+        ``SolveError`` naming how many there are for one past the last.
 
         The solution is view-independent: ``origin``, ``target`` and ``up``
         (three numbers each) aim the sensor as Mitsuba's ``look_at`` does,
@@ -135,9 +146,12 @@ class Solution:
         later one, instead of gathering per camera ray: for many views of
         one solution. ``gather_spp``: for ``"gather"``, how many of an
         interior pixel's camera rays also final-gather (default ``spp`` / 32).
-        ``progress``: as :func:`solve`'s; the render is one step (phase
-        ``"rendering"``), and Ctrl-C raises ``KeyboardInterrupt`` once it is
-        done.
+        ``progress``: as :func:`solve`'s; the render reports its rows as
+        the phase ``"rendering"`` (``done`` of ``total`` rows; before it,
+        the eye's links when a view gathers into it). Ctrl-C, or an
+        exception the callable raises, stops the render within a row and
+        is raised (``KeyboardInterrupt``) once it has: no image is
+        returned, the solution is unchanged and can render again.
         Raises ``SolveError`` for an unknown mode, a value out of range, an
         option the mode has no use for (``eye=False`` with ``"gather"``,
         ``gather_cache=True`` with any other mode), a scene without a
@@ -177,7 +191,16 @@ class Solution:
         pairs whose kernels were projected) and ``exchanging_pairs``; and
         ``limited_leaves``, the leaves whose form factors summed so far
         above one that they would reflect more light than reached them,
-        and whose reflection was scaled down."""
+        and whose reflection was scaled down; ``stopped`` and
+        ``unrefined_items`` (what cut the solve short and what it left
+        unrefined), ``resumed_items`` and ``projected_items`` (projection
+        items kept from the solve resumed, and refined by this one)."""
+    @property
+    def checkpoint(self) -> tuple[int, int] | None:
+        """For a solve cut short (``stats["stopped"]``), which
+        ``solve(scene, resume=this)`` resumes: the projection items it
+        finished and the items there are; ``None`` when it ran to the end.
+        A solution file keeps it."""
 
 def load_solution(path: _Path) -> Solution:
     """Read a solution file written by :meth:`Solution.save` or ``wavrad
@@ -216,6 +239,7 @@ def solve(
     solver: Literal["gather", "shoot"] | None = None,
     on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
     progress: _Progress = None,
+    resume: Solution | _Path | None = None,
 ) -> Solution:
     """Solve ``scene``; the solve runs without the GIL.
 
@@ -252,6 +276,19 @@ def solve(
     ``"memory_limit"``) and ``stats["unrefined_items"]`` counts what it
     left unrefined (``None`` and 0 when nothing did).
 
+    ``resume``: a solution cut short (by a limit or Ctrl-C), or the path
+    of its solution file: its solve is resumed. The links of the
+    projection items it finished are kept, only the items it left are
+    refined, and the solution is finished as an uninterrupted solve's (the
+    same, bit for bit); ``stats["resumed_items"]`` counts the items kept
+    and ``stats["projected_items"]`` those refined now. Its settings are
+    kept, those given set on top, except ``time_limit`` and ``max_memory``,
+    which are this call's own; ``scene`` must be the scene it solved.
+    Raises ``SolveError`` (``cannot resume: ...``) for a solution that ran
+    to the end (:attr:`Solution.checkpoint` is ``None``), another scene
+    (naming what differs), or a setting that changes refinement given
+    another value (naming it).
+
     ``solver``: ``"gather"`` (the default and the paper's: every kernel
     projected up front, then Gauss-Seidel gathering) or ``"shoot"``
     (progressive shooting from the emitters, kernels projected only where
@@ -287,8 +324,9 @@ def solve(
     finished.
 
     Raises ``TypeError`` for an unknown keyword, ``ArgumentError`` for a value
-    of the wrong type, a ``progress`` that is neither a bool nor callable
-    or an ``on_step`` without ``solver="shoot"``, and
+    of the wrong type, a ``progress`` that is neither a bool nor callable,
+    an ``on_step`` without ``solver="shoot"``, or ``resume`` with
+    ``solver="shoot"``, and
     ``SolveError`` for a value outside its range (the message names the
     setting and the range), an unknown ``oracle`` or ``solver``, the
     importance oracle on a scene without a sensor, the shooting solver

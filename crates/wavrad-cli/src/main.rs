@@ -14,6 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use wavrad_core::progress::Progress;
 use wavrad_core::render::{RenderSettings, Renderer};
+use wavrad_core::scene::Scene;
 use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
 use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
@@ -41,6 +42,10 @@ enum Command {
         /// Output image; the extension (.exr or .png) chooses the format.
         #[arg(short, long, help_heading = "Output options")]
         output: PathBuf,
+        /// Which of the scene's sensors to render, numbered from 0 in the
+        /// scene file's order [default: 0, the first].
+        #[arg(long, value_name = "N", help_heading = "Output options")]
+        sensor: Option<usize>,
         #[command(flatten)]
         settings: Given<RenderSettings>,
     },
@@ -53,6 +58,14 @@ enum Command {
         /// renders it.
         #[arg(short, long, help_heading = "Output options")]
         output: Option<PathBuf>,
+        /// Resume the solve written to this solution file (.wavrad) when a
+        /// limit or Ctrl-C cut it short: the items it refined are kept,
+        /// only those it left are refined, then the solution is finished
+        /// as an uninterrupted solve's. Its settings are kept (a setting
+        /// that changes refinement may not differ); --time-limit and
+        /// --max-memory are this run's own.
+        #[arg(long, value_name = "FILE", help_heading = Group::Solve.heading())]
+        resume: Option<PathBuf>,
     },
     /// Print the relative RMSE, sqrt(mean((a-b)^2))/mean(b), of an EXR image
     /// against an EXR reference of the same size.
@@ -342,6 +355,23 @@ impl Progress for Reporter {
     }
 }
 
+/// The reporter's progress for a render: the bars, but not the interrupt,
+/// which stops the solve and, pressed again, quits (a render stopped half
+/// way has nothing to finish).
+struct Rendering<'a>(&'a Reporter);
+
+impl Progress for Rendering<'_> {
+    fn start(&self, phase: &str, total: u64) {
+        self.0.start(phase, total)
+    }
+    fn advance(&self, steps: u64) {
+        self.0.advance(steps)
+    }
+    fn finish(&self) {
+        self.0.finish()
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let progress = Reporter::new(cli.quiet);
@@ -375,6 +405,7 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
         Command::Solve {
             solve: args,
             output,
+            resume,
         } => {
             if is_solution_file(&args.scene) {
                 return Err(format!(
@@ -385,39 +416,63 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             if let Some(output) = &output {
                 check_solution_extension(output)?;
             }
+            if let Some(resume) = &resume {
+                check_solution_extension(resume)?;
+            }
             check_outputs(output.as_deref(), args.stats.as_deref())?;
-            let (solution, source) = load_and_solve(&args, progress)?;
+            let (solution, source) = load_and_solve(&args, resume.as_deref(), progress)?;
             report(&solution, None, progress);
             if let Some(output) = &output {
                 progress.note(&format!("writing {}", output.display()));
                 write_solution(output, &solution, Some(&source)).map_err(|e| e.to_string())?;
                 progress.note(&format!("wrote {}", output.display()));
             }
+            if solution.checkpoint.is_some() {
+                let scene = args.scene.display();
+                progress.note(&match &output {
+                    Some(output) => format!(
+                        "to finish the solve: wavrad solve {scene} --resume {} -o NEW.wavrad",
+                        output.display()
+                    ),
+                    None => "the solve can be resumed only from a solution file (-o)".into(),
+                });
+            }
             write_stats(&args, &solution, None)
         }
         Command::Render {
             solve: args,
             output,
+            sensor,
             settings,
         } => {
             check_output_extension(&output)?;
             check_outputs(Some(&output), args.stats.as_deref())?;
-            // Options that do not go together fail before the solve.
-            let scene_free = wavrad_core::scene::Scene::from_surfaces(Vec::new());
-            RenderSettings::from_values(&scene_free, &settings.values)
+            // Options that do not go together, or a sensor the scene does
+            // not have, fail before the solve.
+            RenderSettings::from_values(&Default::default(), &settings.values)
                 .map_err(|e| e.to_string())?;
+            let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
+            let sensor = sensor.unwrap_or(0);
             let solution = if is_solution_file(&args.scene) {
                 read_solution_file(&args, progress)?
             } else {
-                load_and_solve(&args, progress)?.0
+                let (scene, _) = load(&args, progress)?;
+                scene.sensor(sensor).map_err(in_scene)?;
+                solve_loaded(&args, &scene, None, progress)?
             };
-            let settings = RenderSettings::from_values(&solution.scene, &settings.values)
+            let sensor = solution.scene.sensor(sensor).map_err(in_scene)?;
+            let settings = RenderSettings::from_values(&sensor.hints, &settings.values)
                 .map_err(|e| e.to_string())?;
             let renderer = Renderer::new(solution);
             let clock = Instant::now();
             let image = renderer
-                .render(&settings)
-                .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+                .render_view(
+                    &sensor.camera,
+                    &sensor.film,
+                    &settings,
+                    &Rendering(progress),
+                )
+                .map_err(in_scene)?;
             let mut solution = renderer.into_solution();
             solution.stats.times.render_s = clock.elapsed().as_secs_f64();
             solution.stats.peak_memory_bytes = wavrad_core::solve::stats::peak_memory_bytes();
@@ -482,12 +537,32 @@ fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution,
     for warning in &read.warnings {
         eprintln!("wavrad: warning: {warning}");
     }
+    if let Some(stop) = read.solution.stats.stopped {
+        eprintln!(
+            "wavrad: warning: {}: {stop} cut this solve short ({} surface pairs, triples or \
+             links left unrefined); `wavrad solve SCENE --resume {0}` finishes it",
+            args.scene.display(),
+            read.solution.stats.unrefined_items
+        );
+    }
     Ok(read.solution)
 }
 
-/// Load the scene of `args` and solve it; with where it came from, for a
-/// solution file.
-fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, Source), String> {
+/// Load the scene of `args` and solve it, or resume the solve in the
+/// solution file `resume` ([`wavrad_core::solve::resume`]); with where it
+/// came from, for a solution file.
+fn load_and_solve(
+    args: &SolveArgs,
+    resume: Option<&Path>,
+    progress: &Reporter,
+) -> Result<(Solution, Source), String> {
+    let (scene, source) = load(args, progress)?;
+    Ok((solve_loaded(args, &scene, resume, progress)?, source))
+}
+
+/// The scene of `args`, loaded with its warnings shown, and where it came
+/// from.
+fn load(args: &SolveArgs, progress: &Reporter) -> Result<(Scene, Source), String> {
     let defines = args
         .define
         .iter()
@@ -502,17 +577,43 @@ fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, So
     for warning in &loaded.warnings {
         eprintln!("wavrad: warning: {warning}");
     }
-    let scene = loaded.scene;
     let source = Source::new(&args.scene, &defines).map_err(|e| e.to_string())?;
+    Ok((loaded.scene, source))
+}
+
+/// Solve `scene`, loaded from `args`, or resume the solve in the solution
+/// file `resume`.
+fn solve_loaded(
+    args: &SolveArgs,
+    scene: &Scene,
+    resume: Option<&Path>,
+    progress: &Reporter,
+) -> Result<Solution, String> {
+    let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
+    if let Some(resume) = resume {
+        if args.solver == Some(Solver::Shoot) || args.progressive.is_some() {
+            return Err("--resume resumes a gathering solve; --solver shoot and \
+                        --progressive do not go with it"
+                .into());
+        }
+        progress.note(&format!("reading {}", resume.display()));
+        let read = read_solution(resume).map_err(|e| e.to_string())?;
+        for warning in &read.warnings {
+            eprintln!("wavrad: warning: {warning}");
+        }
+        let from = read.solution;
+        let settings = (from.settings)
+            .for_resuming(&args.settings.values)
+            .map_err(in_scene)?;
+        return wavrad_core::solve::resume(scene, &settings, &from, progress)
+            .map_err(|e| format!("{}: {e}", resume.display()));
+    }
     let settings = SolveSettings::from_values(&args.settings.values)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
-    let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
-    let solution = match (args.solver.unwrap_or_default(), &args.progressive) {
-        (Solver::Gather, None) => solve(&scene, &settings, progress).map_err(in_scene),
+    match (args.solver.unwrap_or_default(), &args.progressive) {
+        (Solver::Gather, None) => solve(scene, &settings, progress).map_err(in_scene),
         (Solver::Gather, Some(_)) => Err("--progressive needs --solver shoot".into()),
-        (Solver::Shoot, None) => {
-            solve_shooting(&scene, &settings, progress, None).map_err(in_scene)
-        }
+        (Solver::Shoot, None) => solve_shooting(scene, &settings, progress, None).map_err(in_scene),
         (Solver::Shoot, Some(dir)) => {
             if scene.camera.is_none() {
                 return Err(format!(
@@ -530,15 +631,14 @@ fn load_and_solve(args: &SolveArgs, progress: &Reporter) -> Result<(Solution, So
                     None => ControlFlow::Continue(()),
                 }
             };
-            let solution = solve_shooting(&scene, &settings, progress, Some(&mut on_step))
-                .map_err(in_scene)?;
+            let solution =
+                solve_shooting(scene, &settings, progress, Some(&mut on_step)).map_err(in_scene)?;
             match failure {
                 Some(e) => Err(e),
                 None => Ok(solution),
             }
         }
-    }?;
-    Ok((solution, source))
+    }
 }
 
 /// One progressive image: the solution after `step`, smoothly reconstructed

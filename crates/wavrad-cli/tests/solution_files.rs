@@ -107,7 +107,14 @@ fn damaged_and_stale_solution_files_are_refused() {
     );
     let mut newer = bytes.clone();
     newer[8] += 1;
-    refused(&damaged("newer.wavrad", &newer), "format version 2");
+    refused(&damaged("newer.wavrad", &newer), "format version 3");
+    let mut older = bytes.clone();
+    older[8] -= 1;
+    refused(
+        &damaged("older.wavrad", &older),
+        "format version 1, written by wavrad",
+    );
+    refused(&damaged("older.wavrad", &older), "solve the scene again");
     refused(
         &damaged("scene.wavrad", small_scene("").as_bytes()),
         "not a wavrad solution file",
@@ -162,4 +169,146 @@ fn solution_files_take_no_solve_options_and_are_named_so() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("unchecked"), "{}", stderr(&o));
     assert!(Path::new(out).exists());
+}
+
+/// The statistics JSON at `path`.
+fn stats(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_solve_cut_short_resumes_to_the_uninterrupted_solution() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/cornell-box/scene.xml");
+    let scene = scene.to_str().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let solve_at = |res: &str, extra: &[&str]| {
+        wavrad(&[&["solve", scene, "-D", res, "--max-level", "4"], extra].concat())
+    };
+    let solve = |extra: &[&str]| solve_at("res=16", extra);
+
+    // Solved in one go; then cut short by a time limit of a third of the
+    // time its kernels took: a solution, and how to finish it.
+    let o = solve(&["-o", &at("whole.wavrad"), "--stats", &at("whole.json")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let whole = stats(Path::new(&at("whole.json")));
+    let limit = (whole["times"]["kernels_s"].as_f64().unwrap() / 3.0).to_string();
+    let cut = ["-o", &at("cut.wavrad"), "--stats", &at("cut.json")];
+    let o = solve(&[&["--time-limit", &limit][..], &cut].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--resume"), "{}", stderr(&o));
+    assert_eq!(stats(Path::new(&at("cut.json")))["stopped"], "time_limit");
+    // Rendering it says it can be resumed.
+    let o = wavrad(&[
+        "render",
+        &at("cut.wavrad"),
+        "-o",
+        &at("cut.exr"),
+        "--spp",
+        "1",
+    ]);
+    assert!(stderr(&o).contains("--resume"), "{}", stderr(&o));
+
+    // Resumed: only the items the first run left are projected again, and
+    // the solution is the uninterrupted one.
+    let resumed = ["--resume", &at("cut.wavrad"), "-o", &at("resumed.wavrad")];
+    let o = solve(&[&resumed[..], &["--stats", &at("resumed.json")]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let resumed = stats(Path::new(&at("resumed.json")));
+    assert_eq!(resumed["stopped"], serde_json::Value::Null);
+    let items = whole["projected_items"].as_u64().unwrap();
+    let kept = resumed["resumed_items"].as_u64().unwrap();
+    assert!(kept > 0 && kept < items, "{kept} of {items} kept");
+    assert_eq!(resumed["projected_items"].as_u64().unwrap() + kept, items);
+    for key in [
+        "two_point_nodes",
+        "two_point_interactions",
+        "iterations",
+        "residual",
+    ] {
+        assert_eq!(resumed[key], whole[key], "{key}");
+    }
+    // The same image, byte for byte.
+    for name in ["resumed", "whole"] {
+        let (solution, image) = (at(&format!("{name}.wavrad")), at(&format!("{name}.exr")));
+        succeed(&["render", &solution, "-o", &image, "--spp", "4"]);
+    }
+    assert!(std::fs::read(at("resumed.exr")).unwrap() == std::fs::read(at("whole.exr")).unwrap());
+
+    // Nothing to resume in a finished solve; a refinement setting may not
+    // change; the scene must be the one solved.
+    let refused_at = |res: &str, extra: &[&str], problem: &str| {
+        let o = solve_at(res, &[extra, &["-o", &at("again.wavrad")]].concat());
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(problem),
+            "expected {problem:?}: {}",
+            stderr(&o)
+        );
+        assert!(!Path::new(&at("again.wavrad")).exists());
+    };
+    let refused = |extra: &[&str], problem: &str| refused_at("res=16", extra, problem);
+    refused(
+        &["--resume", &at("whole.wavrad")],
+        "nothing is left to resume",
+    );
+    refused(
+        &["--resume", &at("cut.wavrad"), "--threshold", "1e-4"],
+        "threshold is 1e-4",
+    );
+    refused_at(
+        "res=8",
+        &["--resume", &at("cut.wavrad")],
+        "the scene changed since the solve: it now has another film",
+    );
+    refused(
+        &["--resume", &at("cut.wavrad"), "--solver", "shoot"],
+        "--solver shoot",
+    );
+}
+
+#[test]
+fn the_sensor_to_render_is_picked_by_number() {
+    let dir = tempfile::tempdir().unwrap();
+    // The small scene with a second sensor, 5×4, seeing the floor from above.
+    let second = r#"<sensor type="perspective">
+        <transform name="to_world"><lookat origin="0,2,3" target="0,0,0" up="0,1,0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="5"/><integer name="height" value="4"/></film>
+    </sensor>
+    <shape"#;
+    let xml = small_scene("").replacen("<shape", second, 1);
+    let scene = write(dir.path(), "two.xml", &xml);
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    succeed(&["solve", &scene, "--max-level", "2", "-o", &at("two.wavrad")]);
+    let fast = ["--mode", "smooth", "--spp", "4"];
+    for (input, sensor, size) in [
+        (&scene, None, (8, 6)),
+        (&scene, Some("1"), (5, 4)),
+        (&at("two.wavrad"), Some("0"), (8, 6)),
+        (&at("two.wavrad"), Some("1"), (5, 4)),
+    ] {
+        let image = at("view.exr");
+        let pick = sensor.map(|n| vec!["--sensor", n]).unwrap_or_default();
+        let solve = if input == &scene {
+            vec!["--max-level", "2"]
+        } else {
+            vec![]
+        };
+        succeed(&[&["render", input, "-o", &image], &fast[..], &pick, &solve].concat());
+        let (w, h, _) = wavrad_io::read_exr_rgb(Path::new(&image)).unwrap();
+        assert_eq!((w, h), size, "{input} --sensor {sensor:?}");
+    }
+    // One past the last: an error naming how many there are, before the
+    // solve, and no image.
+    for input in [&scene, &at("two.wavrad")] {
+        let o = wavrad(&["render", input, "-o", &at("none.exr"), "--sensor", "2"]);
+        assert_eq!(o.status.code(), Some(1));
+        let message = stderr(&o);
+        assert!(
+            message.contains("sensor 2: the scene has 2 sensors"),
+            "{message}"
+        );
+        assert!(!message.contains("iterations"), "{message}");
+        assert!(!Path::new(&at("none.exr")).exists());
+    }
 }

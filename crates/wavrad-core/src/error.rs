@@ -37,6 +37,10 @@ pub enum Error {
         /// What does not fit.
         problem: String,
     },
+    /// A solve cannot be resumed from the checkpoint given
+    /// ([`crate::solve::checkpoint::resume`]).
+    #[error("cannot resume: {0}")]
+    Resume(String),
     /// No surface emits: the solution would be black everywhere.
     #[error(
         "the scene has no light: no surface emits (only area emitters on shapes, with positive \
@@ -73,9 +77,23 @@ pub enum Error {
         /// Pixels in the image.
         total: usize,
     },
+    /// The driver asked a render to stop ([`crate::progress::Progress::interrupted`]).
+    #[error("interrupted: the render stopped, and there is no image")]
+    Interrupted,
     /// Rendering needs a sensor and the scene has none.
     #[error("the scene has no sensor to render from")]
     NoSensor,
+    /// A sensor index past the scene's sensors.
+    #[error(
+        "sensor {index}: the scene has {count} sensor{}, numbered from 0",
+        if *count == 1 { "" } else { "s" }
+    )]
+    NoSuchSensor {
+        /// The index asked for.
+        index: usize,
+        /// The scene's sensors.
+        count: usize,
+    },
     /// A render option that the render mode has no use for.
     #[error("render mode {mode} cannot use {option}: {reason}")]
     RenderOption {

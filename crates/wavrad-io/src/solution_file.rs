@@ -17,8 +17,10 @@
 //! back bit for bit), compressed with [zstd](https://docs.rs/zstd): the
 //! scene as solved, the element trees, the radiance of every element and
 //! element pair, the links arranged for gathering, the settings and the
-//! statistics, and where the scene came from ([`Source`]). The ray queries
-//! are rebuilt from the scene on reading, as the solve built them.
+//! statistics, where the scene came from ([`Source`]), and for a solve cut
+//! short its [`Checkpoint`] (the linking and the links of the items it
+//! finished, for `wavrad solve --resume`). The ray queries are rebuilt
+//! from the scene on reading, as the solve built them.
 //!
 //! Reading refuses, each with its own [`SolutionProblem`]: a file that is
 //! not a solution, one of another format version, one cut short, one whose
@@ -55,7 +57,7 @@ use wavrad_core::scene::{Rgb, Scene};
 use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::Interactions;
 use wavrad_core::solve::stats::Stats;
-use wavrad_core::solve::{Solution, SolveSettings};
+use wavrad_core::solve::{Checkpoint, Solution, SolveSettings};
 
 /// The first bytes of a solution file.
 pub const MAGIC: [u8; 8] = *b"wavradSF";
@@ -63,7 +65,7 @@ pub const MAGIC: [u8; 8] = *b"wavradSF";
 /// The version of the format [`write_solution`] writes and
 /// [`read_solution`] reads; a change of the body, or of any type it holds,
 /// needs a new one.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Bytes before the body.
 const HEADER_LEN: usize = 56;
@@ -184,6 +186,7 @@ pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>)
         directional: Cow::Borrowed(&solution.directional),
         settings: solution.settings,
         stats: Cow::Borrowed(&solution.stats),
+        checkpoint: solution.checkpoint.as_ref().map(Cow::Borrowed),
     };
     let encoded = postcard::to_allocvec(&body).map_err(|e| unencodable(path, e))?;
     let body = zstd::bulk::compress(&encoded, ZSTD_LEVEL).map_err(|e| Error::io(path, e))?;
@@ -228,6 +231,7 @@ pub fn read_solution(path: &Path) -> Result<ReadSolution> {
         directional,
         settings,
         stats,
+        checkpoint,
     } = body;
     let mut stats = stats.into_owned();
     stats.settings = settings.values().into_iter().collect();
@@ -245,6 +249,7 @@ pub fn read_solution(path: &Path) -> Result<ReadSolution> {
         directional: directional.into_owned(),
         settings,
         stats,
+        checkpoint: checkpoint.map(Cow::into_owned),
     };
     check_consistent(&solution).map_err(|p| Error::solution(path, p))?;
     let source = source.map(Cow::into_owned);
@@ -276,6 +281,7 @@ struct Body<'a> {
     directional: Cow<'a, [Vec<Rgb>]>,
     settings: SolveSettings,
     stats: Cow<'a, Stats>,
+    checkpoint: Option<Cow<'a, Checkpoint>>,
 }
 
 /// The writer's version and the body of a solution file's `bytes`.
@@ -402,38 +408,10 @@ fn check_source(path: &Path, source: &Source, solved: &Scene) -> Result<Option<S
         Ok(loaded) => loaded.scene,
         Err(e) => return Err(changed(format!("an error: {e}"))),
     };
-    match difference(solved, &now) {
+    match solved.difference(&now) {
         Some(difference) => Err(changed(difference)),
         None => Ok(None),
     }
-}
-
-/// The first difference between the scene `solved` and the scene loaded
-/// `now`, in words; `None` when they are equal.
-fn difference(solved: &Scene, now: &Scene) -> Option<String> {
-    if solved.surfaces.len() != now.surfaces.len() {
-        return Some(format!(
-            "{} surfaces, {} when solved",
-            now.surfaces.len(),
-            solved.surfaces.len()
-        ));
-    }
-    let surface = solved
-        .surfaces
-        .iter()
-        .zip(&now.surfaces)
-        .position(|(a, b)| a != b);
-    if let Some(s) = surface {
-        let name = &now.surfaces[s].name;
-        return Some(format!("another surface {s} ({name:?})"));
-    }
-    if solved.camera != now.camera {
-        return Some("another sensor".into());
-    }
-    if solved.film != now.film {
-        return Some("another film".into());
-    }
-    (solved.hints != now.hints).then(|| "another sampler".into())
 }
 
 /// A solution that postcard cannot write (a path that is not UTF-8).
@@ -538,6 +516,27 @@ mod tests {
     }
 
     #[test]
+    fn a_checkpoint_round_trips_and_resumes_after_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.xml");
+        std::fs::write(&scene, scene_xml(GLOSSY)).unwrap();
+        let loaded = crate::load_scene_with(&scene, &[]).unwrap();
+        let settings = SolveSettings::default();
+        let limited = SolveSettings {
+            time_limit: 1e-9,
+            ..settings
+        };
+        let cut = solve(&loaded.scene, &limited, &Silent).unwrap();
+        assert!(cut.checkpoint.is_some());
+        let (path, _) = written(dir.path(), &cut, None);
+        let read = read_solution(&path).unwrap().solution;
+        assert_eq!(read.checkpoint, cut.checkpoint);
+        let resumed = wavrad_core::solve::resume(&loaded.scene, &settings, &read, &Silent);
+        let whole = solve(&loaded.scene, &settings, &Silent).unwrap();
+        assert_eq!(resumed.unwrap().radiance, whole.radiance);
+    }
+
+    #[test]
     fn damaged_files_are_refused_with_their_problem() {
         let dir = tempfile::tempdir().unwrap();
         let (solution, _) = solved(dir.path(), GLOSSY);
@@ -590,9 +589,10 @@ mod tests {
             (*found, written_by.as_str()),
             (FORMAT_VERSION + 1, env!("CARGO_PKG_VERSION"))
         );
+        let message = problem.to_string();
         assert!(
-            problem.to_string().contains("format version 2"),
-            "{problem}"
+            message.contains(&format!("format version {}", FORMAT_VERSION + 1)),
+            "{message}"
         );
     }
 

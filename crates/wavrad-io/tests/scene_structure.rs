@@ -186,21 +186,32 @@ fn unhonoured_integrator_settings_warn_once_each() {
 }
 
 #[test]
-fn a_second_sensor_warns_and_the_first_is_rendered() {
+fn every_sensor_is_kept_the_first_as_the_camera() {
     let xml = "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n\
+        <sampler type=\"independent\"><integer name=\"sample_count\" value=\"300\"/></sampler>\n\
         <sensor type=\"orthographic\"/>\n\
-        <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/></sensor>\n</scene>";
+        <sensor type=\"perspective\"><float name=\"fov\" value=\"30\"/>\n\
+        <sampler type=\"independent\"><integer name=\"sample_count\" value=\"512\"/></sampler>\n\
+        <film type=\"hdrfilm\"><integer name=\"width\" value=\"5\"/></film></sensor>\n</scene>";
     let loaded = load_scene_str(xml, Path::new("."), "s.xml", &[]).unwrap();
-    let camera = loaded.scene.camera.unwrap();
-    assert_eq!(camera.projection, Projection::Orthographic);
-    let [warning] = &loaded.warnings[..] else {
-        panic!("{:?}", loaded.warnings)
-    };
-    assert_eq!((warning.file.as_str(), warning.line), ("s.xml", 4));
-    assert!(
-        warning.message.contains("second sensor") && warning.message.contains("s.xml:3"),
-        "{warning}"
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let scene = &loaded.scene;
+    assert_eq!(scene.sensor_count(), 2);
+    let first = scene.sensor(0).unwrap();
+    assert_eq!(first.camera, scene.camera.unwrap());
+    assert_eq!(first.camera.projection, Projection::Orthographic);
+    assert_eq!(first.hints.samples_per_pixel, Some(300));
+    let second = scene.sensor(1).unwrap();
+    assert!(matches!(
+        second.camera.projection,
+        Projection::Perspective { .. }
+    ));
+    assert_eq!(
+        (second.film.width, second.hints.samples_per_pixel),
+        (5, Some(512))
     );
+    let past = scene.sensor(2).unwrap_err().to_string();
+    assert!(past.contains("sensor 2: the scene has 2 sensors"), "{past}");
 }
 
 #[test]

@@ -21,7 +21,7 @@ use pyo3::exceptions::{PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyRange, PyRangeMethods};
 use std::ops::ControlFlow;
-use wavrad_core::progress::{Progress, Silent};
+use wavrad_core::progress::Silent;
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::Rgb;
 use wavrad_core::setting::{Described, Domain, Value};
@@ -47,6 +47,13 @@ impl Scene {
     #[getter]
     fn surface_count(&self) -> usize {
         self.0.surfaces.len()
+    }
+
+    /// Number of sensors (`Solution.render(sensor=N)` renders the N-th,
+    /// from 0).
+    #[getter]
+    fn sensor_count(&self) -> usize {
+        self.0.sensor_count()
     }
 
     /// Film width in pixels.
@@ -85,19 +92,22 @@ impl Solution {
         Ok(())
     }
 
-    /// Render the scene's sensor, or another view of the solution (moved by
-    /// Mitsuba's look_at `origin`/`target`/`up`, `fov` in degrees along the
-    /// scene's `fov_axis`); returns an (height, width, 3) float32 array of
-    /// linear RGB radiance. The render settings (`mode`, `spp`, and by
-    /// keyword `gather_spp`, `eye`, `gather_cache`) are those of
-    /// [`RenderSettings::SETTINGS`].
-    #[pyo3(signature = (mode=None, spp=None, *, origin=None, target=None, up=None, fov=None, progress=None, **settings))]
+    /// Render the scene's sensor (`sensor`, numbered from 0; the first by
+    /// default), or another view of the solution (moved by Mitsuba's
+    /// look_at `origin`/`target`/`up`, `fov` in degrees along the sensor's
+    /// `fov_axis`); returns an (height, width, 3) float32 array of linear
+    /// RGB radiance. The render settings (`mode`, `spp`, and by keyword
+    /// `gather_spp`, `eye`, `gather_cache`) are those of
+    /// [`RenderSettings::SETTINGS`]. Ctrl-C stops the render and raises
+    /// `KeyboardInterrupt`.
+    #[pyo3(signature = (mode=None, spp=None, *, sensor=0, origin=None, target=None, up=None, fov=None, progress=None, **settings))]
     #[allow(clippy::too_many_arguments)] // keyword arguments of the Python API
     fn render<'py>(
         &self,
         py: Python<'py>,
         mode: Option<&str>,
         spp: Option<u32>,
+        sensor: usize,
         origin: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         target: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
         up: Option<PyArrayLike1<'py, f64, AllowTypeChange>>,
@@ -105,8 +115,9 @@ impl Solution {
         progress: Option<&Bound<'py, PyAny>>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> Result<Bound<'py, PyArray3<f32>>> {
-        let progress = PyProgress::new(py, progress)?;
+        let progress = PyProgress::new(py, progress)?.raising_interrupts();
         let scene = &self.0.solution().scene;
+        let sensor = scene.sensor(sensor)?;
         let positional = PyDict::new(py);
         if let Some(mode) = mode {
             positional.set_item("mode", mode)?;
@@ -118,8 +129,8 @@ impl Solution {
             positional.update(settings.as_mapping())?;
         }
         let given = described_values::<RenderSettings>(Some(&positional))?;
-        let settings = RenderSettings::from_values(scene, &given)?;
-        let mut camera = scene.camera.ok_or(wavrad_core::Error::NoSensor)?;
+        let settings = RenderSettings::from_values(&sensor.hints, &given)?;
+        let (mut camera, film) = (sensor.camera, sensor.film);
         let (origin, target, up) = (
             vector("origin", origin)?,
             vector("target", target)?,
@@ -135,7 +146,7 @@ impl Solution {
             })?;
         }
         if let Some(fov) = fov {
-            let aspect = f64::from(scene.film.width) / f64::from(scene.film.height);
+            let aspect = f64::from(film.width) / f64::from(film.height);
             camera = camera.with_fov(fov, aspect).ok_or_else(|| {
                 Error::Argument(if fov > 0.0 && fov < 180.0 {
                     "render: fov needs a perspective sensor, the scene's is orthographic".into()
@@ -144,13 +155,9 @@ impl Solution {
                 })
             })?;
         }
-        // The renderer reports no progress of its own, nor stops early: one
-        // step, the image (Ctrl-C raises KeyboardInterrupt once it is done).
-        progress.start("rendering", 1);
-        let image = py.allow_threads(|| self.0.render_view(&camera, &scene.film, &settings));
-        progress.advance(1);
-        progress.finish();
-        let image = progress.raise_kept().and(image.map_err(Error::from))?;
+        let image = progress.watch(py, || {
+            self.0.render_view(&camera, &film, &settings, &progress)
+        })??;
         Ok(pixels(py, image.width, image.height, image.rgb))
     }
 
@@ -167,6 +174,15 @@ impl Solution {
     #[getter]
     fn directional<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         rows(py, &self.0.solution().directional)
+    }
+
+    /// Whether the solve was cut short and can be resumed
+    /// (`wavrad.solve(scene, resume=this)`): how many projection items it
+    /// finished and how many it has, or None when it ran to the end.
+    #[getter]
+    fn checkpoint(&self) -> Option<(usize, usize)> {
+        let checkpoint = self.0.solution().checkpoint.as_ref()?;
+        Some((checkpoint.finished_items(), checkpoint.items))
     }
 
     /// Statistics of the solve (the paper's §5 quantities, times, memory).
@@ -426,19 +442,52 @@ fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>
 
 /// Solve `scene` with the settings given by name (those of
 /// [`SolveSettings::SETTINGS`]); unset ones keep the defaults of the oracle.
+/// With `resume` (a solution, or the path of a solution file, cut short),
+/// resume its solve ([`wavrad_core::solve::resume`]) with its settings,
+/// those given set on top.
 #[pyfunction]
-#[pyo3(signature = (scene, *, solver=None, on_step=None, progress=None, **settings))]
+#[pyo3(signature = (scene, *, solver=None, on_step=None, progress=None, resume=None, **settings))]
 fn solve(
     py: Python<'_>,
     scene: &Scene,
     solver: Option<&str>,
     on_step: Option<PyObject>,
     progress: Option<&Bound<'_, PyAny>>,
+    resume: Option<&Bound<'_, PyAny>>,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> Result<Solution> {
     let progress = PyProgress::new(py, progress)?;
     let solver: Solver = solver.map_or(Ok(Solver::default()), str::parse)?;
-    let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
+    let given = described_values::<SolveSettings>(settings)?;
+    if let Some(resume) = resume {
+        if solver != Solver::Gather || on_step.is_some() {
+            return Err(Error::Argument(
+                "solve: resume resumes a gathering solve; solver=\"shoot\" and on_step do not \
+                 go with it"
+                    .into(),
+            ));
+        }
+        let read;
+        let from = match resume.downcast::<Solution>() {
+            Ok(solution) => solution.get().0.solution(),
+            Err(_) => {
+                let path: PathBuf = resume.extract().map_err(|_| {
+                    Error::Argument(format!(
+                        "solve: resume expects a Solution or the path of a solution file, got \
+                         {resume}"
+                    ))
+                })?;
+                read = load_solution(py, path)?;
+                read.0.solution()
+            }
+        };
+        let settings = from.settings.for_resuming(&given)?;
+        let solution = progress.watch(py, || {
+            wavrad_core::solve::resume(&scene.0, &settings, from, &progress)
+        })??;
+        return Ok(Solution(Renderer::new(solution), scene.1.clone()));
+    }
+    let settings = SolveSettings::from_values(&given)?;
     if on_step.is_some() && solver != Solver::Shoot {
         return Err(Error::Argument(
             "solve: on_step is called after each shooting step; it needs solver=\"shoot\"".into(),

@@ -7,7 +7,9 @@
 //! solve stops refining and sweeping and is finished from what is done
 //! (its `stats["stopped"]` says `"interrupted"`), with a `UserWarning`. A
 //! second one, or an exception a callable raises (which stops the work the
-//! same way), is raised once the work has returned.
+//! same way), is raised once the work has returned. Work with nothing to
+//! finish (a render, [`PyProgress::raising_interrupts`]) stops at the first
+//! Ctrl-C, and `KeyboardInterrupt` is raised once it has.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
@@ -54,6 +56,8 @@ struct Phase {
 /// The `progress=` of a Python call, as the core's [`Progress`].
 pub struct PyProgress {
     report: Report,
+    /// Whether the first Ctrl-C is raised too, not only the second.
+    raise_first: bool,
     phase: Mutex<Option<Phase>>,
     stop: AtomicBool,
     raised: Mutex<Option<PyErr>>,
@@ -90,10 +94,20 @@ impl PyProgress {
         };
         Ok(PyProgress {
             report,
+            raise_first: false,
             phase: Mutex::new(None),
             stop: AtomicBool::new(false),
             raised: Mutex::new(None),
         })
+    }
+
+    /// The same, but for work that a stop leaves with nothing to return:
+    /// the first Ctrl-C stops it and is raised once it has stopped.
+    pub fn raising_interrupts(self) -> PyProgress {
+        PyProgress {
+            raise_first: true,
+            ..self
+        }
     }
 
     /// Run `work` without the GIL on a thread of its own, while this
@@ -135,7 +149,7 @@ impl PyProgress {
             };
             let first = e.is_instance_of::<PyKeyboardInterrupt>(py)
                 && !self.stop.swap(true, Ordering::SeqCst);
-            if !first {
+            if !first || self.raise_first {
                 return self.keep(e);
             }
             let warned = py.import("warnings").and_then(|w| {

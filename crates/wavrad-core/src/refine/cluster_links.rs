@@ -39,7 +39,9 @@ pub const CLUSTER_LINK_RAYS: u32 = 16;
 const PARALLEL_MEMBERS: u32 = 64;
 
 /// One end of a link made above the elements.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub enum End {
     /// A cluster of two or more surfaces (a node of the [`ClusterTree`]).
     Cluster(u32),
@@ -48,7 +50,7 @@ pub enum End {
 }
 
 /// Light exchanged between two ends as wholes, in both directions.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ClusterLink {
     /// Its two ends.
     pub ends: [End; 2],
@@ -58,7 +60,7 @@ pub struct ClusterLink {
 }
 
 /// What linking from the top makes.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Linking {
     /// Element pairs that can exchange light (neither behind the other nor
     /// pressed together, [`KernelContext::exchange_nothing`]),

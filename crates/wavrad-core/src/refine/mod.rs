@@ -55,17 +55,30 @@ impl Part {
     }
 }
 
+/// What projecting one item (a surface pair or triple, a link) made.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ItemLinks<L> {
+    /// Its links.
+    pub links: Vec<L>,
+    /// Whether it was projected in full: the work was not asked to stop
+    /// ([`Progress::interrupted`]) before it ended, so projecting it again
+    /// would make the same links. A stop that comes between an item's last
+    /// test and this one marks it unfinished too, which only costs
+    /// projecting it again.
+    pub finished: bool,
+}
+
 /// What `project` makes of every item, in parallel and in order, one
 /// progress step each under the phase `label`; the result does not depend
 /// on the number of threads. `project(item, refine)` refines unless the
 /// work was asked to stop ([`Progress::interrupted`]); the items it did not
 /// refine are reported ([`Progress::cut_short`]).
-fn project_each<T: Sync, L: Send>(
+pub(crate) fn project_each<T: Sync, L: Send>(
     label: &str,
     items: &[T],
     progress: &dyn Progress,
     project: impl Fn(&T, bool) -> Vec<L> + Sync,
-) -> Vec<Vec<L>> {
+) -> Vec<ItemLinks<L>> {
     progress.start(label, items.len() as u64);
     let out = items
         .par_iter()
@@ -74,26 +87,21 @@ fn project_each<T: Sync, L: Send>(
             if !refine {
                 progress.cut_short(1);
             }
-            let out = project(item, refine);
+            let links = project(item, refine);
             progress.advance(1);
-            out
+            ItemLinks {
+                links,
+                finished: refine && !progress.interrupted(),
+            }
         })
         .collect();
     progress.finish();
     out
 }
 
-/// The links `project` makes of every item (a surface pair or triple
-/// projected from the whole surfaces down), concatenated in order;
-/// `project(item, refine)` as in [`project_each`].
-pub(crate) fn project_all<T: Sync, L: Send>(
-    label: &str,
-    items: &[T],
-    progress: &dyn Progress,
-    project: impl Fn(&T, bool) -> Vec<L> + Sync,
-) -> Vec<L> {
-    let per_item = project_each(label, items, progress, project);
-    per_item.into_iter().flatten().collect()
+/// The links of every item in order, concatenated.
+pub fn concatenated<L>(items: Vec<ItemLinks<L>>) -> Vec<L> {
+    items.into_iter().flat_map(|item| item.links).collect()
 }
 
 /// Replace every link by what `refine` makes of it, in parallel and in
@@ -112,9 +120,9 @@ pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
     let changed = per_link
         .iter()
         .zip(links)
-        .filter(|(new, old)| new.as_slice() != [**old])
+        .filter(|(new, old)| new.links.as_slice() != [**old])
         .count();
-    (per_link.into_iter().flatten().collect(), changed)
+    (concatenated(per_link), changed)
 }
 
 /// A kernel projection (two-point or three-point), named by its settings,

@@ -17,7 +17,7 @@ use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{project_all, Part, Projection};
+use crate::refine::{concatenated, project_each, ItemLinks, Part, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
@@ -282,6 +282,21 @@ pub fn refine_three_point_links(
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
 ) -> Vec<ThreePointLink> {
+    concatenated(refine_three_point_links_by_item(
+        ctx, settings, estimate, triples, receiver, progress,
+    ))
+}
+
+/// [`refine_three_point_links`] triple by triple: the links of each, and
+/// whether it was refined in full.
+pub fn refine_three_point_links_by_item(
+    ctx: &KernelContext,
+    settings: ThreePointSettings,
+    estimate: Option<&LightEstimate>,
+    triples: &[(u32, u32, u32)],
+    receiver: impl Fn(u32) -> Patch + Sync,
+    progress: &dyn Progress,
+) -> Vec<ItemLinks<ThreePointLink>> {
     // Once the work is asked to stop, the triples left are linked whole.
     let unrefined = ThreePointSettings {
         refine: RefineSettings {
@@ -290,7 +305,7 @@ pub fn refine_three_point_links(
         },
         receiver_max_level: 0,
     };
-    project_all(
+    project_each(
         "3-point kernels",
         triples,
         progress,

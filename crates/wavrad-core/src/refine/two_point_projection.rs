@@ -15,7 +15,7 @@ use crate::kernel::KernelContext;
 use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
-use crate::refine::{project_all, Part, Projection};
+use crate::refine::{concatenated, project_each, ItemLinks, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Surface};
 
@@ -453,21 +453,48 @@ pub fn refine_links(
     starts: &[[ElementRef; 2]],
     progress: &dyn Progress,
 ) -> Vec<Link> {
+    concatenated(refine_links_by_item(
+        ctx, settings, estimate, starts, progress,
+    ))
+}
+
+/// [`refine_links`] start by start: the links of each of `starts`, and
+/// whether it was refined in full. A pair with no Lambertian side makes no
+/// two-point links (three-point links carry its light).
+pub fn refine_links_by_item(
+    ctx: &KernelContext,
+    settings: RefineSettings,
+    estimate: Option<&LightEstimate>,
+    starts: &[[ElementRef; 2]],
+    progress: &dyn Progress,
+) -> Vec<ItemLinks<Link>> {
     let lambertian = |s: u32| ctx.scene.surfaces[s as usize].brdf.lambertian().is_some();
-    let starts: Vec<[ElementRef; 2]> = starts
-        .iter()
-        .filter(|[a, c]| lambertian(a.surface) || lambertian(c.surface))
-        .copied()
+    let linked: Vec<bool> = (starts.iter())
+        .map(|[a, c]| lambertian(a.surface) || lambertian(c.surface))
+        .collect();
+    let projected: Vec<[ElementRef; 2]> = (starts.iter().zip(&linked))
+        .filter_map(|(&pair, &linked)| linked.then_some(pair))
         .collect();
     // Once the work is asked to stop, the pairs left are linked whole.
     let unrefined = RefineSettings {
         max_level: 0,
         ..settings
     };
-    project_all("kernels", &starts, progress, |&pair, refine| {
+    let mut projected = project_each("kernels", &projected, progress, |&pair, refine| {
         let settings = if refine { settings } else { unrefined };
         refine_pair(ctx, settings, estimate, pair, progress)
     })
+    .into_iter();
+    let none = || ItemLinks {
+        links: Vec::new(),
+        finished: true,
+    };
+    (linked.into_iter())
+        .map(|linked| match linked {
+            true => projected.next().expect("one per linked pair"),
+            false => none(),
+        })
+        .collect()
 }
 
 /// The surface pairs (p < r) that get two-point links: those that can

@@ -3,6 +3,7 @@
 //! the weighted mean of the samples its filter reaches, so images compare
 //! pixel for pixel.
 
+use crate::progress::Progress;
 use crate::sampling::pixel_offsets;
 use crate::scene::{Film, PixelFilter, Rgb};
 use rayon::prelude::*;
@@ -76,12 +77,17 @@ const WINDOW_BYTES: usize = 1 << 25;
 /// are kept in a sliding window, so memory stays bounded whatever the image
 /// size and sample count. The filter must be valid
 /// ([`PixelFilter::validate`], which bounds its radius).
+///
+/// Each row is a step of `progress`'s phase `rendering`; once the work is
+/// asked to stop ([`Progress::interrupted`]) no more samples are taken and
+/// there is no image (`None`).
 pub fn develop(
     film: &Film,
     samples: impl Fn(usize, usize) -> u32 + Sync,
     radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
-) -> Image {
-    develop_in_window(film, samples, radiance, WINDOW_BYTES)
+    progress: &dyn Progress,
+) -> Option<Image> {
+    develop_in_window(film, samples, radiance, WINDOW_BYTES, progress)
 }
 
 fn develop_in_window(
@@ -89,7 +95,8 @@ fn develop_in_window(
     samples: impl Fn(usize, usize) -> u32 + Sync,
     radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
     window_bytes: usize,
-) -> Image {
+    progress: &dyn Progress,
+) -> Option<Image> {
     debug_assert!(film.filter.validate().is_ok(), "{}", film.filter);
     let (w, h) = (film.width as usize, film.height as usize);
     let table = FilterTable::new(film.filter);
@@ -108,6 +115,9 @@ fn develop_in_window(
             .flat_map_iter(|x| {
                 let pixel = (y * w + x) as u64;
                 let mut sums = vec![0.0f64; stride];
+                if progress.interrupted() {
+                    return sums;
+                }
                 let (mut wx, mut wy) = (vec![0.0; span], vec![0.0; span]);
                 let offsets = pixel_offsets(pixel, samples(x, y));
                 let n = offsets.len();
@@ -140,6 +150,7 @@ fn develop_in_window(
     let mut rgb = Vec::with_capacity(3 * w * h);
     // window[i] holds the partial sums of row first_row + i.
     let (mut window, mut first_row): (Vec<Vec<f64>>, usize) = (Vec::new(), 0);
+    progress.start("rendering", h as u64);
     for b0 in (0..h).step_by(band) {
         let b1 = (b0 + band).min(h);
         let (lo, hi) = (b0.saturating_sub(reach), (b1 + reach).min(h));
@@ -150,7 +161,13 @@ fn develop_in_window(
             first_row = lo;
         }
         while first_row + window.len() < hi {
-            window.push(partial_row(first_row + window.len()));
+            let row = partial_row(first_row + window.len());
+            if progress.interrupted() {
+                progress.finish();
+                return None;
+            }
+            window.push(row);
+            progress.advance(1);
         }
         // Each pixel gathers what its neighbours hold for it.
         let band_rgb: Vec<f32> = (b0 * w..b1 * w)
@@ -173,16 +190,19 @@ fn develop_in_window(
             .collect();
         rgb.extend(band_rgb);
     }
-    Image {
+    progress.finish();
+    Some(Image {
         width: film.width,
         height: film.height,
         rgb,
-    }
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::Silent;
+    use std::sync::atomic::Ordering;
 
     /// One of each family, with a negative-lobed filter of each kind.
     const FILTERS: [PixelFilter; 6] = [
@@ -227,8 +247,8 @@ mod tests {
             let span = 2 * reach + 1;
             // Bands of 3 rows.
             let window = 8 * 300 * span * span * 4 * (3 + 2 * reach);
-            let img = develop_in_window(&film, |_, _| 64, f, window);
-            assert_eq!(img, develop(&film, |_, _| 64, f));
+            let img = develop_in_window(&film, |_, _| 64, f, window, &Silent).unwrap();
+            assert_eq!(Some(&img), develop(&film, |_, _| 64, f, &Silent).as_ref());
             // Pixel (150, 20) recomputed directly from its neighbourhood.
             let (px, py) = (150usize, 20usize);
             let (mut sum, mut weight) = (0.0, 0.0);
@@ -248,6 +268,56 @@ mod tests {
         }
     }
 
+    /// Counts the rows developed and asks to stop after `stop_after` of
+    /// them.
+    struct Rows {
+        stop_after: u64,
+        done: std::sync::atomic::AtomicU64,
+        total: std::sync::atomic::AtomicU64,
+    }
+
+    impl Progress for Rows {
+        fn start(&self, phase: &str, total: u64) {
+            assert_eq!(phase, "rendering");
+            self.total.store(total, Ordering::SeqCst);
+        }
+        fn advance(&self, steps: u64) {
+            self.done.fetch_add(steps, Ordering::SeqCst);
+        }
+        fn interrupted(&self) -> bool {
+            self.done.load(Ordering::SeqCst) >= self.stop_after
+        }
+    }
+
+    #[test]
+    fn each_row_is_a_step_and_a_stop_leaves_no_image() {
+        let film = Film {
+            width: 9,
+            height: 7,
+            filter: PixelFilter::Box,
+        };
+        let radiance = |_: f64, _: f64, _: usize, _: usize| Rgb::splat(1.0);
+        let rows = |stop_after| Rows {
+            stop_after,
+            done: Default::default(),
+            total: Default::default(),
+        };
+        let whole = rows(u64::MAX);
+        assert!(develop(&film, |_, _| 4, radiance, &whole).is_some());
+        assert_eq!(whole.done.load(Ordering::SeqCst), 7);
+        assert_eq!(whole.total.load(Ordering::SeqCst), 7);
+        // Stopped after 3 rows: no image, and no row sampled after.
+        let sampled = std::sync::atomic::AtomicU64::new(0);
+        let counted = |x: f64, y: f64, k: usize, n: usize| {
+            sampled.fetch_add(1, Ordering::SeqCst);
+            radiance(x, y, k, n)
+        };
+        let cut = rows(3);
+        assert!(develop(&film, |_, _| 4, counted, &cut).is_none());
+        assert_eq!(cut.done.load(Ordering::SeqCst), 3);
+        assert_eq!(sampled.load(Ordering::SeqCst), 3 * 9 * 4);
+    }
+
     #[test]
     fn constant_radiance_develops_to_a_constant_image() {
         // Normalized by the weights' sum, negative lobes included.
@@ -261,7 +331,9 @@ mod tests {
                 &film,
                 |x, _| 1 + x as u32,
                 |_, _, _, _| Rgb([1.0, 2.0, 3.0]),
-            );
+                &Silent,
+            )
+            .unwrap();
             assert_eq!(img.rgb.len(), 7 * 5 * 3);
             for px in img.rgb.chunks(3) {
                 assert!(

@@ -18,10 +18,10 @@ mod reader;
 pub mod reconstruct;
 pub mod settings;
 
-use crate::progress::Silent;
+use crate::progress::{Progress, Silent};
 use crate::sampling::Samples;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
-use crate::scene::{Camera, Film, Rgb, Scene};
+use crate::scene::{Camera, Film, RenderHints, Rgb, Scene};
 use crate::solve::Solution;
 use crate::{Error, Result};
 use cache::GatherCache;
@@ -122,8 +122,14 @@ impl RenderSettings {
     /// samples expects a clean image; fewer than the default would only add
     /// aliasing on edges).
     pub fn for_scene(scene: &Scene) -> RenderSettings {
+        RenderSettings::for_hints(&scene.hints)
+    }
+
+    /// The defaults for a sensor whose sampler asked for `hints`
+    /// ([`RenderSettings::for_scene`]).
+    pub fn for_hints(hints: &RenderHints) -> RenderSettings {
         let default = RenderSettings::default();
-        match scene.hints.samples_per_pixel {
+        match hints.samples_per_pixel {
             Some(n) if n > default.samples_per_pixel => default.with_samples_per_pixel(n),
             _ => default,
         }
@@ -218,7 +224,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     pub fn render(&self, settings: &RenderSettings) -> Result<Image> {
         let scene = &self.solution().scene;
         let camera = scene.camera.as_ref().ok_or(Error::NoSensor)?;
-        self.render_view(camera, &scene.film, settings)
+        self.render_view(camera, &scene.film, settings, &Silent)
     }
 
     /// A quick image of the scene's sensor: the smooth reconstruction with 4
@@ -235,31 +241,35 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         })
     }
 
-    /// Render any view of the solution (it is view-independent).
+    /// Render any view of the solution (it is view-independent), reporting
+    /// to `progress` (the eye's links, when the view gathers into it, then
+    /// the image's rows: [`develop`]).
     ///
     /// # Errors
     /// [`Error::NonFinitePixels`] when a pixel is infinite or NaN: no image
     /// is better than a wrong one; [`Error::InvalidSetting`] when the film's
-    /// filter is ([`crate::scene::PixelFilter::validate`]).
+    /// filter is ([`crate::scene::PixelFilter::validate`]);
+    /// [`Error::Interrupted`] when `progress` asks the work to stop
+    /// ([`Progress::interrupted`]).
     pub fn render_view(
         &self,
         camera: &Camera,
         film: &Film,
         settings: &RenderSettings,
+        progress: &dyn Progress,
     ) -> Result<Image> {
         film.filter.validate()?;
-        let estimator = self.estimator_for(camera, settings);
+        let estimator = self.estimator_for(camera, settings, progress);
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays; those near an emitter's outline, more.
         let probes = &self.probe(camera, film);
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
-        let mut image = develop(film, samples, |x, y, k, n| {
-            match self.camera_hit(camera, film, (x, y), (k, n)) {
-                Some(hit) => estimator.radiance(self, &hit, settings),
-                None => Rgb::ZERO,
-            }
-        });
+        let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n)) {
+            Some(hit) => estimator.radiance(self, &hit, settings),
+            None => Rgb::ZERO,
+        };
+        let mut image = develop(film, samples, radiance, progress).ok_or(Error::Interrupted)?;
         let count = image
             .rgb
             .chunks(3)
@@ -321,7 +331,12 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
 
     /// The estimator of `settings` for the view from `camera`, with what it
     /// gathers once per view.
-    fn estimator_for(&self, camera: &Camera, settings: &RenderSettings) -> ViewEstimator<'_> {
+    fn estimator_for(
+        &self,
+        camera: &Camera,
+        settings: &RenderSettings,
+        progress: &dyn Progress,
+    ) -> ViewEstimator<'_> {
         let solution = self.solution();
         let any_glossy = solution
             .scene
@@ -337,7 +352,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 glossy: GlossyView::Eye(towards_eye),
             } if any_glossy => ViewEstimator::Eye {
                 reconstruction,
-                eye: EyeRadiance::gather(solution, camera, &Silent),
+                eye: EyeRadiance::gather(solution, camera, progress),
                 towards_eye,
             },
             // Without glossy surfaces there is nothing to gather into the

@@ -5,7 +5,7 @@
 
 use super::estimator::Mode;
 use super::RenderSettings;
-use crate::scene::Scene;
+use crate::scene::RenderHints;
 use crate::setting::{Choice, Described, Domain, Group, Setting, Value};
 use crate::Result;
 
@@ -99,12 +99,13 @@ impl Described for RenderSettings {
 }
 
 impl RenderSettings {
-    /// The settings users gave by name for a view of `scene`: the scene's
-    /// defaults, then the camera rays (which set the gathering share's
-    /// default), then the rest; the mode, eye and gather cache are checked
-    /// together ([`Mode::estimator`]).
-    pub fn from_values(scene: &Scene, given: &[(&str, Value)]) -> Result<RenderSettings> {
-        let mut settings = RenderSettings::for_scene(scene);
+    /// The settings users gave by name for a view of a sensor whose
+    /// sampler asked for `hints`: its defaults
+    /// ([`RenderSettings::for_hints`]), then the camera rays (which set the
+    /// gathering share's default), then the rest; the mode, eye and gather
+    /// cache are checked together ([`Mode::estimator`]).
+    pub fn from_values(hints: &RenderHints, given: &[(&str, Value)]) -> Result<RenderSettings> {
+        let mut settings = RenderSettings::for_hints(hints);
         let first = |name: &str| name == "spp";
         for &(name, value) in given.iter().filter(|(name, _)| first(name)) {
             settings.set(name, value)?;
@@ -130,8 +131,8 @@ mod tests {
     use super::*;
     use crate::render::estimator::Estimator;
 
-    fn no_scene() -> Scene {
-        Scene::from_surfaces(Vec::new())
+    fn no_hints() -> RenderHints {
+        RenderHints::default()
     }
 
     #[test]
@@ -161,25 +162,25 @@ mod tests {
             ("gather_cache", Value::Flag(true)),
             ("mode", Value::Choice("gather")),
         ];
-        let settings = RenderSettings::from_values(&no_scene(), &cached).unwrap();
+        let settings = RenderSettings::from_values(&no_hints(), &cached).unwrap();
         assert_eq!(settings.estimator, Estimator::FinalGather { cached: true });
         let haar = [
             ("gather_cache", Value::Flag(true)),
             ("mode", Value::Choice("haar")),
         ];
-        assert!(RenderSettings::from_values(&no_scene(), &haar).is_err());
+        assert!(RenderSettings::from_values(&no_hints(), &haar).is_err());
         let no_eye = [("eye", Value::Flag(false))];
-        assert!(RenderSettings::from_values(&no_scene(), &no_eye).is_err());
+        assert!(RenderSettings::from_values(&no_hints(), &no_eye).is_err());
     }
 
     #[test]
     fn gathering_share_follows_the_camera_rays_unless_given() {
         let spp = ("spp", Value::Count(64));
         let gathers = ("gather_spp", Value::Count(5));
-        let s = RenderSettings::from_values(&no_scene(), &[gathers, spp]).unwrap();
+        let s = RenderSettings::from_values(&no_hints(), &[gathers, spp]).unwrap();
         assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (64, 5));
-        let s = RenderSettings::from_values(&no_scene(), &[spp]).unwrap();
+        let s = RenderSettings::from_values(&no_hints(), &[spp]).unwrap();
         assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (64, 2));
-        assert!(RenderSettings::from_values(&no_scene(), &[("spp", Value::Count(0))]).is_err());
+        assert!(RenderSettings::from_values(&no_hints(), &[("spp", Value::Count(0))]).is_err());
     }
 }

@@ -113,6 +113,18 @@ pub struct RenderHints {
     pub samples_per_pixel: Option<u32>,
 }
 
+/// One sensor of a scene: where it looks from, its film, and what its
+/// sampler asked for.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Sensor {
+    /// The camera.
+    pub camera: Camera,
+    /// Its film.
+    pub film: Film,
+    /// Its sampler's wishes (or the scene's top-level sampler's).
+    pub hints: RenderHints,
+}
+
 /// A complete scene.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scene {
@@ -124,6 +136,9 @@ pub struct Scene {
     pub film: Film,
     /// What the integrator and sampler asked for.
     pub hints: RenderHints,
+    /// The sensors after the first (`camera`, `film`, `hints`), in file
+    /// order: other views to render ([`Scene::sensor`]).
+    pub other_sensors: Vec<Sensor>,
 }
 
 impl Patch {
@@ -281,7 +296,59 @@ impl Scene {
             camera: None,
             film: Film::default(),
             hints: RenderHints::default(),
+            other_sensors: Vec::new(),
         }
+    }
+
+    /// How many sensors the scene has (the first is `camera`).
+    pub fn sensor_count(&self) -> usize {
+        usize::from(self.camera.is_some()) + self.other_sensors.len()
+    }
+
+    /// Sensor `index` (0 the first, `camera`, `film` and `hints`), in the
+    /// scene file's order.
+    ///
+    /// # Errors
+    /// [`Error::NoSensor`] without any, [`Error::NoSuchSensor`] past the
+    /// last.
+    pub fn sensor(&self, index: usize) -> crate::Result<Sensor> {
+        let camera = self.camera.ok_or(crate::Error::NoSensor)?;
+        match index {
+            0 => Ok(Sensor {
+                camera,
+                film: self.film,
+                hints: self.hints,
+            }),
+            _ => (self.other_sensors.get(index - 1).copied()).ok_or(crate::Error::NoSuchSensor {
+                index,
+                count: self.sensor_count(),
+            }),
+        }
+    }
+
+    /// The first difference of `now` from this scene, in words ("another
+    /// surface 3 (\"floor\")", "another film"); `None` when they are
+    /// equal.
+    pub fn difference(&self, now: &Scene) -> Option<String> {
+        if self.surfaces.len() != now.surfaces.len() {
+            return Some(format!(
+                "{} surfaces, {} before",
+                now.surfaces.len(),
+                self.surfaces.len()
+            ));
+        }
+        let surface = (self.surfaces.iter().zip(&now.surfaces)).position(|(a, b)| a != b);
+        if let Some(s) = surface {
+            let name = &now.surfaces[s].name;
+            return Some(format!("another surface {s} ({name:?})"));
+        }
+        if self.camera != now.camera || self.other_sensors != now.other_sensors {
+            return Some("another sensor".into());
+        }
+        if self.film != now.film {
+            return Some("another film".into());
+        }
+        (self.hints != now.hints).then(|| "another sampler".into())
     }
 }
 

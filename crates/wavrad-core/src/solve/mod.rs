@@ -4,6 +4,7 @@
 //! settle. [`shoot`] solves diffuse scenes by progressive shooting instead,
 //! projecting kernels only where light flows (the paper's §6).
 
+pub mod checkpoint;
 pub mod cluster_gather;
 pub mod gather;
 pub mod push_pull;
@@ -25,12 +26,14 @@ use crate::refine::importance::Importance;
 use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
+    refine_three_point_links_by_item, surface_triples, ThreePointLink, ThreePointSettings,
 };
-use crate::refine::two_point_projection::{refine_links, Link, RefineSettings};
+use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
+use checkpoint::{merged, runs_of, Run, RunSpan};
+pub use checkpoint::{resume, Checkpoint};
 use cluster_gather::ClusterTransfers;
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
@@ -135,6 +138,9 @@ pub struct Solution {
     pub settings: SolveSettings,
     /// What it took (paper §5 quantities, times, memory).
     pub stats: Stats,
+    /// What a gathering solve cut short had finished, to [`resume`] it
+    /// from; `None` when it ran to the end (or shot).
+    pub checkpoint: Option<Checkpoint>,
 }
 
 /// Solve `scene`: diffuse surfaces through two-point links (eq. 12), glossy
@@ -159,8 +165,9 @@ pub struct Solution {
 /// when Gauss–Seidel's residual keeps growing.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
     let plan = plan(scene, settings, progress)?;
-    let links = plan.project(plan.items(), progress)?;
-    plan.finish(vec![links], progress)
+    let all: Vec<usize> = plan.items().collect();
+    let runs = plan.project_numbered(&all, progress);
+    plan.finish_runs(runs, 0, progress)
 }
 
 /// A gathering solve ([`solve`]) up to its kernel projection: the scene's
@@ -251,17 +258,8 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let ctx = projector.kernel_context();
     let clusters = ClusterTree::build(scene);
     let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
-    let pairs = linking.surface_pairs();
-    let triples = surface_triples(scene, &pairs);
     times.kernels_s += clock.elapsed().as_secs_f64();
-    Ok(Plan {
-        projector,
-        clusters,
-        linking,
-        pairs,
-        triples,
-        times,
-    })
+    Ok(Plan::new(projector, clusters, linking, times))
 }
 
 impl Projector {
@@ -323,30 +321,46 @@ impl Projector {
     /// its element pairs and three-point links of its surface triples,
     /// refined in parallel.
     pub fn project(&self, block: &BlockItems, progress: &dyn Progress) -> BlockLinks {
+        let numbers: Vec<usize> = block.items.clone().collect();
+        let runs = self.project_numbered(&numbers, &block.element_pairs, &block.triples, progress);
+        merged(block.items.clone(), runs)
+    }
+
+    /// compute_kernel() (§4.2) of the items numbered `numbers`
+    /// (increasing): the element pairs `element_pairs`, then the surface
+    /// triples `triples`, refined in parallel; their links in runs of
+    /// consecutive items alike projected in full or cut short.
+    fn project_numbered(
+        &self,
+        numbers: &[usize],
+        element_pairs: &[[ElementRef; 2]],
+        triples: &[(u32, u32, u32)],
+        progress: &dyn Progress,
+    ) -> Vec<Run> {
         let clock = Instant::now();
         let progress = &self.budgeted(progress);
         let ctx = self.kernel_context();
-        let two_point = refine_links(
+        let two_point = refine_links_by_item(
             &ctx,
             self.settings.refine,
             self.estimate.as_ref(),
-            &block.element_pairs,
+            element_pairs,
             progress,
         );
-        let three_point = refine_three_point_links(
+        let three_point = refine_three_point_links_by_item(
             &ctx,
             self.settings.three_point_refine(),
             self.estimate.as_ref(),
-            &block.triples,
+            triples,
             |q| self.scene.surfaces[q as usize].patch,
             progress,
         );
-        BlockLinks {
-            items: block.items.clone(),
+        runs_of(
+            numbers,
             two_point,
             three_point,
-            kernels_s: clock.elapsed().as_secs_f64(),
-        }
+            clock.elapsed().as_secs_f64(),
+        )
     }
 
     /// `progress` asking the work to stop once the budget is spent.
@@ -374,6 +388,25 @@ fn importance(ctx: &KernelContext, oracle: Oracle, links: &[Link]) -> Option<Imp
 }
 
 impl Plan {
+    /// The plan of `projector` from `linking`, made over `clusters`.
+    fn new(
+        projector: Projector,
+        clusters: ClusterTree,
+        linking: Linking,
+        times: PhaseTimes,
+    ) -> Plan {
+        let pairs = linking.surface_pairs();
+        let triples = surface_triples(&projector.scene, &pairs);
+        Plan {
+            projector,
+            clusters,
+            linking,
+            pairs,
+            triples,
+            times,
+        }
+    }
+
     /// What projects its items here.
     pub fn projector(&self) -> &Projector {
         &self.projector
@@ -439,6 +472,20 @@ impl Plan {
         Ok(self.projector.project(&self.block_items(block)?, progress))
     }
 
+    /// compute_kernel() (§4.2) of the items numbered `numbers` (increasing,
+    /// each below [`Plan::items`]'s end), in runs of consecutive items
+    /// alike projected in full or cut short.
+    fn project_numbered(&self, numbers: &[usize], progress: &dyn Progress) -> Vec<Run> {
+        let pairs = &self.linking.element_pairs;
+        let split = numbers.partition_point(|&n| n < pairs.len());
+        let element_pairs: Vec<[ElementRef; 2]> =
+            numbers[..split].iter().map(|&n| pairs[n]).collect();
+        let triples: Vec<(u32, u32, u32)> = (numbers[split..].iter())
+            .map(|&n| self.triples[n - pairs.len()])
+            .collect();
+        (self.projector).project_numbered(numbers, &element_pairs, &triples, progress)
+    }
+
     /// Check that `blocks` hold every item once, in any order, as
     /// [`Plan::finish`] needs.
     pub fn check_cover(&self, blocks: &[BlockLinks]) -> Result<()> {
@@ -471,11 +518,32 @@ impl Plan {
     /// emitters' links down to where their light changes, build the element
     /// hierarchies, and solve; the weighted oracles' refine–solve loop runs
     /// here. `stats.times.kernels_s` adds up the blocks' projection times.
-    pub fn finish(self, mut blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
+    /// Cut short ([`Budget`]), the solution keeps a [`Checkpoint`] that
+    /// takes the blocks as projected in full.
+    pub fn finish(self, blocks: Vec<BlockLinks>, progress: &dyn Progress) -> Result<Solution> {
+        let runs = (blocks.into_iter())
+            .map(|links| Run {
+                links,
+                finished: true,
+            })
+            .collect();
+        self.finish_runs(runs, 0, progress)
+    }
+
+    /// [`Plan::finish`] from `runs` of items, the first `resumed` of which
+    /// were taken from a checkpoint.
+    fn finish_runs(
+        self,
+        mut runs: Vec<Run>,
+        resumed: usize,
+        progress: &dyn Progress,
+    ) -> Result<Solution> {
         let progress = &self.projector.budgeted(progress);
-        // The blocks' links, in item order.
+        // The runs' links, in item order.
+        runs.sort_by_key(|r| r.links.items.start);
+        let spans: Vec<RunSpan> = runs.iter().map(RunSpan::of).collect();
+        let blocks: Vec<BlockLinks> = runs.into_iter().map(|r| r.links).collect();
         self.check_cover(&blocks)?;
-        blocks.sort_by_key(|b| b.items.start);
         let mut times = self.times;
         let (mut links, mut three_point) = (Vec::new(), Vec::new());
         for block in blocks {
@@ -522,6 +590,9 @@ impl Plan {
             Ok::<_, Error>((system, sweeps, resolved))
         };
         let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
+        // The loop refines the links further; a checkpoint keeps the first
+        // projection's.
+        let projected = looping.then(|| (links.clone(), three_point.clone()));
         let (mut system, mut sweeps, mut resolved) =
             assemble_and_solve(&links, &three_point, !looping, &mut times)?;
         let mut passes = 1;
@@ -566,6 +637,8 @@ impl Plan {
             limited_leaves: system.interactions.limited_leaves,
             stopped: self.projector.budget.stopped(),
             unrefined_items: self.projector.budget.coarse_items(),
+            resumed_items: resumed,
+            projected_items: self.items().end - resumed,
             exchanging_pairs: pairs.len(),
             kernel_pairs: pairs.len(),
             cluster_links: linking.cluster_links.len(),
@@ -581,6 +654,11 @@ impl Plan {
             )
         };
         let (settings, pairs) = (*settings, pairs.clone());
+        let items = self.items().end;
+        let checkpoint = stats.stopped.map(|_| {
+            let (links, three_point) = projected.unwrap_or((links, three_point));
+            Checkpoint::new(self.linking, items, &spans, links, three_point)
+        });
         let Projector { scene, tracer, .. } = self.projector;
         Ok(Solution {
             scene,
@@ -592,6 +670,7 @@ impl Plan {
             directional: system.directional,
             settings,
             stats,
+            checkpoint,
         })
     }
 }
@@ -1102,7 +1181,7 @@ impl Default for SolveSettings {
 mod tests {
     use super::*;
     use crate::progress::Silent;
-    use crate::refine::two_point_projection::root_pairs;
+    use crate::refine::two_point_projection::{refine_links, root_pairs};
     use crate::scene::brdf::Brdf;
     use crate::scene::{Patch, Surface};
     use glam::DVec3;
@@ -1152,6 +1231,7 @@ mod tests {
         };
         let cut = solve(&scene, &limited, &Silent).unwrap();
         assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
+        assert!(full.checkpoint.is_none() && cut.checkpoint.is_some());
         // Every surface pair, and the emitter's links left unresolved.
         assert!(cut.stats.unrefined_items > full.stats.kernel_pairs);
         assert!(cut.stats.two_point_interactions < full.stats.two_point_interactions);

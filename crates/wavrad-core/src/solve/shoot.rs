@@ -177,6 +177,7 @@ pub fn solve_shooting(
         directional: Vec::new(),
         settings: *settings,
         stats: Stats::default(),
+        checkpoint: None,
     };
     let ctx = KernelContext {
         scene,

@@ -118,6 +118,13 @@ pub struct Stats {
     /// instead of refined further, because the solve was cut short: what
     /// it cost in accuracy.
     pub unrefined_items: usize,
+    /// Projection items (surface pairs and triples) taken with their links
+    /// from the checkpoint of a solve cut short ([`crate::solve::resume`]),
+    /// not projected again.
+    pub resumed_items: usize,
+    /// Projection items projected by this solve (all of them, unless it
+    /// resumed another).
+    pub projected_items: usize,
 }
 
 impl Stats {
@@ -171,6 +178,8 @@ impl Stats {
             times: PhaseTimes::default(),
             stopped: None,
             unrefined_items: 0,
+            resumed_items: 0,
+            projected_items: 0,
             peak_memory_bytes: peak_memory_bytes(),
         }
     }

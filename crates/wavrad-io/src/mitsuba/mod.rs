@@ -18,7 +18,7 @@
 //!   the top level and referenced by one (`mitsuba/emitters.rs`), sensors
 //!   `perspective` and `orthographic` with `hdrfilm`, every Mitsuba 3
 //!   `rfilter` and any sampler (`mitsuba/sensors.rs`; of several sensors the
-//!   first is rendered, with a warning); any `integrator`, its parameters
+//!   first is the scene's camera, the others views to pick); any `integrator`, its parameters
 //!   checked and its unhonoured settings warned about
 //!   (`mitsuba/integrators.rs`), and top-level `sampler` elements (only
 //!   `sample_count` is read);
@@ -65,7 +65,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use wavrad_core::scene::bounds::MAX_COORDINATE;
-use wavrad_core::scene::{Film, RenderHints, Scene, Surface};
+use wavrad_core::scene::{Film, RenderHints, Scene, Sensor as SceneSensor, Surface};
 
 use crate::error::{Error, Result};
 use document::{read_scene_document, Element, Location};
@@ -154,7 +154,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
     let scene = Object::parse(root, doc)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
-    let mut sensor: Option<(sensors::Sensor, &Location)> = None;
+    let mut sensors = Vec::new();
     let mut top_level_samples = None;
     let mut shape_index = 0;
     let mut top_level_emitters = Vec::new();
@@ -189,16 +189,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 emitters::check_top_level_emitter(*n, doc)?;
                 top_level_emitters.push(*n);
             }
-            "sensor" => {
-                let s = sensors::parse_sensor(*n, doc)?;
-                match sensor {
-                    None => sensor = Some((s, n.at)),
-                    Some((_, first)) => doc.warn(n.at.warning(format!(
-                        "a second sensor: wavrad renders only the scene's first (at {first}), \
-                         as Mitsuba does unless told another"
-                    ))),
-                }
-            }
+            "sensor" => sensors.push(sensors::parse_sensor(*n, doc)?),
             "sampler" => {
                 let count = sensors::parse_sampler(*n, doc)?;
                 top_level_samples = top_level_samples.or(count);
@@ -225,16 +216,27 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             ));
         }
     }
-    let sensor = sensor.map(|(s, _)| s);
+    // The first sensor is the scene's camera; the others are views
+    // `--sensor N` picks. A sensor's own sampler wins over the scene's.
+    let mut sensors = sensors.into_iter().map(|s| SceneSensor {
+        camera: s.camera,
+        film: s.film,
+        hints: RenderHints {
+            samples_per_pixel: s.samples_per_pixel.or(top_level_samples),
+        },
+    });
+    let first = sensors.next();
     Ok(Scene {
         surfaces,
-        camera: sensor.map(|s| s.camera),
-        film: sensor.map_or_else(Film::default, |s| s.film),
-        hints: RenderHints {
-            samples_per_pixel: sensor
-                .and_then(|s| s.samples_per_pixel)
-                .or(top_level_samples),
-        },
+        camera: first.map(|s| s.camera),
+        film: first.map_or_else(Film::default, |s| s.film),
+        hints: first.map_or(
+            RenderHints {
+                samples_per_pixel: top_level_samples,
+            },
+            |s| s.hints,
+        ),
+        other_sensors: sensors.collect(),
     })
 }
 
