@@ -46,6 +46,8 @@
 //! assert!(read.warnings.is_empty());
 //! ```
 
+mod check;
+
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -160,6 +162,18 @@ pub enum SolutionProblem {
     /// bug, or a file made by hand).
     #[error("damaged: {0}")]
     Undecodable(String),
+    /// The body decodes, but its parts do not fit together (a writer's
+    /// bug, or a file made by hand): an index out of range, a value that
+    /// is not finite, a tree that is not one ([`read_solution`] checks
+    /// everything the renderer relies on).
+    #[error("damaged: {part}: {problem}")]
+    Inconsistent {
+        /// The part of the solution, e.g. `surface 3's incoming transfer
+        /// 12`.
+        part: String,
+        /// What is wrong with it.
+        problem: String,
+    },
     /// The scene file loads to another scene than the one solved.
     #[error(
         "the scene changed since the solve: {scene} now loads with {difference}; solve it again"
@@ -176,20 +190,19 @@ pub enum SolutionProblem {
 /// renamed into place), with the `source` its scene was loaded from, if
 /// any, for [`read_solution`] to check.
 pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>) -> Result<()> {
-    let body = Body {
-        source: source.map(Cow::Borrowed),
-        scene: Cow::Borrowed(&solution.scene),
-        pairs: Cow::Borrowed(&solution.pairs),
-        trees: Cow::Borrowed(&solution.trees),
-        radiance: Cow::Borrowed(&solution.radiance),
-        interactions: Cow::Borrowed(&solution.interactions),
-        directional: Cow::Borrowed(&solution.directional),
-        settings: solution.settings,
-        stats: Cow::Borrowed(&solution.stats),
-        checkpoint: solution.checkpoint.as_ref().map(Cow::Borrowed),
-    };
-    let encoded = postcard::to_allocvec(&body).map_err(|e| unencodable(path, e))?;
-    let body = zstd::bulk::compress(&encoded, ZSTD_LEVEL).map_err(|e| Error::io(path, e))?;
+    let encoded =
+        postcard::to_allocvec(&Body::of(solution, source)).map_err(|e| unencodable(path, e))?;
+    let bytes = solution_file_bytes(&encoded).map_err(|e| Error::io(path, e))?;
+    crate::write_atomic(path, &bytes)
+}
+
+/// The bytes of a solution file whose body, before compression, is
+/// `encoded` (a [`Solution`] in postcard): the header, with the body's
+/// length and checksum, then the body compressed. [`write_solution`]
+/// writes these; tools that make files by other means (the fuzz targets,
+/// which fuzz the body behind a checksum that matches it) use it too.
+pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
+    let body = zstd::bulk::compress(encoded, ZSTD_LEVEL)?;
     let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
     bytes.extend_from_slice(&MAGIC);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
@@ -200,7 +213,7 @@ pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>)
     bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
     bytes.extend_from_slice(&body);
-    crate::write_atomic(path, &bytes)
+    Ok(bytes)
 }
 
 /// Read the solution in `path`, rebuild its ray queries, and check that
@@ -236,9 +249,10 @@ pub fn read_solution(path: &Path) -> Result<ReadSolution> {
     let mut stats = stats.into_owned();
     stats.settings = settings.values().into_iter().collect();
     let scene = scene.into_owned();
+    // The ray queries' BVH needs the scene's coordinates within bounds.
     scene
         .check_bounds()
-        .map_err(|e| Error::solution(path, SolutionProblem::Undecodable(e.to_string())))?;
+        .map_err(|e| Error::solution(path, check::inconsistent("the scene", e)))?;
     let solution = Solution {
         tracer: SceneTracer::new(&scene),
         scene,
@@ -251,7 +265,7 @@ pub fn read_solution(path: &Path) -> Result<ReadSolution> {
         stats,
         checkpoint: checkpoint.map(Cow::into_owned),
     };
-    check_consistent(&solution).map_err(|p| Error::solution(path, p))?;
+    check::check_solution(&solution).map_err(|p| Error::solution(path, p))?;
     let source = source.map(Cow::into_owned);
     let mut warnings = Vec::new();
     if let Some(source) = &source {
@@ -282,6 +296,24 @@ struct Body<'a> {
     settings: SolveSettings,
     stats: Cow<'a, Stats>,
     checkpoint: Option<Cow<'a, Checkpoint>>,
+}
+
+impl<'a> Body<'a> {
+    /// The body of `solution`, borrowed, with its `source`.
+    fn of(solution: &'a Solution, source: Option<&'a Source>) -> Body<'a> {
+        Body {
+            source: source.map(Cow::Borrowed),
+            scene: Cow::Borrowed(&solution.scene),
+            pairs: Cow::Borrowed(&solution.pairs),
+            trees: Cow::Borrowed(&solution.trees),
+            radiance: Cow::Borrowed(&solution.radiance),
+            interactions: Cow::Borrowed(&solution.interactions),
+            directional: Cow::Borrowed(&solution.directional),
+            settings: solution.settings,
+            stats: Cow::Borrowed(&solution.stats),
+            checkpoint: solution.checkpoint.as_ref().map(Cow::Borrowed),
+        }
+    }
 }
 
 /// The writer's version and the body of a solution file's `bytes`.
@@ -338,50 +370,6 @@ fn decode(bytes: &[u8]) -> std::result::Result<(String, Body<'static>), Solution
     }
     let body: Body = postcard::from_bytes(&encoded).map_err(|e| undecodable(&e))?;
     Ok((written_by, body))
-}
-
-/// Check that the parts of `solution` agree in their counts, as the
-/// renderer assumes: a tree and a radiance per surface, a radiance per
-/// node, and per directional structure.
-fn check_consistent(solution: &Solution) -> std::result::Result<(), SolutionProblem> {
-    let surfaces = solution.scene.surfaces.len();
-    let interactions = &solution.interactions;
-    let per_surface = [
-        ("element trees", solution.trees.len()),
-        ("radiance lists", solution.radiance.len()),
-        ("exposure lists", interactions.exposure.len()),
-        ("reflection limits", interactions.limit.len()),
-    ];
-    if let Some((what, n)) = per_surface.iter().find(|(_, n)| *n != surfaces) {
-        return Err(SolutionProblem::Undecodable(format!(
-            "{n} {what} for {surfaces} surfaces"
-        )));
-    }
-    fn nodes<T>(lists: &[Vec<T>]) -> Vec<usize> {
-        lists.iter().map(Vec::len).collect()
-    }
-    let tree_nodes: Vec<usize> = solution.trees.iter().map(|t| t.nodes.len()).collect();
-    let pair_nodes: Vec<usize> = (interactions.directional.iter())
-        .map(|d| d.tree.nodes.len())
-        .collect();
-    let agree = [
-        ("radiance", nodes(&solution.radiance) == tree_nodes),
-        ("exposure", nodes(&interactions.exposure) == tree_nodes),
-        (
-            "directional radiance",
-            nodes(&solution.directional) == pair_nodes,
-        ),
-        (
-            "pair exposure",
-            nodes(&interactions.pair_exposure) == pair_nodes,
-        ),
-    ];
-    match agree.iter().find(|(_, ok)| !ok) {
-        Some((what, _)) => Err(SolutionProblem::Undecodable(format!(
-            "the {what} does not fit the element trees"
-        ))),
-        None => Ok(()),
-    }
 }
 
 /// Load `source` again and compare it with the `solved` scene: an error
@@ -599,16 +587,11 @@ mod tests {
     #[test]
     fn a_body_that_decompresses_too_far_is_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let (solution, _) = solved(dir.path(), "");
-        let (_, bytes) = written(dir.path(), &solution, None);
         // A well-formed header and checksum over a tiny body that expands
         // 50 000 times: zeros, as a crafted file could hold.
-        let body = zstd::bulk::compress(&vec![0u8; 50 << 20], ZSTD_LEVEL).unwrap();
-        assert!((body.len() as u64) * MAX_EXPANSION + (1 << 20) < 50 << 20);
-        let mut crafted = bytes[..HEADER_LEN].to_vec();
-        crafted[44..52].copy_from_slice(&(body.len() as u64).to_le_bytes());
-        crafted[52..56].copy_from_slice(&crc32fast::hash(&body).to_le_bytes());
-        crafted.extend_from_slice(&body);
+        let crafted = solution_file_bytes(&vec![0u8; 50 << 20]).unwrap();
+        let body = (crafted.len() - HEADER_LEN) as u64;
+        assert!(body * MAX_EXPANSION + (1 << 20) < 50 << 20);
         let problem = problem_of(dir.path(), &crafted);
         assert!(
             matches!(&problem, SolutionProblem::Undecodable(m) if m.contains("decompresses to more than")),
@@ -668,5 +651,114 @@ mod tests {
             read.warnings[0]
         );
         assert_eq!(read.solution.radiance, solution.radiance);
+    }
+
+    /// The problem reading `solution` from a file whose body `edit`
+    /// changed, behind a header and checksum that match it.
+    fn problem_after(dir: &Path, solution: &Solution, edit: impl FnOnce(&mut Body)) -> String {
+        let mut body = Body::of(solution, None);
+        edit(&mut body);
+        let bytes = solution_file_bytes(&postcard::to_allocvec(&body).unwrap()).unwrap();
+        let problem = problem_of(dir, &bytes);
+        assert!(
+            matches!(problem, SolutionProblem::Inconsistent { .. }),
+            "{problem}"
+        );
+        problem.to_string()
+    }
+
+    #[test]
+    fn a_body_with_a_matching_checksum_is_checked_index_by_index() {
+        use wavrad_core::solve::gather::Source;
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, _) = solved(dir.path(), GLOSSY);
+        let dir = dir.path();
+        let (s, _) = (solution.interactions.incoming.iter().enumerate())
+            .find(|(_, t)| !t.is_empty())
+            .expect("a surface that gathers");
+        type Edit = Box<dyn FnOnce(&mut Body)>;
+        let cases: [(&str, Edit); 9] = [
+            (
+                "surface 1: its element tree: node 0's children start at node 4000",
+                Box::new(|b| b.trees.to_mut()[1].nodes[0].first_child = Some(4000)),
+            ),
+            (
+                "is not child 2 of node 0",
+                Box::new(|b| {
+                    let tree = &mut b.trees.to_mut()[0];
+                    tree.nodes[0].first_child.get_or_insert(1);
+                    tree.nodes[3].id.path = 7;
+                }),
+            ),
+            (
+                "node 9999 out of range",
+                Box::new(move |b| {
+                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
+                        surface: 0,
+                        node: 9999,
+                    }
+                }),
+            ),
+            (
+                "source surface 77 out of range",
+                Box::new(move |b| {
+                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
+                        surface: 77,
+                        node: 0,
+                    }
+                }),
+            ),
+            (
+                &format!("surface {s}'s incoming transfer 0: node 70000 out of range"),
+                Box::new(move |b| b.interactions.to_mut().incoming[s][0].receiver = 70000),
+            ),
+            (
+                "surface 0: its radiance: Rgb([NaN",
+                Box::new(|b| b.radiance.to_mut()[0][0] = Rgb::splat(f64::NAN)),
+            ),
+            (
+                "not indexed by their surface pairs",
+                Box::new(|b| {
+                    let map = &mut b.interactions.to_mut().structure_of;
+                    let first = *map.keys().next().unwrap();
+                    map.insert(first, 5);
+                }),
+            ),
+            (
+                "covers 0..100000 out of range",
+                Box::new(|b| {
+                    let t = &mut b.interactions.to_mut().incoming_three_point[0][0];
+                    t.receivers = 0..100_000;
+                }),
+            ),
+            (
+                "the cluster links: the cluster tree is not the scene's",
+                Box::new(|b| {
+                    let clusters = &mut b.interactions.to_mut().clusters.clusters;
+                    clusters.nodes.push(clusters.nodes[0].clone());
+                }),
+            ),
+        ];
+        for (needle, edit) in cases {
+            let message = problem_after(dir, &solution, edit);
+            assert!(message.starts_with("damaged: "), "{message}");
+            assert!(
+                message.contains(needle),
+                "expected {needle:?} in: {message}"
+            );
+        }
+    }
+
+    #[test]
+    fn solutions_of_the_shooting_solver_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = wavrad_core::testing::light_over_a_corner(0.3);
+        let settings = SolveSettings::default();
+        let solution =
+            wavrad_core::solve::shoot::solve_shooting(&scene, &settings, &Silent, None).unwrap();
+        let (path, _) = written(dir.path(), &solution, None);
+        let read = read_solution(&path).unwrap();
+        assert_eq!(read.solution.trees, solution.trees);
+        assert_eq!(read.solution.interactions, solution.interactions);
     }
 }

@@ -114,6 +114,11 @@ impl ElementRef {
     }
 }
 
+/// The deepest level an [`ElementId`] can name: its path holds two bits a
+/// level in a `u64`, and [`ElementId::contains`] shifts it by two bits a
+/// level of difference.
+pub const MAX_ELEMENT_LEVEL: u32 = 31;
+
 /// A tree whose inner nodes have four consecutive children: element trees,
 /// and the element-pair trees of directional radiance
 /// ([`crate::geometry::pair_tree::PairTree`]); push–pull works on either.
@@ -122,6 +127,37 @@ pub trait Hierarchy {
     fn node_count(&self) -> usize;
     /// Index of the first of the node's four children, if it has any.
     fn first_child(&self, node: usize) -> Option<usize>;
+}
+
+/// Check the shape every [`Hierarchy`] is assumed to have, for trees read
+/// from outside (a solution file): a root, each inner node's four
+/// children after it and within the tree, and every node but the root the
+/// child of exactly one node.
+pub fn check_hierarchy(tree: &impl Hierarchy) -> Result<(), String> {
+    let count = tree.node_count();
+    if count == 0 {
+        return Err("no root".into());
+    }
+    let mut claimed = vec![false; count];
+    for node in 0..count {
+        let Some(first) = tree.first_child(node) else {
+            continue;
+        };
+        if first <= node || first + 4 > count {
+            return Err(format!(
+                "node {node}'s children start at node {first}, of {count}"
+            ));
+        }
+        for (child, claimed) in (first..).zip(&mut claimed[first..first + 4]) {
+            if std::mem::replace(claimed, true) {
+                return Err(format!("node {child} is the child of two nodes"));
+            }
+        }
+    }
+    match claimed[1..].iter().position(|&c| !c) {
+        Some(orphan) => Err(format!("node {} is no node's child", orphan + 1)),
+        None => Ok(()),
+    }
 }
 
 impl Hierarchy for ElementTree {
@@ -247,6 +283,41 @@ impl ElementTree {
         counts
     }
 
+    /// Check that the tree is the quadtree of the surface `root` that
+    /// [`ElementTree::build`] (or refinement) makes: the shape of a
+    /// [`Hierarchy`], the root's element the whole surface, and each
+    /// child's id and patch its parent's subdivision's, down to at most
+    /// [`MAX_ELEMENT_LEVEL`]. For trees read from outside (a solution
+    /// file), which the renderer indexes without checks.
+    pub fn check(&self, root: &Patch) -> Result<(), String> {
+        check_hierarchy(self)?;
+        if self.nodes[0].id != ElementId::ROOT || self.nodes[0].patch != *root {
+            return Err("its root is not the whole surface".into());
+        }
+        // Parents come before children, so each id and patch checked
+        // derives from the root's.
+        for (i, node) in self.nodes.iter().enumerate() {
+            let Some(first) = node.first_child else {
+                continue;
+            };
+            if node.id.level >= MAX_ELEMENT_LEVEL {
+                return Err(format!(
+                    "node {i} is subdivided below level {MAX_ELEMENT_LEVEL}"
+                ));
+            }
+            for (k, patch) in node.patch.subdivide().into_iter().enumerate() {
+                let child = &self.nodes[first as usize + k];
+                if child.id != node.id.child(k) || child.patch != patch {
+                    return Err(format!(
+                        "node {} is not child {k} of node {i}",
+                        first as usize + k
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Deepest level in the tree.
     pub fn depth(&self) -> u32 {
         self.nodes.iter().map(|n| n.id.level).max().unwrap_or(0)
@@ -296,5 +367,54 @@ mod tests {
         assert_eq!(a.overlap_fraction(deep), 1.0);
         assert_eq!(deep.overlap_fraction(a), 1.0 / 16.0);
         assert_eq!(ElementId::ROOT.child(0).overlap_fraction(a), 0.0);
+    }
+
+    #[test]
+    fn built_trees_pass_their_check_and_damaged_ones_fail_it() {
+        let ids = [ElementId::ROOT.child(1).child(2)].into_iter().collect();
+        let tree = ElementTree::build(&square(), &ids);
+        assert_eq!(tree.check(&square()), Ok(()));
+        let fails = |edit: &dyn Fn(&mut ElementTree), needle: &str| {
+            let mut damaged = tree.clone();
+            edit(&mut damaged);
+            let e = damaged.check(&square()).unwrap_err();
+            assert!(e.contains(needle), "expected {needle:?} in: {e}");
+        };
+        fails(
+            &|t| t.nodes[2].first_child = Some(0),
+            "node 2's children start at node 0",
+        );
+        fails(
+            &|t| t.nodes[2].first_child = Some(7),
+            "start at node 7, of 9",
+        );
+        fails(&|t| t.nodes.swap(1, 2), "node 1 is not child 0 of node 0");
+        fails(
+            &|t| t.nodes.push(t.nodes[1].clone()),
+            "node 9 is no node's child",
+        );
+        fails(
+            &|t| t.nodes[3].patch = square(),
+            "node 3 is not child 2 of node 0",
+        );
+        let mut deep = ElementTree::build(&square(), &BTreeSet::new());
+        for level in 0..=MAX_ELEMENT_LEVEL {
+            let last = deep.nodes.len() - 1;
+            let (id, patch) = (deep.nodes[last].id, deep.nodes[last].patch);
+            deep.nodes[last].first_child = Some(last as u32 + 1);
+            deep.nodes.extend(
+                patch
+                    .subdivide()
+                    .into_iter()
+                    .enumerate()
+                    .map(|(k, patch)| Node {
+                        id: id.child(k),
+                        patch,
+                        first_child: None,
+                    }),
+            );
+            let checked = deep.check(&square());
+            assert_eq!(checked.is_ok(), level < MAX_ELEMENT_LEVEL, "{checked:?}");
+        }
     }
 }

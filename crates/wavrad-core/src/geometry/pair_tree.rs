@@ -12,7 +12,7 @@
 //! split is represented by the nodes that tile it. Push–pull then works as on
 //! a surface's quadtree ([`crate::solve::push_pull`]).
 
-use crate::geometry::hierarchy::{ElementId, Hierarchy};
+use crate::geometry::hierarchy::{check_hierarchy, ElementId, Hierarchy, MAX_ELEMENT_LEVEL};
 
 /// A node of a [`PairTree`]: the pair of elements (a on p, b on q).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -145,6 +145,40 @@ impl PairTree {
         i as u32
     }
 
+    /// Check that the tree is one [`PairTree::insert`] makes: the shape of
+    /// a [`Hierarchy`], the root the pair of whole surfaces, and each inner
+    /// node's children the four children of its a or of its b, down to at
+    /// most [`MAX_ELEMENT_LEVEL`]. For trees read from outside (a solution
+    /// file), which the renderer indexes without checks.
+    pub fn check(&self) -> Result<(), String> {
+        check_hierarchy(self)?;
+        let root = &self.nodes[0];
+        if (root.a, root.b) != (ElementId::ROOT, ElementId::ROOT) {
+            return Err("its root is not the pair of whole surfaces".into());
+        }
+        // Parents come before children, so each pair checked derives from
+        // the root's.
+        for (i, node) in self.nodes.iter().enumerate() {
+            let Some(first) = node.first_child else {
+                continue;
+            };
+            let children = &self.nodes[first as usize..first as usize + 4];
+            let split = |deeper: &dyn Fn(ElementId) -> (ElementId, ElementId), e: ElementId| {
+                e.level < MAX_ELEMENT_LEVEL
+                    && (0..4).all(|k| {
+                        let (a, b) = deeper(e.child(k));
+                        (children[k].a, children[k].b) == (a, b)
+                    })
+            };
+            if !split(&|a| (a, node.b), node.a) && !split(&|b| (node.a, b), node.b) {
+                return Err(format!(
+                    "the children of node {i} split neither of its elements"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Number of nodes on each level of a (index = level of a + level of b).
     pub fn count_per_level(&self) -> Vec<usize> {
         let mut counts = Vec::new();
@@ -213,5 +247,19 @@ mod tests {
         let n = t.nodes[leaf as usize];
         assert!(n.first_child.is_none());
         assert!(n.a.contains(path_a[2]) && n.b.contains(path_b[2]));
+    }
+
+    #[test]
+    fn inserted_trees_pass_their_check_and_damaged_ones_fail_it() {
+        let mut t = PairTree::default();
+        t.insert(R.child(1).child(2), R.child(3));
+        assert_eq!(t.check(), Ok(()));
+        let mut mixed = t.clone();
+        mixed.nodes[2].b = R.child(0);
+        let e = mixed.check().unwrap_err();
+        assert!(e.contains("the children of node 0 split neither"), "{e}");
+        let mut orphan = t.clone();
+        orphan.nodes.push(orphan.nodes[1]);
+        assert!(orphan.check().unwrap_err().contains("no node's child"));
     }
 }

@@ -42,7 +42,7 @@
 //! elements' links.
 
 use crate::geometry::cluster::ClusterTree;
-use crate::geometry::hierarchy::ElementTree;
+use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::refine::cluster_links::{ClusterLink, End};
 use crate::scene::{Rgb, Scene};
 use crate::solve::push_pull::Gathered;
@@ -349,6 +349,50 @@ impl ClusterTransfers {
             roots,
             elements,
         }
+    }
+
+    /// Check that these transfers are what [`ClusterTransfers::new`]
+    /// arranges for `scene` (with its cluster tree, or none), its element
+    /// `trees` (already checked) and their own links, or none arranged:
+    /// for transfers read from outside
+    /// (a solution file), which gathering indexes without checks.
+    pub fn check(&self, scene: &Scene, trees: &[ElementTree]) -> Result<(), String> {
+        if *self == ClusterTransfers::default() {
+            return Ok(());
+        }
+        // The shooting solver arranges its links without a cluster tree.
+        if self.clusters != ClusterTree::default() && self.clusters != ClusterTree::build(scene) {
+            return Err("the cluster tree is not the scene's".into());
+        }
+        let element = |e: u32| {
+            let m = self.elements.get(e as usize)?;
+            let tree = trees.get(m.surface as usize)?;
+            let node = tree.nodes.get(m.node as usize)?;
+            Some(End::Element(ElementRef::new(m.surface, node.id)))
+        };
+        let clusters = self.clusters.nodes.len();
+        let links = (self.links.iter().enumerate())
+            .map(|(i, t)| {
+                let ends = t.sides.map(|side| match side {
+                    Side::Cluster(c) => ((c as usize) < clusters).then_some(End::Cluster(c)),
+                    Side::Element(e) => element(e),
+                });
+                match ends {
+                    [Some(a), Some(b)] if (0.0..=1.0).contains(&t.visibility) => Ok(ClusterLink {
+                        ends: [a, b],
+                        visibility: t.visibility,
+                    }),
+                    _ => Err(format!(
+                        "cluster link {i}: an end out of range, or visibility {}",
+                        t.visibility
+                    )),
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        if ClusterTransfers::new(scene, self.clusters.clone(), trees, &links) != *self {
+            return Err("the cluster links are not arranged as their ends say".into());
+        }
+        Ok(())
     }
 
     /// Number of cluster links.

@@ -3,8 +3,6 @@
 //! Vertex normals (`vn`) are kept when every face vertex of the file has
 //! one.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use glam::DVec3;
@@ -18,7 +16,8 @@ use crate::error::{Error, Result};
 /// Lines and points are ignored; `mtllib` files are not opened.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
     super::check_mesh_file(path)?;
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    check_indices(&bytes).map_err(|(line, message)| Error::mesh(path, Some(line), message))?;
     // `..Default::default()` covers the fields tobj's optional features add.
     #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
@@ -28,7 +27,7 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
         ignore_lines: true,
         ..Default::default()
     };
-    let (models, _materials) = tobj::load_obj_buf(&mut BufReader::new(file), &options, |_| {
+    let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
     })
     .map_err(|e| Error::mesh(path, None, format!("invalid OBJ file: {e}")))?;
@@ -95,6 +94,70 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
     Ok(Mesh { triangles, normals })
 }
 
+/// What a face's vertex refers to: `v/vt/vn`.
+const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+
+/// Check that every index of every face (`f`) and line (`l`) of the OBJ
+/// text `bytes` names a vertex, texture coordinate or normal of the file,
+/// read as tobj reads it (statements by their first word; a relative index
+/// counts back from the elements before its statement). tobj 4.0.5 turns
+/// an index before the first element, or past `usize::MAX / 3`, into an
+/// offset whose arithmetic overflows (`add_vertex_multi_index`): a panic
+/// where overflow is checked. The error has the 1-based line.
+fn check_indices(bytes: &[u8]) -> std::result::Result<(), (u32, String)> {
+    let mut counts = [0usize; 3];
+    let mut largest = [(0usize, 0u32); 3];
+    for (line, text) in (1u32..).zip(bytes.split(|&b| b == b'\n')) {
+        let Ok(text) = std::str::from_utf8(text) else {
+            continue; // tobj refuses it
+        };
+        let mut words = text.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            Some("f" | "l") => {
+                for (kind, index) in words.flat_map(|w| w.split('/').enumerate()) {
+                    let (Some(count), Ok(index)) = (counts.get(kind), index.parse::<i64>()) else {
+                        continue; // empty, or tobj refuses it
+                    };
+                    let out_of_range = || {
+                        (
+                            line,
+                            format!(
+                                "{} index {index} out of range ({count} before it)",
+                                KINDS[kind]
+                            ),
+                        )
+                    };
+                    match usize::try_from(index) {
+                        Ok(0) => return Err(out_of_range()),
+                        Ok(i) => largest[kind] = largest[kind].max((i, line)),
+                        Err(_) if index.unsigned_abs() > *count as u64 => {
+                            return Err(out_of_range())
+                        }
+                        Err(_) => {}
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    for kind in 0..3 {
+        let (index, line) = largest[kind];
+        if index > counts[kind] {
+            return Err((
+                line,
+                format!(
+                    "{} index {index} out of range ({} in the file)",
+                    KINDS[kind], counts[kind]
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -134,6 +197,27 @@ mod tests {
         let f = obj_file("v 0 0 0\nv 1 0 0\nf 1 2 7\n");
         let e = read_obj(f.path()).unwrap_err().to_string();
         assert!(e.contains(".obj"), "{e}");
+    }
+
+    #[test]
+    fn indices_before_the_first_element_or_past_the_last_are_errors_with_their_line() {
+        // Found by fuzzing (docs/fuzzing.md): tobj overflowed on the first.
+        for (text, needle) in [
+            (
+                "v 0 0 0\nvt 0 0\nf 1/1 1/-11 1/1\n",
+                ":3: texture coordinate index -11 out of range (1 before it)",
+            ),
+            ("v 0 0 0\nf 1 1 0\n", "vertex index 0 out of range"),
+            ("v 0 0 0\nvn 0 0 1\nf 1//1 1//-2 1//1\n", "normal index -2"),
+            (
+                "v 0 0 0\nf 1/9223372036854775807 1 1\n",
+                "texture coordinate index 9223372036854775807 out of range (0 in the file)",
+            ),
+        ] {
+            let f = obj_file(text);
+            let e = read_obj(f.path()).unwrap_err().to_string();
+            assert!(e.contains(needle), "expected {needle:?} in: {e}");
+        }
     }
 
     #[test]

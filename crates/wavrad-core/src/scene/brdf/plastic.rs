@@ -83,7 +83,7 @@ impl Default for RoughPlasticParams {
 /// coating transmittance; build it with [`RoughPlastic::new`]. Serialised
 /// as its parameters, the table integrated again when read.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-#[serde(into = "RoughPlasticParams", from = "RoughPlasticParams")]
+#[serde(into = "RoughPlasticParams", try_from = "RoughPlasticParams")]
 pub struct RoughPlastic {
     params: RoughPlasticParams,
     distribution: Microfacet,
@@ -93,9 +93,20 @@ pub struct RoughPlastic {
     internal_reflectance: f64,
 }
 
-impl From<RoughPlasticParams> for RoughPlastic {
-    fn from(params: RoughPlasticParams) -> RoughPlastic {
-        RoughPlastic::new(params)
+/// The model of parameters read from a file (a solution file may hold
+/// any): an error where [`RoughPlastic::new`] does not apply.
+impl TryFrom<RoughPlasticParams> for RoughPlastic {
+    type Error = String;
+
+    fn try_from(params: RoughPlasticParams) -> Result<RoughPlastic, String> {
+        let (int, ext) = (params.int_ior, params.ext_ior);
+        if !(int > 0.0 && ext > 0.0 && int.is_finite() && ext.is_finite()) || int == ext {
+            return Err(format!(
+                "rough plastic with indices of refraction {int} and {ext}: they must be \
+                 positive, finite and differ"
+            ));
+        }
+        Ok(RoughPlastic::new(params))
     }
 }
 
@@ -261,6 +272,22 @@ mod tests {
         let json = serde_json::to_string(&p).unwrap();
         assert!(!json.contains("transmittance"), "{json}");
         assert_eq!(serde_json::from_str::<RoughPlastic>(&json).unwrap(), p);
+    }
+
+    #[test]
+    fn parameters_new_refuses_are_an_error_when_read() {
+        // Found by fuzzing solution files (docs/fuzzing.md): equal indices
+        // reached `new`'s assertion from the deserialiser.
+        for (int_ior, ext_ior) in [(1.5, 1.5), (-1.0, 1.0), (1.5, 0.0)] {
+            let params = RoughPlasticParams {
+                int_ior,
+                ext_ior,
+                ..Default::default()
+            };
+            let json = serde_json::to_string(&params).unwrap();
+            let e = serde_json::from_str::<RoughPlastic>(&json).unwrap_err();
+            assert!(e.to_string().contains("indices of refraction"), "{e}");
+        }
     }
 
     #[test]

@@ -1,0 +1,209 @@
+//! What a solution read from a file must hold before it is rendered: the
+//! renderer follows its indices (nodes, surfaces, directional structures,
+//! cover lists) and computes with its values without checks, as it may for
+//! a solution it solved itself. A file whose checksum matches can still be
+//! made by hand, or by a writer's bug; each check here turns what would be
+//! a panic, or a non-finite pixel, into a [`SolutionProblem::Inconsistent`]
+//! naming the part.
+
+use std::collections::BTreeMap;
+use std::fmt::Display;
+use std::ops::Range;
+
+use wavrad_core::scene::Rgb;
+use wavrad_core::solve::gather::{Interactions, Source};
+use wavrad_core::solve::Solution;
+
+use super::SolutionProblem;
+
+/// The problem `problem` with `part` of a solution.
+pub(super) fn inconsistent(part: impl Display, problem: impl Display) -> SolutionProblem {
+    SolutionProblem::Inconsistent {
+        part: part.to_string(),
+        problem: problem.to_string(),
+    }
+}
+
+/// Check that every part of `solution` fits the others, as the renderer
+/// assumes: one element tree (a well-formed one, over its surface) and one
+/// list per node of radiance, exposure and reflection limit per surface;
+/// every transfer's receiver and source within the trees, the directional
+/// structures and the cover lists; the directional structures' trees
+/// well-formed, indexed by their surface pairs, with one radiance and
+/// exposure per node; the cluster links as their ends arrange them; every
+/// value finite; and the settings valid. (The scene's bounds are checked
+/// before its ray queries are built.)
+pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem> {
+    let scene = &solution.scene;
+    (solution.settings.validate()).map_err(|e| inconsistent("the settings", e))?;
+    let interactions = &solution.interactions;
+    let surfaces = scene.surfaces.len();
+    let per_surface = [
+        ("element trees", solution.trees.len()),
+        ("radiance lists", solution.radiance.len()),
+        ("exposure lists", interactions.exposure.len()),
+        ("reflection limits", interactions.limit.len()),
+        ("incoming transfer lists", interactions.incoming.len()),
+    ];
+    if let Some((what, n)) = per_surface.iter().find(|(_, n)| *n != surfaces) {
+        return Err(inconsistent(
+            "the solution",
+            format!("{n} {what} for {surfaces} surfaces"),
+        ));
+    }
+    for (s, (tree, surface)) in solution.trees.iter().zip(&scene.surfaces).enumerate() {
+        let part = || format!("surface {s}");
+        tree.check(&surface.patch)
+            .map_err(|e| inconsistent(part(), format!("its element tree: {e}")))?;
+        let nodes = tree.nodes.len();
+        check_values(&solution.radiance[s], nodes, |v| rgb_finite(*v))
+            .map_err(|e| inconsistent(part(), format!("its radiance: {e}")))?;
+        check_values(&interactions.exposure[s], nodes, |v| v.is_finite())
+            .map_err(|e| inconsistent(part(), format!("its exposure: {e}")))?;
+        check_values(&interactions.limit[s], nodes, |v| v.is_finite())
+            .map_err(|e| inconsistent(part(), format!("its reflection limit: {e}")))?;
+        for (j, t) in interactions.incoming[s].iter().enumerate() {
+            let part = || format!("surface {s}'s incoming transfer {j}");
+            check_index(t.receiver, nodes).map_err(|e| inconsistent(part(), e))?;
+            if !(t.form_factor.is_finite() && t.gradient.is_finite()) {
+                return Err(inconsistent(part(), "a form factor that is not finite"));
+            }
+            check_source(solution, &t.source).map_err(|e| inconsistent(part(), e))?;
+        }
+    }
+    check_directional(solution).map_err(|(part, e)| inconsistent(part, e))?;
+    if let Some((p, r)) = (solution.pairs.iter()).find(|&&(p, r)| p.max(r) as usize >= surfaces) {
+        return Err(inconsistent(
+            "the solution",
+            format!("the surface pair ({p}, {r}) of {surfaces} surfaces"),
+        ));
+    }
+    if let Some(&(_, w)) = interactions.covers.iter().find(|(_, w)| !w.is_finite()) {
+        return Err(inconsistent("the cover lists", format!("a weight of {w}")));
+    }
+    (interactions.clusters)
+        .check(scene, &solution.trees)
+        .map_err(|e| inconsistent("the cluster links", e))
+}
+
+/// Check the directional structures of `solution`: each (p, q) within the
+/// surfaces and the index of its structure, each tree well-formed, with a
+/// radiance and an exposure per node and its incoming three-point
+/// transfers within it. Errors name the part.
+fn check_directional(solution: &Solution) -> Result<(), (String, String)> {
+    let interactions = &solution.interactions;
+    let structures = interactions.directional.len();
+    let structure_of: BTreeMap<(u32, u32), u32> = (interactions.directional.iter())
+        .enumerate()
+        .map(|(i, d)| ((d.p, d.q), i as u32))
+        .collect();
+    if structure_of != interactions.structure_of {
+        return Err((
+            "the directional structures".into(),
+            "they are not indexed by their surface pairs".into(),
+        ));
+    }
+    let per_structure = [
+        ("radiance lists", solution.directional.len()),
+        ("exposure lists", interactions.pair_exposure.len()),
+        (
+            "incoming transfer lists",
+            interactions.incoming_three_point.len(),
+        ),
+    ];
+    if let Some((what, n)) = per_structure.iter().find(|(_, n)| *n != structures) {
+        return Err((
+            "the solution".into(),
+            format!("{n} {what} for {structures} directional structures"),
+        ));
+    }
+    let surfaces = solution.scene.surfaces.len();
+    for (i, d) in interactions.directional.iter().enumerate() {
+        let part = || format!("directional structure {i} ({}, {})", d.p, d.q);
+        let fail = |e: String| (part(), e);
+        if d.p.max(d.q) as usize >= surfaces {
+            return Err(fail(format!("a surface out of range ({surfaces})")));
+        }
+        d.tree.check().map_err(|e| fail(format!("its tree: {e}")))?;
+        let nodes = d.tree.nodes.len();
+        check_values(&solution.directional[i], nodes, |v| rgb_finite(*v))
+            .map_err(|e| fail(format!("its radiance: {e}")))?;
+        check_values(&interactions.pair_exposure[i], nodes, |v| v.is_finite())
+            .map_err(|e| fail(format!("its exposure: {e}")))?;
+        for (j, t) in interactions.incoming_three_point[i].iter().enumerate() {
+            let fail = |e: String| (format!("{}'s incoming transfer {j}", part()), e);
+            check_covers(interactions, &t.receivers, nodes).map_err(fail)?;
+            if !rgb_finite(t.coefficient) {
+                return Err(fail("a coefficient that is not finite".into()));
+            }
+            check_source(solution, &t.source).map_err(fail)?;
+        }
+    }
+    Ok(())
+}
+
+/// Check that `source` names a node of a surface's tree and, when glossy,
+/// a directional structure and nodes of its tree.
+fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
+    let (surface, node) = source.element();
+    let tree = (solution.trees.get(surface as usize))
+        .ok_or_else(|| format!("source surface {surface} out of range"))?;
+    check_index(node, tree.nodes.len()).map_err(|e| format!("source {e}"))?;
+    if let Source::Glossy {
+        structure, nodes, ..
+    } = source
+    {
+        let interactions = &solution.interactions;
+        let d = (interactions.directional.get(*structure as usize))
+            .ok_or_else(|| format!("source structure {structure} out of range"))?;
+        check_covers(interactions, nodes, d.tree.nodes.len()).map_err(|e| format!("source {e}"))?;
+    }
+    Ok(())
+}
+
+/// Check that `range` lies within the cover lists, and each node in it
+/// within a tree of `nodes` nodes.
+fn check_covers(
+    interactions: &Interactions,
+    range: &Range<u32>,
+    nodes: usize,
+) -> Result<(), String> {
+    let covers = (interactions.covers)
+        .get(range.start as usize..range.end as usize)
+        .ok_or_else(|| {
+            format!(
+                "covers {range:?} out of range ({})",
+                interactions.covers.len()
+            )
+        })?;
+    covers
+        .iter()
+        .try_for_each(|&(node, _)| check_index(node, nodes))
+}
+
+/// Check that `node` is one of `nodes`.
+fn check_index(node: u32, nodes: usize) -> Result<(), String> {
+    match (node as usize) < nodes {
+        true => Ok(()),
+        false => Err(format!("node {node} out of range ({nodes} nodes)")),
+    }
+}
+
+/// Check that `values` has one value per node of `nodes`, each `ok`.
+fn check_values<T: std::fmt::Debug>(
+    values: &[T],
+    nodes: usize,
+    ok: impl Fn(&T) -> bool,
+) -> Result<(), String> {
+    if values.len() != nodes {
+        return Err(format!("{} values for {nodes} nodes", values.len()));
+    }
+    match values.iter().position(|v| !ok(v)) {
+        Some(node) => Err(format!("{:?} at node {node}", values[node])),
+        None => Ok(()),
+    }
+}
+
+fn rgb_finite(v: Rgb) -> bool {
+    v.0.iter().all(|c| c.is_finite())
+}
