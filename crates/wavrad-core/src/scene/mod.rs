@@ -10,12 +10,14 @@ pub mod bounds;
 pub mod brdf;
 mod color;
 mod filter;
+pub mod light;
 
 use crate::scene::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
 pub use color::Rgb;
 pub use filter::PixelFilter;
+pub use light::Light;
 
 /// The planar shape of a surface, parametrised over the unit square (paper §2:
 /// "each u,v pair taking the value in a unit square will span the full area").
@@ -124,6 +126,8 @@ pub struct Scene {
     pub film: Film,
     /// What the integrator and sampler asked for.
     pub hints: RenderHints,
+    /// Lights that are not surfaces (point, spot, directional, the sky).
+    pub lights: Vec<Light>,
 }
 
 impl Patch {
@@ -281,7 +285,44 @@ impl Scene {
             camera: None,
             film: Film::default(),
             hints: RenderHints::default(),
+            lights: Vec::new(),
         }
+    }
+
+    /// True when something sends light: a surface that emits, or a light
+    /// of some power.
+    pub fn has_light(&self) -> bool {
+        self.surfaces.iter().any(Surface::is_emitter) || self.lights.iter().any(|l| !l.is_dark())
+    }
+
+    /// Radiance a ray leaving the scene along `direction` meets (the sky's;
+    /// zero without one).
+    pub fn sky_radiance(&self, direction: DVec3) -> Rgb {
+        self.lights
+            .iter()
+            .map(|l| l.radiance_towards(direction))
+            .fold(Rgb::ZERO, |a, b| a + b)
+    }
+
+    /// The brightest radiance the scene's light sources give (largest
+    /// channel): the brightest emission, or where the [`Scene::lights`]
+    /// are brighter, their [`Light::radiance_scale`] over the scene's
+    /// size; what relative tolerances and thresholds refer to.
+    pub fn brightest_radiance(&self) -> f64 {
+        let emitted = (self.surfaces.iter())
+            .map(|s| s.emission.max_channel())
+            .fold(0.0f64, f64::max);
+        if self.lights.is_empty() {
+            return emitted;
+        }
+        let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+        for v in self.surfaces.iter().flat_map(|s| s.patch.vertices()) {
+            (lo, hi) = (lo.min(v), hi.max(v));
+        }
+        let extent = (hi - lo).length();
+        (self.lights.iter())
+            .map(|l| l.radiance_scale(extent))
+            .fold(emitted, f64::max)
     }
 }
 
