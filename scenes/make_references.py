@@ -34,6 +34,13 @@ overridable with --spp/--res/--pass-spp/--integrator):
                       the frame both integrators have the same expectation in
                       every pixel; --integrator path renders it as written)
 
+  lights-point        scenes/lights/point.xml -> reference-point.exr
+  lights-spot         scenes/lights/spot.xml -> reference-spot.exr
+  lights-directional  scenes/lights/directional.xml -> reference-directional.exr
+  lights-sky          scenes/lights/sky.xml -> reference-sky.exr
+                      path, 64x64, 16384 spp (the Cornell box with its area
+                      light replaced: point, spot, directional, constant sky)
+
   The ward BSDF (Mitsuba 0.6; Mitsuba 3 has none) comes from
   scenes/ward_bsdf.py, registered before any scene is loaded.
 
@@ -78,6 +85,11 @@ SCENES = {
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),
 }
+# The Cornell box lit by lights other than area lights (scenes/lights/).
+for _light in ("point", "spot", "directional", "sky"):
+    SCENES[f"lights-{_light}"] = (os.path.join(HERE, "lights", f"{_light}.xml"),
+                                  os.path.join(HERE, "lights", f"reference-{_light}.exr"),
+                                  64, 16384, 1024, "path")
 
 
 def find_libllvm():

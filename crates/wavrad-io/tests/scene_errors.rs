@@ -320,7 +320,7 @@ fn unsupported_rfilter_and_huge_footprints() {
 
 #[test]
 fn unsupported_emitters() {
-    for plugin in ["point", "constant", "envmap", "directional"] {
+    for plugin in ["envmap", "projector"] {
         assert_error(
             &format!("<scene version=\"3.0.0\">\n\n<emitter type=\"{plugin}\"/></scene>"),
             3,
@@ -331,6 +331,22 @@ fn unsupported_emitters() {
         "<scene version=\"3.0.0\">\n<shape type=\"rectangle\">\n<emitter type=\"spot\"/></shape></scene>",
         3,
         &["\"spot\""],
+    );
+    // The lights that are not surfaces check their parameters.
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n<float name=\"cutoff_angle\" value=\"10\"/>\n<float name=\"beam_width\" value=\"15\"/></emitter></scene>",
+        4,
+        &["beam_width 15", "(0, 10]"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"point\">\n<point name=\"position\" x=\"0\" y=\"0\" z=\"0\"/>\n<transform name=\"to_world\"><translate x=\"1\"/></transform></emitter></scene>",
+        3,
+        &["either position or to_world"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"directional\">\n<rgb name=\"irradiance\" value=\"1, -1, 1\"/></emitter></scene>",
+        3,
+        &["irradiance", "negative"],
     );
     // An area emitter lights one shape, as in Mitsuba.
     assert_error(

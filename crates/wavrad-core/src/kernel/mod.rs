@@ -4,10 +4,12 @@
 //! (the scene, its ray queries and the quadrature orders), with what both
 //! share: visibility fractions towards interleaved targets, Lambert's
 //! closed-form factor ([`form_factor`]) and the exposed part of an element
-//! ([`exposure`]).
+//! ([`exposure`]); and the light of point, spot, directional lights and the
+//! sky at a point ([`lights`]).
 
 pub mod exposure;
 pub mod form_factor;
+pub mod lights;
 pub mod three_point_quadrature;
 pub mod two_point_quadrature;
 

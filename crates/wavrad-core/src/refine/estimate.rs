@@ -36,10 +36,7 @@ impl LightEstimate {
             .map(|s| s.emission.max_channel())
             .collect();
         LightEstimate {
-            reference: emission
-                .iter()
-                .fold(0.0f64, |m, &x| m.max(x))
-                .max(f64::MIN_POSITIVE),
+            reference: scene.brightest_radiance().max(f64::MIN_POSITIVE),
             emission,
             trees: Vec::new(),
             radiance: Vec::new(),

@@ -7,6 +7,7 @@ pub mod cluster_links;
 pub mod emitter_links;
 pub mod estimate;
 pub mod importance;
+pub mod light_links;
 pub mod oracle;
 pub mod three_point_projection;
 pub mod two_point_projection;

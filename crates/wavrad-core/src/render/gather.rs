@@ -15,6 +15,7 @@
 
 use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::point_to_polygon;
+use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
@@ -36,7 +37,10 @@ pub struct GatherPoint {
 }
 
 /// Direct radiance reflected at `point` towards any direction from the
-/// `emitters`: `grid` × `grid` shadow rays in all, each to a point of an
+/// `emitters` and the scene's lights that are not surfaces: a shadow ray
+/// to each point, spot and directional light (exact: ρ·E/π), `grid` ×
+/// `grid` cosine-distributed rays towards the sky; for the emitters,
+/// `grid` × `grid` shadow rays in all, each to a point of an
 /// emitter drawn from their distribution (the point's own surface left
 /// out), so that the cost does not grow with their number. An emitter e
 /// drawn n_e of the N times gives `ρ · Le_e · F(x, e) · V̄(x, e) · n_e / (N ·
@@ -91,6 +95,13 @@ pub fn direct_radiance(
             let share = rays.len() as f64 / (f64::from(n) * chosen);
             out += rho * light.emission * (ff * v * share);
         }
+    }
+    if !scene.lights.is_empty() {
+        let sky: Vec<DVec2> = (0..n)
+            .map(|k| samples.point(Stream::Shadow, n, k))
+            .collect();
+        let e = lights::irradiance(scene, tracer, (surface, x), &sky);
+        out += rho * e * std::f64::consts::FRAC_1_PI;
     }
     out
 }
@@ -256,7 +267,9 @@ fn area_sample(
 /// world direction `wo` (its surface's BRDF, or only some of its lobes;
 /// emission not included): light straight from the `emitters` by light
 /// sampling (each sample on an emitter drawn from their distribution) and
-/// BRDF sampling combined with the balance heuristic (Veach 1997), and the
+/// BRDF sampling combined with the balance heuristic (Veach 1997), from
+/// the delta lights exactly (a shadow ray each), from the sky by the BRDF
+/// samples that leave the scene, and the
 /// rest of the solution by BRDF sampling, each sampled direction looking up
 /// `outgoing(surface, point)`, the solution's radiance leaving the point
 /// hit towards `point`. `grid` × `grid` light samples in all and as many
@@ -301,6 +314,10 @@ pub fn glossy_radiance(
         let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
         out += f * w * scene.surfaces[e as usize].emission;
     }
+    // The delta lights, exactly.
+    lights::visible_incidents(scene, tracer, (surface, x), &[], |_, incident| {
+        out += brdf.eval(wo_local, frame.to_local(incident.direction)) * incident.irradiance;
+    });
     // BRDF sampling: emitters (weighted against light sampling) and the rest
     // of the solution.
     for k in 0..samples {
@@ -311,6 +328,7 @@ pub fn glossy_radiance(
         };
         let wi = frame.to_world(sample.direction);
         let Some(hit) = tracer.trace(x, wi, 1e-7, f64::INFINITY) else {
+            out += sample.weight * scene.sky_radiance(wi) / n;
             continue;
         };
         let q = &scene.surfaces[hit.surface as usize];

@@ -267,7 +267,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
         let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n)) {
             Some(hit) => estimator.radiance(self, &hit, settings),
-            None => Rgb::ZERO,
+            None => self.background(camera, film, (x, y)),
         };
         let mut image = develop(film, samples, radiance, progress).ok_or(Error::Interrupted)?;
         let count = image
@@ -395,6 +395,22 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             wo: -ray.direction,
             rays: (k, n),
         })
+    }
+
+    /// What a camera ray through film position `(x, y)` that meets the
+    /// front of no surface sees: the sky where it leaves the scene, black
+    /// where it meets the back of a one-sided surface or without a sky.
+    fn background(&self, camera: &Camera, film: &Film, (x, y): (f64, f64)) -> Rgb {
+        let scene = &self.solution().scene;
+        if scene.lights.iter().all(|l| l.is_delta()) {
+            return Rgb::ZERO;
+        }
+        let (w, h) = (film.width as f64, film.height as f64);
+        let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
+        match (self.solution().tracer).trace(ray.origin, ray.direction, ray.t_min, ray.t_max) {
+            Some(_) => Rgb::ZERO,
+            None => scene.sky_radiance(ray.direction),
+        }
     }
 
     /// The element radiance of surface `s` at parameter `uv`, reconstructed

@@ -10,12 +10,14 @@ pub mod bounds;
 pub mod brdf;
 mod color;
 mod filter;
+pub mod light;
 
 use crate::scene::brdf::{Brdf, Frame};
 use glam::{DMat4, DVec3};
 
 pub use color::Rgb;
 pub use filter::PixelFilter;
+pub use light::Light;
 
 /// The planar shape of a surface, parametrised over the unit square (paper §2:
 /// "each u,v pair taking the value in a unit square will span the full area").
@@ -139,6 +141,8 @@ pub struct Scene {
     /// The sensors after the first (`camera`, `film`, `hints`), in file
     /// order: other views to render ([`Scene::sensor`]).
     pub other_sensors: Vec<Sensor>,
+    /// Lights that are not surfaces (point, spot, directional, the sky).
+    pub lights: Vec<Light>,
 }
 
 impl Patch {
@@ -297,6 +301,7 @@ impl Scene {
             film: Film::default(),
             hints: RenderHints::default(),
             other_sensors: Vec::new(),
+            lights: Vec::new(),
         }
     }
 
@@ -345,10 +350,49 @@ impl Scene {
         if self.camera != now.camera || self.other_sensors != now.other_sensors {
             return Some("another sensor".into());
         }
+        if self.lights != now.lights {
+            return Some("other lights".into());
+        }
         if self.film != now.film {
             return Some("another film".into());
         }
         (self.hints != now.hints).then(|| "another sampler".into())
+    }
+
+    /// True when something sends light: a surface that emits, or a light
+    /// of some power.
+    pub fn has_light(&self) -> bool {
+        self.surfaces.iter().any(Surface::is_emitter) || self.lights.iter().any(|l| !l.is_dark())
+    }
+
+    /// Radiance a ray leaving the scene along `direction` meets (the sky's;
+    /// zero without one).
+    pub fn sky_radiance(&self, direction: DVec3) -> Rgb {
+        self.lights
+            .iter()
+            .map(|l| l.radiance_towards(direction))
+            .fold(Rgb::ZERO, |a, b| a + b)
+    }
+
+    /// The brightest radiance the scene's light sources give (largest
+    /// channel): the brightest emission, or where the [`Scene::lights`]
+    /// are brighter, their [`Light::radiance_scale`] over the scene's
+    /// size; what relative tolerances and thresholds refer to.
+    pub fn brightest_radiance(&self) -> f64 {
+        let emitted = (self.surfaces.iter())
+            .map(|s| s.emission.max_channel())
+            .fold(0.0f64, f64::max);
+        if self.lights.is_empty() {
+            return emitted;
+        }
+        let (mut lo, mut hi) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+        for v in self.surfaces.iter().flat_map(|s| s.patch.vertices()) {
+            (lo, hi) = (lo.min(v), hi.max(v));
+        }
+        let extent = (hi - lo).length();
+        (self.lights.iter())
+            .map(|l| l.radiance_scale(extent))
+            .fold(emitted, f64::max)
     }
 }
 

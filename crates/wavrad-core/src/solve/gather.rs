@@ -25,6 +25,9 @@ use crate::geometry::hierarchy::{ElementRef, ElementTree, Hierarchy};
 use crate::geometry::pair_tree::PairTree;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
+use crate::kernel::lights::{grid, reflected_towards};
+use crate::kernel::KernelContext;
+use crate::refine::light_links::{LightLink, SKY_GRID};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -147,6 +150,16 @@ pub struct Interactions {
     pub limit: Vec<Vec<f64>>,
     /// Leaves with a factor below 1.
     pub limited_leaves: usize,
+    /// The light of the scene's lights that are not surfaces
+    /// ([`crate::scene::Scene::lights`]) at every surface with a Lambertian
+    /// lobe: (node, E/π), E the irradiance of its light link averaged over
+    /// the node's exposed part ([`crate::refine::light_links`]); a
+    /// Lambertian lobe of albedo ρ reflects ρ·E/π of it.
+    pub lights: Vec<Vec<(u32, Rgb)>>,
+    /// What every directional structure's non-Lambertian lobes reflect of
+    /// the same lights: (leaf node, L_{a→b}), averaged over the pair's
+    /// exposed part.
+    pub light_pairs: Vec<Vec<(u32, Rgb)>>,
 }
 
 impl Source {
@@ -241,6 +254,8 @@ impl Interactions {
             clusters: ClusterTransfers::default(),
             limit: Vec::new(),
             limited_leaves: 0,
+            lights: Vec::new(),
+            light_pairs: Vec::new(),
         };
         out.pair_exposure = out
             .directional
@@ -345,6 +360,68 @@ impl Interactions {
         self.limit = limits.into_iter().map(|(l, _)| l).collect();
     }
 
+    /// Arrange the `light_links` of the scene's lights over the element
+    /// `trees` (which hold their elements), and project the lights' light
+    /// into every leaf of every directional structure
+    /// ([`crate::kernel::lights::reflected_towards`], the quadrature's
+    /// order and the sky's grid of [`SKY_GRID`] directions per axis).
+    pub fn link_lights(
+        &mut self,
+        ctx: &KernelContext,
+        trees: &[ElementTree],
+        light_links: &[LightLink],
+    ) {
+        let scene = ctx.scene;
+        self.lights = vec![Vec::new(); scene.surfaces.len()];
+        for l in light_links {
+            let s = l.surface as usize;
+            let node = (trees[s].index_of(l.element)).expect("light link element is in its tree");
+            let exposed = self.exposure[s][node as usize];
+            let exposed = if exposed > 0.0 { exposed } else { 1.0 };
+            let e = l.irradiance / (exposed * std::f64::consts::PI);
+            self.lights[s].push((node, e));
+        }
+        if scene.lights.iter().all(|l| l.is_dark()) {
+            self.light_pairs = vec![Vec::new(); self.directional.len()];
+            return;
+        }
+        let sky = grid(SKY_GRID / 2);
+        self.light_pairs = (self.directional.par_iter().zip(&self.pair_exposure))
+            .map(|(d, exposure)| {
+                let brdf = scene.surfaces[d.p as usize].brdf.without_lambertian();
+                let (p_root, q_root) = (
+                    &trees[d.p as usize].nodes[0].patch,
+                    &trees[d.q as usize].nodes[0].patch,
+                );
+                (d.tree.nodes.iter().enumerate())
+                    .filter(|(_, n)| n.first_child.is_none())
+                    .map(|(i, n)| {
+                        let (a, b) = (n.a.patch(p_root), n.b.patch(q_root));
+                        let l = reflected_towards(
+                            scene,
+                            ctx.tracer,
+                            (d.p, &brdf),
+                            (&a, &b),
+                            (ctx.quadrature.points, &sky),
+                        );
+                        let exposed = if exposure[i] > 0.0 { exposure[i] } else { 1.0 };
+                        (i as u32, l / exposed)
+                    })
+                    .filter(|(_, l)| l.max_channel() > 0.0)
+                    .collect()
+            })
+            .collect();
+    }
+
+    /// Add to the radiance `gathered` at each node of surface `p` what its
+    /// Lambertian lobe of albedo `reflectance` reflects of the scene's
+    /// lights that are not surfaces: ρ·E/π ([`Interactions::lights`]).
+    pub fn gather_lights(&self, p: usize, reflectance: Rgb, gathered: &mut [Rgb]) {
+        for &(node, e) in self.lights.get(p).map_or(&[][..], |l| &l[..]) {
+            gathered[node as usize] += reflectance * e;
+        }
+    }
+
     fn push_cover(&mut self, cover: Vec<(u32, f64)>) -> Range<u32> {
         let start = self.covers.len() as u32;
         self.covers.extend(cover);
@@ -430,7 +507,8 @@ impl Interactions {
     }
 
     /// Radiance reflected at each node of directional structure `s`:
-    /// `Σ R · L_{c→a}` (eq. 13, before push–pull).
+    /// `Σ R · L_{c→a}` (eq. 13, before push–pull), and the light of the
+    /// scene's lights ([`Interactions::light_pairs`]).
     pub fn gather_three_point(
         &self,
         s: usize,
@@ -438,6 +516,9 @@ impl Interactions {
         directional: &[Vec<Rgb>],
     ) -> Vec<Rgb> {
         let mut gathered = vec![Rgb::ZERO; self.directional[s].tree.nodes.len()];
+        for &(node, l) in self.light_pairs.get(s).map_or(&[][..], |l| &l[..]) {
+            gathered[node as usize] += l;
+        }
         for t in &self.incoming_three_point[s] {
             let l = self.read(&t.source, radiance, directional);
             let add = t.coefficient * l;

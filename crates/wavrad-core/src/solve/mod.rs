@@ -23,6 +23,7 @@ use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings,
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
+use crate::refine::light_links::{link_lights, LightLink};
 use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
@@ -563,6 +564,11 @@ impl Plan {
             ..
         } = &self;
         let ctx = self.projector.kernel_context();
+        // The lights that are not surfaces light the elements the same way
+        // whatever the links between surfaces.
+        let clock = Instant::now();
+        let light_links = link_lights(&ctx, settings.refine.max_level, progress);
+        times.kernels_s += clock.elapsed().as_secs_f64();
         // Carry the emitters' links down to where their light changes
         // (`resolve_emitter_links`), then arrange the links and solve the
         // system they make. The refine–solve loop's intermediate solutions
@@ -578,12 +584,19 @@ impl Plan {
             } else {
                 links.to_vec()
             };
-            let trees = element_trees(scene, &resolved, three_point, &linking.cluster_links);
+            let trees = element_trees(
+                scene,
+                &resolved,
+                three_point,
+                &linking.cluster_links,
+                &light_links,
+            );
             times.kernels_s += clock.elapsed().as_secs_f64();
             let links = Links {
                 two_point: &resolved,
                 three_point,
                 clusters: (clusters, &linking.cluster_links),
+                lights: &light_links,
             };
             let mut system = System::assemble(&ctx, triples, trees, links, times);
             let sweeps = system.solve(scene, settings, progress, times)?;
@@ -688,8 +701,8 @@ impl Solution {
     }
 
     /// The part of every diffuse element's radiance reflected straight from
-    /// the emitters (eq. 12 with the emission as the only source, no
-    /// emission of its own): the first bounce, which a final gather
+    /// the emitters and the lights that are not surfaces (eq. 12 with the
+    /// emission as the only source, no emission of its own): the first bounce, which a final gather
     /// evaluates per point instead of reading it from the elements. Of a
     /// glossy surface, its Lambertian lobe's (empty without one); `None` while the solution's links are not
     /// arranged (a shooting step in progress).
@@ -720,9 +733,10 @@ impl Solution {
                     return Vec::new();
                 };
                 let tree = &self.trees[p];
-                let gathered =
+                let mut gathered =
                     self.interactions
                         .gather(p, rho, tree, (&emission, &directional), &far);
+                self.interactions.gather_lights(p, rho, &mut gathered);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 let limit = Some(&self.interactions.limit[p][..]);
                 push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, limit)
@@ -740,12 +754,13 @@ fn check_size(scene: &Scene) -> Result<()> {
     scene.check_bounds()
 }
 
-/// A scene with light: some surface emits. Without any the solution is
-/// black whatever the solve does, so it is refused before any kernel work
-/// (whether the scene has no emitters or only ones of zero radiance: either
-/// way nothing would be lit).
+/// A scene with light: some surface emits, or some light that is not a
+/// surface shines. Without any the solution is black whatever the solve
+/// does, so it is refused before any kernel work (whether the scene has no
+/// emitters or only ones of zero radiance: either way nothing would be
+/// lit).
 fn check_light(scene: &Scene) -> Result<()> {
-    if scene.surfaces.iter().any(|s| s.is_emitter()) {
+    if scene.has_light() {
         Ok(())
     } else {
         Err(Error::NoLight)
@@ -758,6 +773,7 @@ struct Links<'a> {
     two_point: &'a [Link],
     three_point: &'a [ThreePointLink],
     clusters: (&'a ClusterTree, &'a [ClusterLink]),
+    lights: &'a [LightLink],
 }
 
 /// The linear system of one set of links and its solution.
@@ -769,15 +785,19 @@ struct System {
 }
 
 /// The element hierarchy of every surface: the smallest trees holding every
-/// element of `links`, every source element of `three_point` and every
-/// element end of `cluster_links`.
+/// element of `links`, every source element of `three_point`, every
+/// element end of `cluster_links` and every element of `lights`.
 fn element_trees(
     scene: &Scene,
     links: &[Link],
     three_point: &[ThreePointLink],
     cluster_links: &[ClusterLink],
+    lights: &[LightLink],
 ) -> Vec<ElementTree> {
     let mut ids = vec![BTreeSet::from([ElementId::ROOT]); scene.surfaces.len()];
+    for l in lights {
+        ids[l.surface as usize].insert(l.element);
+    }
     for end in cluster_links.iter().flat_map(|l| l.ends) {
         if let End::Element(e) = end {
             ids[e.surface as usize].insert(e.id);
@@ -813,6 +833,7 @@ impl System {
             two_point: links,
             three_point,
             clusters: (clusters, cluster_links),
+            lights,
         } = links;
         let clock = Instant::now();
         let mut pairs: BTreeSet<(u32, u32)> = triples.iter().map(|&(_, p, q)| (p, q)).collect();
@@ -867,6 +888,7 @@ impl System {
         interactions.clusters =
             ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, cluster_links);
         interactions.limit_reflection(ctx.scene, &trees);
+        interactions.link_lights(ctx, &trees, lights);
         let radiance = ctx
             .scene
             .surfaces
@@ -911,11 +933,7 @@ impl System {
         for (i, d) in interactions.directional.iter().enumerate() {
             structures_of[d.p as usize].push(i);
         }
-        let brightest = scene
-            .surfaces
-            .iter()
-            .map(|s| s.emission.max_channel())
-            .fold(0.0f64, f64::max);
+        let brightest = scene.brightest_radiance();
         let scale = if brightest > 0.0 { brightest } else { 1.0 };
         let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel() / scale;
         let (mut iterations, mut residual) = (0u32, f64::INFINITY);
@@ -932,7 +950,8 @@ impl System {
                 changes[p] = 0.0;
                 if let Some(rho) = surface.brdf.lambertian() {
                     let read = (&radiance[..], &directional[..]);
-                    let gathered = interactions.gather(p, rho, &trees[p], read, &far);
+                    let mut gathered = interactions.gather(p, rho, &trees[p], read, &far);
+                    interactions.gather_lights(p, rho, &mut gathered);
                     let exposure = Some(&interactions.exposure[p][..]);
                     let limit = Some(&interactions.limit[p][..]);
                     let updated = push_pull::push_pull(
@@ -1211,11 +1230,12 @@ mod tests {
     fn doubled_links(ctx: &KernelContext, settings: &SolveSettings) -> System {
         let links = refine_links(ctx, settings.refine, None, &root_pairs(ctx), &Silent);
         let doubled: Vec<Link> = links.iter().chain(&links).copied().collect();
-        let trees = element_trees(ctx.scene, &doubled, &[], &[]);
+        let trees = element_trees(ctx.scene, &doubled, &[], &[], &[]);
         let links = Links {
             two_point: &doubled,
             three_point: &[],
             clusters: (&ClusterTree::default(), &[]),
+            lights: &[],
         };
         System::assemble(ctx, &[], trees, links, &mut PhaseTimes::default())
     }

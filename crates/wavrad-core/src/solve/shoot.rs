@@ -157,6 +157,13 @@ pub fn solve_shooting(
             s.name
         )));
     }
+    if !scene.lights.is_empty() {
+        return Err(Error::InvalidSetting(
+            "the shooting solver supports area emitters only for now, but the scene has point, \
+             spot, directional or sky lights (use the gather solver)"
+                .into(),
+        ));
+    }
     if settings.oracle == Oracle::Importance {
         return Err(Error::InvalidSetting(
             "the shooting solver supports the kernel and power oracles for now".into(),
@@ -222,12 +229,13 @@ pub fn solve_shooting(
     let links: Vec<Link> = shooting.links().copied().collect();
     let max_level = settings.refine.max_level;
     let (links, _) = resolve_emitter_links(&ctx, max_level, &links, progress);
-    let trees = super::element_trees(scene, &links, &[], &[]);
+    let trees = super::element_trees(scene, &links, &[], &[], &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
     let links = Links {
         two_point: &links,
         three_point: &[],
         clusters: (&ClusterTree::default(), &[]),
+        lights: &[],
     };
     let mut system = System::assemble(&ctx, &[], trees, links, &mut shooting.times);
     let sweeps = system.solve(scene, settings, progress, &mut shooting.times)?;

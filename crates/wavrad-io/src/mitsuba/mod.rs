@@ -15,7 +15,8 @@
 //! - shapes `rectangle`, `cube`, `disk`, `cylinder`, `sphere` (tessellated),
 //!   and `obj`, `ply`, `serialized` meshes (`mitsuba/shapes/`), BSDFs
 //!   (`mitsuba/bsdfs.rs`), the `area` emitter nested in a shape or declared at
-//!   the top level and referenced by one (`mitsuba/emitters.rs`), sensors
+//!   the top level and referenced by one, `point`, `spot`, `directional` and
+//!   `constant` emitters at the top level (`mitsuba/emitters.rs`), sensors
 //!   `perspective` and `orthographic` with `hdrfilm`, every Mitsuba 3
 //!   `rfilter` and any sampler (`mitsuba/sensors.rs`; of several sensors the
 //!   first is the scene's camera, the others views to pick); any `integrator`, its parameters
@@ -158,6 +159,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
     let mut top_level_samples = None;
     let mut shape_index = 0;
     let mut top_level_emitters = Vec::new();
+    let mut lights = Vec::new();
     // Area emitters by element, with the shape each is attached to.
     let mut attached: HashMap<*const Element, &Location> = HashMap::new();
     for n in &scene.nested {
@@ -185,10 +187,10 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             "bsdf" => {
                 bsdfs::parse_bsdf(*n, doc)?;
             }
-            "emitter" => {
-                emitters::check_top_level_emitter(*n, doc)?;
-                top_level_emitters.push(*n);
-            }
+            "emitter" => match emitters::parse_top_level_emitter(*n, doc)? {
+                Some(light) => lights.push(light),
+                None => top_level_emitters.push(*n),
+            },
             "sensor" => sensors.push(sensors::parse_sensor(*n, doc)?),
             "sampler" => {
                 let count = sensors::parse_sampler(*n, doc)?;
@@ -237,6 +239,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             |s| s.hints,
         ),
         other_sensors: sensors.collect(),
+        lights,
     })
 }
 

@@ -1,0 +1,86 @@
+//! Mitsuba 3's point, spot, directional and constant emitters load as the
+//! core's lights, with Mitsuba's defaults and conventions.
+
+use std::path::Path;
+use wavrad_core::scene::Light;
+use wavrad_io::load_scene_str;
+
+fn lights_of(xml: &str) -> Vec<Light> {
+    let xml = format!("<scene version=\"3.0.0\">{xml}</scene>");
+    load_scene_str(&xml, Path::new("."), "lights.xml", &[])
+        .unwrap()
+        .scene
+        .lights
+}
+
+#[test]
+fn lights_load_with_mitsubas_defaults_and_conventions() {
+    let lights = lights_of(
+        r#"<emitter type="point"><point name="position" x="1" y="2" z="3"/></emitter>
+           <emitter type="point">
+               <transform name="to_world"><translate x="-1"/></transform>
+               <rgb name="intensity" value="2, 3, 4"/>
+           </emitter>
+           <emitter type="spot">
+               <transform name="to_world"><lookat origin="0, 1, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+           </emitter>
+           <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/></emitter>
+           <emitter type="constant"><float name="radiance" value="0.5"/></emitter>"#,
+    );
+    assert_eq!(lights.len(), 5);
+    let Light::Point {
+        position,
+        intensity,
+    } = lights[0]
+    else {
+        panic!("{lights:?}")
+    };
+    assert_eq!(
+        (position.to_array(), intensity.0),
+        ([1.0, 2.0, 3.0], [1.0; 3])
+    );
+    let Light::Point {
+        position,
+        intensity,
+    } = lights[1]
+    else {
+        panic!("{lights:?}")
+    };
+    assert_eq!(
+        (position.to_array(), intensity.0),
+        ([-1.0, 0.0, 0.0], [2.0, 3.0, 4.0])
+    );
+    // A spot shines along its local +z, 20° wide, full within three quarters.
+    let Light::Spot {
+        position,
+        axis,
+        cutoff,
+        beam_width,
+        ..
+    } = lights[2]
+    else {
+        panic!("{lights:?}")
+    };
+    assert!((position - glam::DVec3::Y).length() < 1e-12);
+    assert!((axis + glam::DVec3::Y).length() < 1e-12, "{axis}");
+    assert!((cutoff - 20f64.to_radians()).abs() < 1e-12);
+    assert!((beam_width - 15f64.to_radians()).abs() < 1e-12);
+    // A directional light travels along its (normalised) direction.
+    let Light::Directional {
+        direction,
+        irradiance,
+    } = lights[3]
+    else {
+        panic!("{lights:?}")
+    };
+    assert_eq!(
+        (direction.to_array(), irradiance.0),
+        ([0.0, -1.0, 0.0], [1.0; 3])
+    );
+    assert_eq!(
+        lights[4],
+        Light::Constant {
+            radiance: wavrad_core::scene::Rgb::splat(0.5)
+        }
+    );
+}
