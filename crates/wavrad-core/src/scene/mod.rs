@@ -10,9 +10,11 @@ pub mod bounds;
 pub mod brdf;
 mod color;
 mod filter;
+pub mod texture;
 
 use crate::scene::brdf::{Brdf, Frame};
-use glam::{DMat4, DVec3};
+use crate::scene::texture::{Texture, TextureMapping};
+use glam::{DMat4, DVec2, DVec3};
 
 pub use color::Rgb;
 pub use filter::PixelFilter;
@@ -47,6 +49,9 @@ pub struct Surface {
     pub brdf: Brdf,
     /// Emitted radiance Le per channel (zero for non-emitters).
     pub emission: Rgb,
+    /// A texture on the albedo of the BRDF's Lambertian lobe, which then
+    /// holds the texture's average over the surface.
+    pub texture: Option<TextureMapping>,
 }
 
 /// Film: image size and pixel filter (Mitsuba's `hdrfilm`).
@@ -124,6 +129,8 @@ pub struct Scene {
     pub film: Film,
     /// What the integrator and sampler asked for.
     pub hints: RenderHints,
+    /// The textures surfaces refer to ([`Surface::texture`]).
+    pub textures: Vec<Texture>,
 }
 
 impl Patch {
@@ -281,7 +288,20 @@ impl Scene {
             camera: None,
             film: Film::default(),
             hints: RenderHints::default(),
+            textures: Vec::new(),
         }
+    }
+
+    /// The albedo of surface `s`'s Lambertian lobe at its patch parameter
+    /// `param`: its texture's value there, else the BRDF's
+    /// ([`Brdf::lambertian`]); `None` for a BRDF without one.
+    pub fn lambertian_at(&self, s: usize, param: DVec2) -> Option<Rgb> {
+        let surface = &self.surfaces[s];
+        let rho = surface.brdf.lambertian()?;
+        Some(match &surface.texture {
+            Some(t) => self.textures[t.texture as usize].eval(t.uv_at(param)),
+            None => rho,
+        })
     }
 }
 

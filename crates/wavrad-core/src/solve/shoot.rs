@@ -38,7 +38,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0) })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None })
 //!     .collect();
 //! let mut settings = SolveSettings::default();
 //! settings.refine.max_level = 3;
@@ -122,7 +122,7 @@ pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
 /// result is the same for any number of threads.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] for a scene with a glossy surface, for the
+/// [`Error::InvalidSetting`] for a scene with a glossy or textured surface, for the
 /// importance oracle, or for bad settings; [`Error::EmptyScene`],
 /// [`Error::TooManySurfaces`], [`Error::NoLight`] and [`Error::Diverged`]
 /// as [`super::solve`].
@@ -154,6 +154,13 @@ pub fn solve_shooting(
         return Err(Error::InvalidSetting(format!(
             "the shooting solver supports diffuse scenes for now, but surface '{}' is glossy \
              (use the gather solver)",
+            s.name
+        )));
+    }
+    if let Some(s) = scene.surfaces.iter().find(|s| s.texture.is_some()) {
+        return Err(Error::InvalidSetting(format!(
+            "the shooting solver supports untextured scenes for now, but surface '{}' is \
+             textured (use the gather solver)",
             s.name
         )));
     }
@@ -322,8 +329,14 @@ impl SurfaceState {
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
-        let received =
-            push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure), None);
+        let received = push_pull::push_pull(
+            &self.tree,
+            &averages,
+            Rgb::ZERO,
+            Some(&self.exposure),
+            None,
+            None,
+        );
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             *l += d;
             *u += d;
@@ -502,6 +515,7 @@ mod tests {
             patch,
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
+            texture: None,
         }
     }
 

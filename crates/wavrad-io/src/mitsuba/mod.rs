@@ -58,6 +58,7 @@ mod params;
 mod sensors;
 mod shapes;
 mod spectrum;
+mod textures;
 mod transform;
 
 use std::collections::HashMap;
@@ -106,17 +107,36 @@ pub fn load_scene(path: &Path) -> Result<Loaded> {
     load_scene_with(path, &[])
 }
 
+/// How a scene file is read.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct LoadOptions {
+    /// Replace every unsupported BSDF or texture by the nearest supported
+    /// model, with one [`Warning`] per plugin saying what was substituted
+    /// (`--approximate`), rather than refuse it.
+    pub approximate: bool,
+}
+
 /// Load a Mitsuba XML scene file with parameter overrides (`name`, `value`),
 /// which take precedence over the file's `<default>`s like Mitsuba's
 /// `-D name=value`.
 pub fn load_scene_with(path: &Path, defaults: &[(String, String)]) -> Result<Loaded> {
+    load_scene_with_options(path, defaults, LoadOptions::default())
+}
+
+/// [`load_scene_with`], read as `options` say.
+pub fn load_scene_with_options(
+    path: &Path,
+    defaults: &[(String, String)],
+    options: LoadOptions,
+) -> Result<Loaded> {
     let xml = document::read_xml(path, document::MAX_XML_BYTES).map_err(|e| Error::io(path, e))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let own_path = std::fs::canonicalize(path).ok();
-    load(&xml, &dir, &path.display().to_string(), own_path, defaults)
+    let name = path.display().to_string();
+    load(&xml, &dir, &name, own_path, defaults, options)
 }
 
 /// Load a scene from XML text. Relative paths (includes, meshes) resolve
@@ -127,7 +147,14 @@ pub fn load_scene_str(
     name_for_messages: &str,
     overrides: &[(String, String)],
 ) -> Result<Loaded> {
-    load(xml, base_dir, name_for_messages, None, overrides)
+    load(
+        xml,
+        base_dir,
+        name_for_messages,
+        None,
+        overrides,
+        LoadOptions::default(),
+    )
 }
 
 fn load(
@@ -136,10 +163,12 @@ fn load(
     name: &str,
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
+    options: LoadOptions,
 ) -> Result<Loaded> {
     let expanded = read_scene_document(xml, name, dir, own_path, overrides)?;
     let root = Element::root(expanded.elements, name, dir);
-    let doc = Document::new(&root, expanded.search)?;
+    let mut doc = Document::new(&root, expanded.search)?;
+    doc.approximate = options.approximate;
     for warning in expanded.warnings {
         doc.warn(warning);
     }
@@ -235,6 +264,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 .and_then(|s| s.samples_per_pixel)
                 .or(top_level_samples),
         },
+        textures: doc.take_textures(),
     })
 }
 
