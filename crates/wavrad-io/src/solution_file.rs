@@ -430,6 +430,9 @@ fn difference(solved: &Scene, now: &Scene) -> Option<String> {
         let name = &now.surfaces[s].name;
         return Some(format!("another surface {s} ({name:?})"));
     }
+    if let Some(t) = (solved.textures.iter().zip(&now.textures)).position(|(a, b)| a != b) {
+        return Some(format!("another texture {t}"));
+    }
     if solved.camera != now.camera {
         return Some("another sensor".into());
     }

@@ -201,6 +201,35 @@ mod tests {
     }
 
     #[test]
+    fn a_texture_scales_each_leafs_reflected_light_not_its_emission() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ids: BTreeSet<_> = [ElementId::ROOT.child(0)].into_iter().collect();
+        let tree = ElementTree::build(&root, &ids);
+        let mut gathered = vec![Rgb::ZERO; tree.nodes.len()];
+        gathered[0] = Rgb::splat(1.0);
+        // Children albedos 1.5, 0.5, 1.5, 0.5 times the surface's (mean 1).
+        let mut texture = vec![Rgb::splat(1.0); tree.nodes.len()];
+        for (k, scale) in [1.5, 0.5, 1.5, 0.5].into_iter().enumerate() {
+            texture[1 + k] = Rgb([scale, 1.0, 0.0]);
+        }
+        let l = push_pull(
+            &tree,
+            &gathered,
+            Rgb::splat(0.25),
+            None,
+            None,
+            Some(&texture),
+        );
+        assert_eq!(l[1], Rgb([1.75, 1.25, 0.25]));
+        assert_eq!(l[2], Rgb([0.75, 1.25, 0.25]));
+        assert_eq!(l[0], Rgb([1.25, 1.25, 0.25]));
+    }
+
+    #[test]
     fn leaves_that_would_reflect_more_than_they_receive_are_limited() {
         let root = Patch::Parallelogram {
             origin: DVec3::ZERO,

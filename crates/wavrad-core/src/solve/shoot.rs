@@ -654,13 +654,20 @@ mod tests {
     }
 
     #[test]
-    fn glossy_scenes_and_the_importance_oracle_are_clear_errors() {
+    fn glossy_or_textured_scenes_and_the_importance_oracle_are_clear_errors() {
         let mut scene = open_box();
         let err = shoot_err(&scene, Oracle::Importance);
         assert!(err.contains("kernel and power"), "{err}");
         scene.surfaces[0].brdf = Brdf::Ward(crate::scene::brdf::Ward::default());
         let err = shoot_err(&scene, Oracle::Power);
         assert!(err.contains("diffuse scenes"), "{err}");
+        let mut scene = open_box();
+        scene.surfaces[0].texture = Some(crate::scene::texture::TextureMapping {
+            texture: 0,
+            uv: [glam::Vec2::ZERO; 3],
+        });
+        let err = shoot_err(&scene, Oracle::Power);
+        assert!(err.contains("untextured scenes"), "{err}");
     }
 
     fn shoot_err(scene: &Scene, oracle: Oracle) -> String {

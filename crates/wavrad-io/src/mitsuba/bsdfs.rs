@@ -1,10 +1,12 @@
-//! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `roughplastic` and
-//! `twosided`. Colours are `<rgb>`, `<float>` or `<spectrum value>`;
-//! reflectances must lie in [0, 1].
+//! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `conductor`,
+//! `roughplastic`, `plastic`, `twosided` and `mask`. Colours are `<rgb>`,
+//! `<float>` or `<spectrum value>`; reflectances must lie in [0, 1]. A
+//! `diffuse` reflectance may be a texture (`checkerboard`, `bitmap`:
+//! `mitsuba/textures.rs`).
 //!
 //! | plugin           | parameter                                        | type                 | default         |
 //! |------------------|--------------------------------------------------|----------------------|-----------------|
-//! | `diffuse`        | `reflectance`                                    | colour               | 0.5             |
+//! | `diffuse`        | `reflectance`                                    | colour or texture    | 0.5             |
 //! | `ward` (0.6)     | `variant`: `ward`, `ward-duer`, `balanced`       | `<string>`           | `balanced`      |
 //! |                  | `alpha`; `alpha_u`/`alphaU`, `alpha_v`/`alphaV`  | `<float>` ≥ 1e-4     | 0.1; `alpha`    |
 //! |                  | `specular_reflectance` (`specularReflectance`)   | colour               | 0.2             |
@@ -14,14 +16,20 @@
 //! |                  | `material` (Mitsuba's names, e.g. `Au`, `Cu`)    | `<string>`           | `none` (mirror) |
 //! |                  | `eta`, `k` (instead of `material`)               | colour ≥ 0           | 0, 1            |
 //! |                  | `specular_reflectance`                           | colour               | 1               |
+//! | `conductor`      | `material`, `eta`, `k`, `specular_reflectance`   | as above             | as above        |
 //! | `roughplastic`   | `distribution`, `alpha` (isotropic only)         | as above             | `beckmann`, 0.1 |
 //! |                  | `int_ior`, `ext_ior` (number or name, e.g. `bk7`) | `<float>`/`<string>` | `polypropylene`, `air` |
 //! |                  | `specular_reflectance`, `diffuse_reflectance`    | colour               | 1, 0.5          |
 //! |                  | `nonlinear`                                      | `<boolean>`          | false           |
+//! | `plastic`        | `int_ior`, `ext_ior`, `specular_reflectance`, `diffuse_reflectance`, `nonlinear` | as above | as above |
 //! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
+//! | `mask`           | `opacity` 1 and one nested BSDF                  | `<float>`            | 1               |
 //!
 //! `sample_visible` is accepted when true (the only sampling wavrad has).
 //! Mitsuba rescales a `ward` whose ρ_s + ρ_d exceeds 1; wavrad rejects it.
+//! `plastic` and `conductor` are `roughplastic` and `roughconductor` at
+//! Mitsuba's smallest roughness, 10⁻⁴ (ARCHITECTURE.md, "Smooth specular
+//! and glass").
 //!
 //! ```xml
 //! <bsdf type="twosided" id="white">
@@ -32,7 +40,19 @@
 //! ```
 //!
 //! Without `twosided` a surface reflects on its front side only, as in
-//! Mitsuba. Textures and every other plugin are rejected.
+//! Mitsuba. Every other plugin, and a texture anywhere but on a `diffuse`
+//! reflectance, is an error naming it and its line; with `--approximate`
+//! ([`crate::LoadOptions`]) each is replaced, with one warning per plugin:
+//!
+//! | plugin                                          | replaced by                                              |
+//! |-------------------------------------------------|----------------------------------------------------------|
+//! | `dielectric`, `thindielectric`, `roughdielectric` | nothing: the shape is left out (fully transparent)     |
+//! | `principled`                                    | `roughplastic` of `base_color` (`metallic` < ½) or `roughconductor` tinted by it, GGX, α = `roughness`², η from `specular` |
+//! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
+//! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
+//! | a texture on another parameter                  | the texture's mean                                       |
+//! | a texture of another plugin                     | the parameter's default                                  |
+//! | any other BSDF                                  | `diffuse` 0.5 (Mitsuba's default BSDF)                   |
 
 use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
 use wavrad_core::scene::brdf::{
@@ -214,7 +234,6 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             Ok(Material::Transparent)
         }
         "principled" => {
-            let material = approximate_principled(&mut obj, doc)?;
             doc.approximate(
                 obj.at(),
                 &plugin,
@@ -222,6 +241,7 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
                  (metallic ≥ 0.5), alpha = roughness², the index from specular; other \
                  parameters dropped",
             )?;
+            let material = approximate_principled(&mut obj, doc)?;
             obj.ignore_all();
             Ok(material)
         }

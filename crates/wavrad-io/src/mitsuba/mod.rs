@@ -25,11 +25,15 @@
 //! - parameters `<float>`, `<integer>`, `<boolean>`, `<string>`, `<point>`,
 //!   `<vector>`, `<rgb>`, `<spectrum>` (converted to RGB as Mitsuba 3's RGB
 //!   variants do: `mitsuba/spectrum.rs`) and `<transform>`
-//!   (`mitsuba/transform.rs`).
+//!   (`mitsuba/transform.rs`);
+//! - textures `checkerboard` and `bitmap` on a `diffuse` reflectance
+//!   (`mitsuba/textures.rs`).
 //!
-//! Everything else — other plugins, textures, media, unknown parameters or
-//! elements, malformed numbers — is an error naming the file, the line and
-//! the offending name. Nothing panics on bad input. What is loaded, but not
+//! Everything else — other plugins, media, unknown parameters or elements,
+//! malformed numbers — is an error naming the file, the line and the
+//! offending name; unsupported BSDFs and textures are replaced by the
+//! nearest supported model when loading with [`LoadOptions::approximate`]
+//! (one warning per plugin). Nothing panics on bad input. What is loaded, but not
 //! as written (a mesh's triangles of zero area are skipped, a sheared sphere
 //! stays a sphere), is a [`Warning`] beside the scene in [`Loaded`].
 //!

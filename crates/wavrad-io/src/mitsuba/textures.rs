@@ -63,7 +63,8 @@ pub(crate) fn parse_texture(n: Nested, doc: &Document) -> Result<u32> {
             "bitmap" => Texture::Bitmap(parse_bitmap(&mut obj, doc)?),
             other => {
                 return Err(obj.at().error(format!(
-                    "unsupported texture plugin \"{other}\" (supported: {SUPPORTED})"
+                    "unsupported texture plugin \"{other}\" (supported: {SUPPORTED}; with \
+                     --approximate: the parameter's default)"
                 )))
             }
         };
