@@ -26,6 +26,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
                       path, 64x64, 196608 spp
   figure3-diffuse     scenes/figure3/diffuse.xml  -> reference-diffuse.exr
                       path, 64x64, 262144 spp
+  textured-cornell-box scenes/textured-cornell-box/scene.xml -> reference.exr
+                      path, 64x64, 65536 spp (checkerboard floor, bitmap wall
+                      from wall.png, smooth plastic block)
   figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
                       ptracer (light tracer), 64x64, 1048576 spp
                       (the receiver is lit only via the glossy reflector, a
@@ -81,6 +84,9 @@ SCENES = {
     "figure3-diffuse": (os.path.join(HERE, "figure3", "diffuse.xml"),
                         os.path.join(HERE, "figure3", "reference-diffuse.exr"),
                         64, 262144, 1024, "path"),
+    "textured-cornell-box": (os.path.join(HERE, "textured-cornell-box", "scene.xml"),
+                             os.path.join(HERE, "textured-cornell-box", "reference.exr"),
+                             64, 65536, 1024, "path"),
     "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),

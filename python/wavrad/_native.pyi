@@ -212,9 +212,12 @@ def load_solution(path: _Path) -> Solution:
     not a solution, of another format version, truncated or damaged raises
     ``SceneError`` naming the file and the problem."""
 
-def load_scene(path: _Path, **defines: object) -> Scene:
+def load_scene(path: _Path, *, approximate: bool = False, **defines: object) -> Scene:
     """Load a Mitsuba 3 XML scene; keyword arguments override its
     ``<default>`` values (converted with ``str()``), like Mitsuba's ``-D``.
+    ``approximate=True`` replaces every unsupported BSDF or texture by the
+    nearest supported model, with one ``UserWarning`` per plugin saying what
+    was substituted (the CLI's ``--approximate``).
     Raises ``SceneError`` naming the file and line, also for an override
     that no ``$name`` in the scene reads (as Mitsuba does); what is loaded but not
     as written (a mesh's triangles of zero area skipped, a sheared sphere

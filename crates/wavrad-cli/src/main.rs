@@ -85,6 +85,11 @@ struct SolveArgs {
     /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE", help_heading = "Scene options")]
     define: Vec<String>,
+    /// Replace every unsupported BSDF or texture (glass, `principled`,
+    /// `normalmap`, …) by the nearest supported model, with one warning per
+    /// plugin saying what was substituted, instead of refusing the scene.
+    #[arg(long, help_heading = "Scene options")]
+    approximate: bool,
     /// How the radiance system is solved: `gather` (every kernel projected
     /// up front, then Gauss–Seidel gathering; the paper's §4.2) or `shoot`
     /// (progressive shooting from the emitters, kernels projected only where
@@ -511,6 +516,7 @@ fn check_solution_extension(path: &Path) -> Result<(), String> {
 fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution, String> {
     let solving = [
         (!args.define.is_empty()).then_some("-D"),
+        args.approximate.then_some("--approximate"),
         args.solver.map(|_| "--solver"),
         args.progressive.as_ref().map(|_| "--progressive"),
     ];
@@ -573,11 +579,15 @@ fn load(args: &SolveArgs, progress: &Reporter) -> Result<(Scene, Source), String
         })
         .collect::<Result<Vec<_>, _>>()?;
     progress.note(&format!("loading {}", args.scene.display()));
-    let loaded = wavrad_io::load_scene_with(&args.scene, &defines).map_err(|e| e.to_string())?;
+    let options = wavrad_io::LoadOptions {
+        approximate: args.approximate,
+    };
+    let loaded = wavrad_io::load_scene_with_options(&args.scene, &defines, options)
+        .map_err(|e| e.to_string())?;
     for warning in &loaded.warnings {
         eprintln!("wavrad: warning: {warning}");
     }
-    let source = Source::new(&args.scene, &defines).map_err(|e| e.to_string())?;
+    let source = Source::new(&args.scene, &defines, options).map_err(|e| e.to_string())?;
     Ok((loaded.scene, source))
 }
 

@@ -20,7 +20,15 @@ fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
         let gathered = s.interactions.gather(p, rho, &s.trees[p], read, &far);
         let exposure = Some(&s.interactions.exposure[p][..]);
         let limit = Some(&s.interactions.limit[p][..]);
-        radiance[p] = push_pull(&s.trees[p], &gathered, surface.emission, exposure, limit);
+        let texture = s.interactions.texture_of(p);
+        radiance[p] = push_pull(
+            &s.trees[p],
+            &gathered,
+            surface.emission,
+            exposure,
+            limit,
+            texture,
+        );
     }
 }
 
@@ -65,7 +73,7 @@ fn gauss_seidel(c: &mut Criterion) {
         let exposure = Some(&s.interactions.exposure[busiest][..]);
         let emission = scene.surfaces[busiest].emission;
         let limit = Some(&s.interactions.limit[busiest][..]);
-        b.iter(|| push_pull(tree, black_box(&gathered), emission, exposure, limit))
+        b.iter(|| push_pull(tree, black_box(&gathered), emission, exposure, limit, None))
     });
     group.finish();
 }

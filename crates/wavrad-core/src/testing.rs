@@ -12,6 +12,7 @@ pub fn grey(patch: Patch) -> Surface {
         patch,
         brdf: Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
+        texture: None,
     }
 }
 

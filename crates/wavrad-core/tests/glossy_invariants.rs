@@ -38,6 +38,7 @@ fn surface(patch: Patch, brdf: Brdf, emission: Rgb) -> Surface {
         patch,
         brdf,
         emission,
+        texture: None,
     }
 }
 

@@ -38,12 +38,14 @@ fn open_scene_energy_balance_single_bounce() {
             patch: square(0.0, true),
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.6, 0.3, 0.1])),
             emission: Rgb::ZERO,
+            texture: None,
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::ZERO),
             emission: Rgb([5.0, 5.0, 5.0]),
+            texture: None,
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -75,12 +77,14 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
             patch: square(0.0, true),
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
             emission: Rgb::ZERO,
+            texture: None,
         },
         Surface {
             name: "emitter".into(),
             patch: square(1.0, false),
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
             emission: Rgb::splat(5.0),
+            texture: None,
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -228,6 +232,7 @@ fn glossy_box_under_a_camera() -> Scene {
                 patch,
                 brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.7, 0.5, 0.3])),
                 emission: Rgb::ZERO,
+                texture: None,
             })
             .collect();
     surfaces[1].emission = Rgb::splat(3.0);
@@ -245,6 +250,7 @@ fn glossy_box_under_a_camera() -> Scene {
         ]),
         brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
+        texture: None,
     });
     let mut scene = Scene::from_surfaces(surfaces);
     scene.camera = Some(Camera {
@@ -328,6 +334,7 @@ fn too_many_surfaces_for_shooting_is_a_clear_error() {
         patch: Patch::Triangle([DVec3::ZERO, DVec3::X, DVec3::Y]),
         brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
+        texture: None,
     };
     let limit = wavrad_core::solve::shoot::MAX_SHOOTING_SURFACES;
     let scene = Scene::from_surfaces(vec![tiny; limit + 1]);

@@ -43,4 +43,7 @@ pub mod solution_file;
 
 pub use error::{Error, Result};
 pub use image::{check_writable, read_exr_rgb, relative_rmse, write_atomic, write_image};
-pub use mitsuba::{load_scene, load_scene_str, load_scene_with, Loaded, Warning};
+pub use mitsuba::{
+    load_scene, load_scene_str, load_scene_with, load_scene_with_options, LoadOptions, Loaded,
+    Warning,
+};

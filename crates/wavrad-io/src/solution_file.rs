@@ -48,7 +48,7 @@
 
 mod check;
 
-use crate::{Error, Result};
+use crate::{Error, LoadOptions, Result};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::io::Read;
@@ -94,15 +94,18 @@ pub struct Source {
     pub scene: PathBuf,
     /// The parameters set on loading (`-D NAME=VALUE`), in order.
     pub defines: Vec<(String, String)>,
+    /// How it was read (`--approximate`).
+    pub options: LoadOptions,
 }
 
 impl Source {
-    /// The source of a scene loaded from `scene` with `defines`
-    /// ([`crate::load_scene_with`]).
-    pub fn new(scene: &Path, defines: &[(String, String)]) -> Result<Source> {
+    /// The source of a scene loaded from `scene` with `defines` and
+    /// `options` ([`crate::load_scene_with_options`]).
+    pub fn new(scene: &Path, defines: &[(String, String)], options: LoadOptions) -> Result<Source> {
         Ok(Source {
             scene: std::fs::canonicalize(scene).map_err(|e| Error::io(scene, e))?,
             defines: defines.to_vec(),
+            options,
         })
     }
 }
@@ -392,7 +395,7 @@ fn check_source(path: &Path, source: &Source, solved: &Scene) -> Result<Option<S
             },
         )
     };
-    let now = match crate::load_scene_with(&source.scene, &source.defines) {
+    let now = match crate::load_scene_with_options(&source.scene, &source.defines, source.options) {
         Ok(loaded) => loaded.scene,
         Err(e) => return Err(changed(format!("an error: {e}"))),
     };
@@ -448,7 +451,10 @@ mod tests {
         let loaded = crate::load_scene_with(&scene, &defines).unwrap();
         let settings = SolveSettings::default();
         let solution = solve(&loaded.scene, &settings, &Silent).unwrap();
-        (solution, Source::new(&scene, &defines).unwrap())
+        (
+            solution,
+            Source::new(&scene, &defines, LoadOptions::default()).unwrap(),
+        )
     }
 
     /// `solution` written to `dir`/solution.wavrad with `source`, as bytes.

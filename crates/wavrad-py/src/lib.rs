@@ -421,22 +421,31 @@ fn pixels(py: Python<'_>, width: u32, height: u32, rgb: Vec<f32>) -> Bound<'_, P
 }
 
 /// Load a Mitsuba 3 XML scene; keyword arguments override its `<default>`s.
-/// The loader's warnings become Python `UserWarning`s.
+/// `approximate` replaces unsupported BSDFs and textures by the nearest
+/// supported model (one warning per plugin). The loader's warnings become
+/// Python `UserWarning`s.
 #[pyfunction]
-#[pyo3(signature = (path, **defines))]
-fn load_scene(py: Python<'_>, path: PathBuf, defines: Option<&Bound<'_, PyDict>>) -> Result<Scene> {
+#[pyo3(signature = (path, *, approximate=false, **defines))]
+fn load_scene(
+    py: Python<'_>,
+    path: PathBuf,
+    approximate: bool,
+    defines: Option<&Bound<'_, PyDict>>,
+) -> Result<Scene> {
     let mut overrides = Vec::new();
     for (name, value) in defines.into_iter().flatten() {
         overrides.push((name.extract::<String>()?, value.str()?.to_string()));
     }
-    let loaded = py.allow_threads(|| wavrad_io::load_scene_with(&path, &overrides))?;
+    let options = wavrad_io::LoadOptions { approximate };
+    let loaded =
+        py.allow_threads(|| wavrad_io::load_scene_with_options(&path, &overrides, options))?;
     let warnings = py.import("warnings")?;
     for warning in &loaded.warnings {
         let category = py.get_type::<PyUserWarning>();
         warnings.call_method1("warn", (warning.to_string(), category, 2))?;
     }
     // A scene whose file cannot be named again has no source to check.
-    let source = Source::new(&path, &overrides).ok();
+    let source = Source::new(&path, &overrides, options).ok();
     Ok(Scene(loaded.scene, source))
 }
 

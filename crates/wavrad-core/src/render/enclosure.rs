@@ -144,7 +144,14 @@ impl EnclosureRadiance {
                         exposure.of(ElementRef::new(p, node.a), ElementRef::new(n + k, node.b))
                     })
                     .collect();
-                let values = push_pull(&tree, &gathered[&(p, k)], Rgb::ZERO, Some(&weights), None);
+                let values = push_pull(
+                    &tree,
+                    &gathered[&(p, k)],
+                    Rgb::ZERO,
+                    Some(&weights),
+                    None,
+                    None,
+                );
                 ((p, k), (tree, values))
             })
             .collect();

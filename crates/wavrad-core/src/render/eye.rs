@@ -129,7 +129,7 @@ impl EyeRadiance {
             if let Some((tree, radiance)) = entry {
                 let weights: Vec<f64> =
                     tree.nodes.iter().map(|n| exposed(p as u32, n.id)).collect();
-                *radiance = push_pull(tree, &gathered[p], Rgb::ZERO, Some(&weights), None);
+                *radiance = push_pull(tree, &gathered[p], Rgb::ZERO, Some(&weights), None, None);
             }
         }
         EyeRadiance { surfaces }

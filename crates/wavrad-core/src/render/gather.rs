@@ -61,7 +61,7 @@ pub fn direct_radiance(
         normal,
         samples,
     } = *point;
-    let rho = lambertian_albedo(scene, surface);
+    let rho = lambertian_albedo(scene, surface, x);
     let n = grid * grid;
     let mut drawn: Vec<(u32, DVec2, f64)> = (0..n)
         .filter_map(|k| emitters.sample(samples.point(Stream::Shadow, n, k), surface))
@@ -160,7 +160,7 @@ pub fn indirect_radiance(
         mirrors,
         count,
     } = sources;
-    let rho = lambertian_albedo(scene, surface);
+    let rho = lambertian_albedo(scene, surface, x);
     let (t, b) = orthonormal_basis(normal);
     let (n_cos, n_area) = (f64::from(rays), f64::from(count));
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
@@ -349,13 +349,14 @@ pub fn glossy_radiance(
     out
 }
 
-/// The albedo of the surface's Lambertian lobe ([`Brdf::lambertian`]):
-/// what the diffuse gathers above reflect (black for a model without one,
-/// which is gathered through its whole BRDF instead).
-fn lambertian_albedo(scene: &Scene, surface: u32) -> Rgb {
-    scene.surfaces[surface as usize]
-        .brdf
-        .lambertian()
+/// The albedo of the surface's Lambertian lobe at `x` ([`Scene::lambertian_at`]:
+/// its texture there, if it has one): what the diffuse gathers above
+/// reflect (black for a model without one, which is gathered through its
+/// whole BRDF instead).
+fn lambertian_albedo(scene: &Scene, surface: u32, x: DVec3) -> Rgb {
+    let patch = &scene.surfaces[surface as usize].patch;
+    scene
+        .lambertian_at(surface as usize, patch.param_of(x))
         .unwrap_or(Rgb::ZERO)
 }
 
@@ -400,6 +401,7 @@ mod tests {
                 patch,
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
                 emission: Rgb::ZERO,
+                texture: None,
             })
             .collect();
         let scene = Scene::from_surfaces(walls);
@@ -617,12 +619,14 @@ mod tests {
                 patch: floor,
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
                 emission: Rgb::ZERO,
+                texture: None,
             },
             Surface {
                 name: "light".into(),
                 patch: light,
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::ZERO),
                 emission: Rgb::splat(1.0),
+                texture: None,
             },
         ]);
         let tracer = SceneTracer::new(&scene);

@@ -415,10 +415,31 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
 
     /// The element radiance of surface `s` at parameter `uv`, reconstructed
     /// as `reconstruction`.
+    /// On a textured surface the reflected part is scaled by the texture
+    /// at `uv` over its average over the leaf there (the solve's albedo),
+    /// so detail finer than the elements shows.
     fn element_radiance(&self, reconstruction: Reconstruction, s: usize, uv: DVec2) -> Rgb {
         let solution = self.solution();
         let (tree, radiance) = (&solution.trees[s], &solution.radiance[s]);
-        self.reader().lookup[s].radiance(tree, radiance, uv, reconstruction)
+        let l = self.reader().lookup[s].radiance(tree, radiance, uv, reconstruction);
+        let Some(scales) = solution.interactions.texture_of(s) else {
+            return l;
+        };
+        let (scene, surface) = (&solution.scene, &solution.scene.surfaces[s]);
+        let (Some(rho), Some(here)) = (surface.brdf.lambertian(), scene.lambertian_at(s, uv))
+        else {
+            return l;
+        };
+        let leaf = scales[tree.locate(uv).0 as usize];
+        let factor = Rgb([0, 1, 2].map(|c| {
+            let average = leaf[c] * rho[c];
+            if average > 0.0 {
+                here[c] / average
+            } else {
+                0.0
+            }
+        }));
+        surface.emission + (l - surface.emission) * factor
     }
 
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`

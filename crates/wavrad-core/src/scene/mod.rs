@@ -11,9 +11,11 @@ pub mod brdf;
 mod color;
 mod filter;
 pub mod light;
+pub mod texture;
 
 use crate::scene::brdf::{Brdf, Frame};
-use glam::{DMat4, DVec3};
+use crate::scene::texture::{Texture, TextureMapping};
+use glam::{DMat4, DVec2, DVec3};
 
 pub use color::Rgb;
 pub use filter::PixelFilter;
@@ -49,6 +51,9 @@ pub struct Surface {
     pub brdf: Brdf,
     /// Emitted radiance Le per channel (zero for non-emitters).
     pub emission: Rgb,
+    /// A texture on the albedo of the BRDF's Lambertian lobe, which then
+    /// holds the texture's average over the surface.
+    pub texture: Option<TextureMapping>,
 }
 
 /// Film: image size and pixel filter (Mitsuba's `hdrfilm`).
@@ -143,6 +148,8 @@ pub struct Scene {
     pub other_sensors: Vec<Sensor>,
     /// Lights that are not surfaces (point, spot, directional, the sky).
     pub lights: Vec<Light>,
+    /// The textures surfaces refer to ([`Surface::texture`]).
+    pub textures: Vec<Texture>,
 }
 
 impl Patch {
@@ -302,6 +309,7 @@ impl Scene {
             hints: RenderHints::default(),
             other_sensors: Vec::new(),
             lights: Vec::new(),
+            textures: Vec::new(),
         }
     }
 
@@ -346,6 +354,16 @@ impl Scene {
         if let Some(s) = surface {
             let name = &now.surfaces[s].name;
             return Some(format!("another surface {s} ({name:?})"));
+        }
+        if let Some(t) = (self.textures.iter().zip(&now.textures)).position(|(a, b)| a != b) {
+            return Some(format!("another texture {t}"));
+        }
+        if self.textures.len() != now.textures.len() {
+            return Some(format!(
+                "{} textures, {} before",
+                now.textures.len(),
+                self.textures.len()
+            ));
         }
         if self.camera != now.camera || self.other_sensors != now.other_sensors {
             return Some("another sensor".into());
@@ -393,6 +411,18 @@ impl Scene {
         (self.lights.iter())
             .map(|l| l.radiance_scale(extent))
             .fold(emitted, f64::max)
+    }
+
+    /// The albedo of surface `s`'s Lambertian lobe at its patch parameter
+    /// `param`: its texture's value there, else the BRDF's
+    /// ([`Brdf::lambertian`]); `None` for a BRDF without one.
+    pub fn lambertian_at(&self, s: usize, param: DVec2) -> Option<Rgb> {
+        let surface = &self.surfaces[s];
+        let rho = surface.brdf.lambertian()?;
+        Some(match &surface.texture {
+            Some(t) => self.textures[t.texture as usize].eval(t.uv_at(param)),
+            None => rho,
+        })
     }
 }
 

@@ -23,6 +23,7 @@
 
 use crate::geometry::hierarchy::{ElementRef, ElementTree, Hierarchy};
 use crate::geometry::pair_tree::PairTree;
+use crate::geometry::texture::texture_scales;
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::form_factor::{point_to_polygon, relative_gradient};
 use crate::kernel::lights::{grid, reflected_towards};
@@ -160,6 +161,10 @@ pub struct Interactions {
     /// the same lights: (leaf node, L_{a→b}), averaged over the pair's
     /// exposed part.
     pub light_pairs: Vec<Vec<(u32, Rgb)>>,
+    /// Factor a texture puts on the light every node of a textured
+    /// surface's tree reflects (empty for other surfaces;
+    /// [`crate::geometry::texture::texture_scales`]).
+    pub texture: Vec<Vec<Rgb>>,
 }
 
 impl Source {
@@ -256,6 +261,7 @@ impl Interactions {
             limited_leaves: 0,
             lights: Vec::new(),
             light_pairs: Vec::new(),
+            texture: Vec::new(),
         };
         out.pair_exposure = out
             .directional
@@ -331,8 +337,9 @@ impl Interactions {
     /// Set every leaf's reflection limit ([`reflection_limits`]) from the
     /// sum of the form factors of everything it gathers from (its gather of
     /// a unit radiance everywhere, with unit reflectance) and its surface's
-    /// reflectance in `scene`. Cluster links count too: call it once
-    /// [`Interactions::clusters`] is set.
+    /// reflectance in `scene` (a texture's largest value on a textured
+    /// surface), and the textured surfaces' factors ([`Interactions::texture`]).
+    /// Cluster links count too: call it once [`Interactions::clusters`] is set.
     pub fn limit_reflection(&mut self, scene: &Scene, trees: &[ElementTree]) {
         let unit: Vec<Vec<Rgb>> = trees
             .iter()
@@ -349,12 +356,18 @@ impl Interactions {
             .enumerate()
             .map(|(p, tree)| {
                 let sums = self.gather(p, Rgb::splat(1.0), tree, (&unit, &none), &far);
-                let rho = scene.surfaces[p]
-                    .brdf
-                    .lambertian()
-                    .map_or(0.0, |r| r.max_channel());
+                let surface = &scene.surfaces[p];
+                let rho = match (surface.brdf.lambertian(), surface.texture) {
+                    (None, _) => 0.0,
+                    (Some(rho), None) => rho.max_channel(),
+                    (Some(_), Some(t)) => scene.textures[t.texture as usize].max().max_channel(),
+                };
                 reflection_limits(tree, &sums, rho)
             })
+            .collect();
+        self.texture = (0..trees.len())
+            .into_par_iter()
+            .map(|p| texture_scales(scene, p, &trees[p]).unwrap_or_default())
             .collect();
         self.limited_leaves = limits.iter().map(|(_, n)| n).sum();
         self.limit = limits.into_iter().map(|(l, _)| l).collect();
@@ -420,6 +433,15 @@ impl Interactions {
         for &(node, e) in self.lights.get(p).map_or(&[][..], |l| &l[..]) {
             gathered[node as usize] += reflectance * e;
         }
+    }
+
+    /// The factors surface `p`'s texture puts on its nodes' reflected
+    /// light ([`Interactions::texture`]); `None` when it has no texture.
+    pub fn texture_of(&self, p: usize) -> Option<&[Rgb]> {
+        self.texture
+            .get(p)
+            .filter(|t| !t.is_empty())
+            .map(Vec::as_slice)
     }
 
     fn push_cover(&mut self, cover: Vec<(u32, f64)>) -> Range<u32> {

@@ -739,7 +739,8 @@ impl Solution {
                 self.interactions.gather_lights(p, rho, &mut gathered);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 let limit = Some(&self.interactions.limit[p][..]);
-                push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, limit)
+                let texture = self.interactions.texture_of(p);
+                push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, limit, texture)
             })
             .collect();
         Some(bounce)
@@ -960,6 +961,7 @@ impl System {
                         surface.emission,
                         exposure,
                         limit,
+                        interactions.texture_of(p),
                     );
                     changes[p] = change(updated[0], radiance[p][0]);
                     radiance[p] = updated;
@@ -968,7 +970,8 @@ impl System {
                     let gathered = interactions.gather_three_point(s, radiance, directional);
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
-                    let updated = push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, None);
+                    let updated =
+                        push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, None, None);
                     changes[p] = changes[p].max(change(updated[0], directional[s][0]));
                     directional[s] = updated;
                 }
@@ -1218,6 +1221,7 @@ mod tests {
             patch,
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
+            texture: None,
         };
         Scene::from_surfaces(vec![
             surface("lower", square(0.0, true), 1.0),

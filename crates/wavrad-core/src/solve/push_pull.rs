@@ -15,13 +15,16 @@ use glam::DVec3;
 /// ([`crate::kernel::exposure`]), makes the averages over exposed areas; without it
 /// they are over whole elements. `limit`, a factor per node
 /// ([`reflection_limits`]), scales the reflected light that reaches each
-/// leaf (its own and its ancestors'), never the emission.
+/// leaf (its own and its ancestors'), never the emission; so does
+/// `texture`, per channel: a textured surface's leaves reflect by their
+/// own average albedo ([`crate::geometry::texture::texture_scales`]).
 pub fn push_pull(
     tree: &impl Hierarchy,
     gathered: &[Rgb],
     emission: Rgb,
     exposure: Option<&[f64]>,
     limit: Option<&[f64]>,
+    texture: Option<&[Rgb]>,
 ) -> Vec<Rgb> {
     let mut radiance = vec![Rgb::ZERO; tree.node_count()];
     let mut pass = Pass {
@@ -30,6 +33,7 @@ pub fn push_pull(
         emission,
         exposure,
         limit,
+        texture,
         out: &mut radiance,
     };
     pass.visit(0, Rgb::ZERO);
@@ -54,7 +58,7 @@ pub fn reflection_limits(
     form_factors: &[Rgb],
     reflectance: f64,
 ) -> (Vec<f64>, usize) {
-    let sums = push_pull(tree, form_factors, Rgb::ZERO, None, None);
+    let sums = push_pull(tree, form_factors, Rgb::ZERO, None, None, None);
     let mut limited = 0;
     let limits = (0..tree.node_count())
         .map(|node| {
@@ -76,6 +80,7 @@ struct Pass<'a, T> {
     emission: Rgb,
     exposure: Option<&'a [f64]>,
     limit: Option<&'a [f64]>,
+    texture: Option<&'a [Rgb]>,
     out: &'a mut [Rgb],
 }
 
@@ -83,7 +88,10 @@ impl<T: Hierarchy> Pass<'_, T> {
     fn visit(&mut self, node: usize, above: Rgb) -> Rgb {
         let down = above + self.gathered[node];
         let value = match self.tree.first_child(node) {
-            None => self.emission + down * self.limit.map_or(1.0, |l| l[node]),
+            None => {
+                let reflected = down * self.limit.map_or(1.0, |l| l[node]);
+                self.emission + self.texture.map_or(reflected, |t| reflected * t[node])
+            }
             Some(first) => {
                 // Children have equal areas: weigh them by their exposed
                 // fractions, or equally when none is exposed.
@@ -187,9 +195,38 @@ mod tests {
         gathered[0] = Rgb([1.0, 2.0, 3.0]); // at the root: reaches every leaf
         let deep = tree.index_of(ElementId::ROOT.child(2).child(1)).unwrap() as usize;
         gathered[deep] = Rgb([16.0, 0.0, 0.0]); // 1/16 of the area
-        let l = push_pull(&tree, &gathered, Rgb::splat(0.5), None, None);
+        let l = push_pull(&tree, &gathered, Rgb::splat(0.5), None, None, None);
         assert_eq!(l[deep], Rgb([17.5, 2.5, 3.5]));
         assert_eq!(l[0], Rgb([2.5, 2.5, 3.5]));
+    }
+
+    #[test]
+    fn a_texture_scales_each_leafs_reflected_light_not_its_emission() {
+        let root = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let ids: BTreeSet<_> = [ElementId::ROOT.child(0)].into_iter().collect();
+        let tree = ElementTree::build(&root, &ids);
+        let mut gathered = vec![Rgb::ZERO; tree.nodes.len()];
+        gathered[0] = Rgb::splat(1.0);
+        // Children albedos 1.5, 0.5, 1.5, 0.5 times the surface's (mean 1).
+        let mut texture = vec![Rgb::splat(1.0); tree.nodes.len()];
+        for (k, scale) in [1.5, 0.5, 1.5, 0.5].into_iter().enumerate() {
+            texture[1 + k] = Rgb([scale, 1.0, 0.0]);
+        }
+        let l = push_pull(
+            &tree,
+            &gathered,
+            Rgb::splat(0.25),
+            None,
+            None,
+            Some(&texture),
+        );
+        assert_eq!(l[1], Rgb([1.75, 1.25, 0.25]));
+        assert_eq!(l[2], Rgb([0.75, 1.25, 0.25]));
+        assert_eq!(l[0], Rgb([1.25, 1.25, 0.25]));
     }
 
     #[test]
@@ -217,7 +254,7 @@ mod tests {
         // The limit scales what reaches the leaf, never its emission.
         let mut gathered = vec![Rgb::ZERO; tree.nodes.len()];
         gathered[0] = Rgb::splat(3.0);
-        let l = push_pull(&tree, &gathered, Rgb::splat(1.0), None, Some(&limits));
+        let l = push_pull(&tree, &gathered, Rgb::splat(1.0), None, Some(&limits), None);
         assert!((l[over][0] - 3.0).abs() < 1e-12, "{l:?}");
         assert!((l[over - 1][0] - 4.0).abs() < 1e-12, "{l:?}");
     }
@@ -238,7 +275,7 @@ mod tests {
         gathered.add(child, Rgb([0.0, 0.0, 4.0]), -g);
         let averages = gathered.into_averages(&tree);
         assert_eq!(averages[0], Rgb([1.0, 2.0, 0.0])); // the constant stays put
-        let l = push_pull(&tree, &averages, Rgb::ZERO, None, None);
+        let l = push_pull(&tree, &averages, Rgb::ZERO, None, None, None);
         // Each leaf holds the linear functions over it at its centroid.
         let leaf = tree.index_of(deep).unwrap() as usize;
         let x = DVec3::new(0.625, 0.625, 0.0);

@@ -38,7 +38,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0) })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None })
 //!     .collect();
 //! let mut settings = SolveSettings::default();
 //! settings.refine.max_level = 3;
@@ -122,7 +122,7 @@ pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
 /// result is the same for any number of threads.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] for a scene with a glossy surface, for the
+/// [`Error::InvalidSetting`] for a scene with a glossy or textured surface, for the
 /// importance oracle, or for bad settings; [`Error::EmptyScene`],
 /// [`Error::TooManySurfaces`], [`Error::NoLight`] and [`Error::Diverged`]
 /// as [`super::solve`].
@@ -163,6 +163,13 @@ pub fn solve_shooting(
              spot, directional or sky lights (use the gather solver)"
                 .into(),
         ));
+    }
+    if let Some(s) = scene.surfaces.iter().find(|s| s.texture.is_some()) {
+        return Err(Error::InvalidSetting(format!(
+            "the shooting solver supports untextured scenes for now, but surface '{}' is \
+             textured (use the gather solver)",
+            s.name
+        )));
     }
     if settings.oracle == Oracle::Importance {
         return Err(Error::InvalidSetting(
@@ -332,8 +339,14 @@ impl SurfaceState {
             gathered.add(node, value, gradient);
         }
         let averages = gathered.into_averages(&self.tree);
-        let received =
-            push_pull::push_pull(&self.tree, &averages, Rgb::ZERO, Some(&self.exposure), None);
+        let received = push_pull::push_pull(
+            &self.tree,
+            &averages,
+            Rgb::ZERO,
+            Some(&self.exposure),
+            None,
+            None,
+        );
         for ((l, u), d) in self.radiance.iter_mut().zip(&mut self.unshot).zip(received) {
             *l += d;
             *u += d;
@@ -515,6 +528,7 @@ mod tests {
             patch,
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
+            texture: None,
         }
     }
 
@@ -690,13 +704,20 @@ mod tests {
     }
 
     #[test]
-    fn glossy_scenes_and_the_importance_oracle_are_clear_errors() {
+    fn glossy_or_textured_scenes_and_the_importance_oracle_are_clear_errors() {
         let mut scene = open_box();
         let err = shoot_err(&scene, Oracle::Importance);
         assert!(err.contains("kernel and power"), "{err}");
         scene.surfaces[0].brdf = Brdf::Ward(crate::scene::brdf::Ward::default());
         let err = shoot_err(&scene, Oracle::Power);
         assert!(err.contains("diffuse scenes"), "{err}");
+        let mut scene = open_box();
+        scene.surfaces[0].texture = Some(crate::scene::texture::TextureMapping {
+            texture: 0,
+            uv: [glam::Vec2::ZERO; 3],
+        });
+        let err = shoot_err(&scene, Oracle::Power);
+        assert!(err.contains("untextured scenes"), "{err}");
     }
 
     fn shoot_err(scene: &Scene, oracle: Oracle) -> String {

@@ -4,10 +4,11 @@
 //! The readers return a [`Mesh`]: the triangles in file order, polygons
 //! fan-triangulated, vertex order (winding) kept: the front side is the one
 //! the vertices turn counter-clockwise around, as in
-//! [`wavrad_core::scene::Patch::Triangle`]; and the file's vertex normals at
-//! each triangle's corners when it gives them. Texture coordinates and every
-//! other attribute are ignored. Degenerate triangles are kept; callers
-//! decide what to do with them.
+//! [`wavrad_core::scene::Patch::Triangle`]; and the file's vertex normals
+//! and texture coordinates at each triangle's corners when it gives them
+//! (as stored: an OBJ file's v is not flipped here). Every other attribute
+//! is ignored. Degenerate triangles are kept; callers decide what to do
+//! with them.
 
 mod obj;
 mod ply;
@@ -18,7 +19,7 @@ pub use ply::read_ply;
 pub use serialized::read_serialized;
 
 use crate::error::{Error, Result};
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use std::path::Path;
 
 /// Largest mesh file wavrad reads, in bytes (16 GiB): far above any mesh
@@ -57,10 +58,13 @@ pub struct Mesh {
     /// The vertex normals at each triangle's corners, in the triangles'
     /// order, as stored (not normalised); `None` when the file has none.
     pub normals: Option<Vec<[DVec3; 3]>>,
+    /// The texture coordinates at each triangle's corners, in the
+    /// triangles' order, as stored; `None` when the file has none.
+    pub texcoords: Option<Vec<[DVec2; 3]>>,
 }
 
-/// Fan-triangulate one polygon given as indices into `values` (positions
-/// or normals), appending to `out`. Fails with the offending index when one
+/// Fan-triangulate one polygon given as indices into `values` (positions,
+/// normals or texture coordinates), appending to `out`. Fails with the offending index when one
 /// is out of range.
 fn push_fan<T: Copy>(
     values: &[T],

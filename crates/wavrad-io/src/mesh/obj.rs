@@ -1,17 +1,17 @@
 //! Wavefront OBJ through `tobj`: all objects and groups of the file merged
 //! into one mesh (as Mitsuba's `obj` shape does); materials are not read.
-//! Vertex normals (`vn`) are kept when every face vertex of the file has
-//! one.
+//! Vertex normals (`vn`) and texture coordinates (`vt`) are each kept when
+//! every face vertex of the file has one.
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::{push_fan, Mesh};
 use crate::error::{Error, Result};
 
 /// Read every face of an OBJ file as triangles (polygons fan-triangulated),
-/// with their corners' normals.
+/// with their corners' normals and texture coordinates.
 ///
 /// Lines and points are ignored; `mtllib` files are not opened.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
@@ -34,6 +34,7 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
 
     let mut triangles = Vec::new();
     let mut normals = Some(Vec::new());
+    let mut texcoords = Some(Vec::new());
     for model in &models {
         let mesh = &model.mesh;
         // f64 values: tobj's `use_f64` feature.
@@ -54,6 +55,24 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
         let model_normals = vectors(&mesh.normals)?;
         if mesh.normal_indices.len() != mesh.indices.len() {
             normals = None;
+        }
+        let model_texcoords: Vec<DVec2> = mesh
+            .texcoords
+            .chunks_exact(2)
+            .map(DVec2::from_slice)
+            .collect();
+        if let Some(bad) = model_texcoords.iter().find(|v| !v.is_finite()) {
+            return Err(Error::mesh(
+                path,
+                None,
+                format!(
+                    "object \"{}\": texture coordinates {bad} are not finite",
+                    model.name
+                ),
+            ));
+        }
+        if mesh.texcoord_indices.len() != mesh.indices.len() {
+            texcoords = None;
         }
         let out_of_range = |i: usize, what: &str, count: usize, plural: &str| {
             Error::mesh(
@@ -89,9 +108,18 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
                 push_fan(&model_normals, &polygon(&mesh.normal_indices)?, normals)
                     .map_err(|i| out_of_range(i, "normal", model_normals.len(), "normals"))?;
             }
+            if let Some(texcoords) = &mut texcoords {
+                let (count, indices) = (model_texcoords.len(), &mesh.texcoord_indices);
+                push_fan(&model_texcoords, &polygon(indices)?, texcoords)
+                    .map_err(|i| out_of_range(i, "texture coordinate", count, "of them"))?;
+            }
         }
     }
-    Ok(Mesh { triangles, normals })
+    Ok(Mesh {
+        triangles,
+        normals,
+        texcoords,
+    })
 }
 
 /// What a face's vertex refers to: `v/vt/vn`.

@@ -1,6 +1,7 @@
 //! Stanford PLY (ascii, binary_little_endian, binary_big_endian): the
 //! `vertex` element's `x y z` (and `nx ny nz` normals when it has all
-//! three) and the `face` element's `vertex_indices` (or `vertex_index`)
+//! three, texture coordinates `u v`, `s t`, `texture_u texture_v` or
+//! `texture_s texture_t` when it has both) and the `face` element's `vertex_indices` (or `vertex_index`)
 //! list; every other element and property is skipped.
 //!
 //! Written by hand rather than with `ply-rs-bw`: we need only positions,
@@ -10,7 +11,7 @@
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::{push_fan, Mesh};
 use crate::error::{Error, Result};
@@ -94,11 +95,13 @@ impl Scalar {
     }
 }
 
-/// What we keep of the file: positions, normals and polygons.
+/// What we keep of the file: positions, normals, texture coordinates and
+/// polygons.
 #[derive(Default)]
 struct Elements {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
+    texcoords: Vec<DVec2>,
     polygons: Vec<Vec<usize>>,
 }
 
@@ -116,6 +119,8 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
     // A vertex element with nx, ny, nz gave every vertex a normal.
     let with_normals = mesh.normals.len() == mesh.positions.len();
     let mut normals = with_normals.then(Vec::new);
+    let with_texcoords = mesh.texcoords.len() == mesh.positions.len();
+    let mut texcoords = with_texcoords.then(Vec::new);
     for polygon in &mesh.polygons {
         push_fan(&mesh.positions, polygon, &mut triangles).map_err(|i| {
             (
@@ -129,8 +134,15 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
         if let Some(normals) = &mut normals {
             push_fan(&mesh.normals, polygon, normals).expect("indices checked with positions");
         }
+        if let Some(texcoords) = &mut texcoords {
+            push_fan(&mesh.texcoords, polygon, texcoords).expect("indices checked with positions");
+        }
     }
-    Ok(Mesh { triangles, normals })
+    Ok(Mesh {
+        triangles,
+        normals,
+        texcoords,
+    })
 }
 
 /// Parse the header; returns the format, the elements, the byte offset of
@@ -220,12 +232,13 @@ fn parse_header(bytes: &[u8]) -> PlyResult<(Format, Vec<ElementDef>, usize, u32)
     Ok((format, elements, offset, line_no))
 }
 
-/// Where `x`, `y`, `z`, `nx`, `ny`, `nz` and the index list sit in an
-/// element's properties.
+/// Where `x`, `y`, `z`, `nx`, `ny`, `nz`, the texture coordinates and the
+/// index list sit in an element's properties.
 #[derive(Default)]
 struct Layout {
     xyz: [Option<usize>; 3],
     normal: [Option<usize>; 3],
+    texcoord: [Option<usize>; 2],
     indices: Option<usize>,
 }
 
@@ -240,6 +253,9 @@ fn layout(element: &ElementDef) -> PlyResult<Layout> {
                 "nx" => layout.normal[0] = Some(i),
                 "ny" => layout.normal[1] = Some(i),
                 "nz" => layout.normal[2] = Some(i),
+                // The names Mitsuba 3's PLY reader takes for them.
+                "u" | "s" | "texture_u" | "texture_s" => layout.texcoord[0] = Some(i),
+                "v" | "t" | "texture_v" | "texture_t" => layout.texcoord[1] = Some(i),
                 _ => {}
             },
             ("face", Property::List { name, item, .. })
@@ -294,6 +310,16 @@ fn store(
                     ));
                 }
                 mesh.normals.push(n);
+            }
+            if let [Some(u), Some(v)] = layout.texcoord.map(|k| k.map(|i| scalars[i])) {
+                let uv = DVec2::new(u, v);
+                if !uv.is_finite() {
+                    return Err(format!(
+                        "texture coordinates of vertex {} are not finite",
+                        mesh.positions.len() - 1
+                    ));
+                }
+                mesh.texcoords.push(uv);
             }
         }
         "face" => mesh.polygons.push(list),

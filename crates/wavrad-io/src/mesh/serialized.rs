@@ -25,8 +25,8 @@
 //! a `u32`. Shape 0 starts at offset 0 and is read without the dictionary,
 //! as Mitsuba does, so single-shape files need none.
 //!
-//! Positions, normals and triangles are kept; texture coordinates and
-//! colors are skipped, and so is the face-normals flag (as Mitsuba 3 does
+//! Positions, normals, texture coordinates and triangles are kept; colors
+//! are skipped, and so is the face-normals flag (as Mitsuba 3 does
 //! for these versions: only the scene's `face_normals` counts). Counts are never trusted for allocation: the
 //! stream is decompressed first, up to the size the counts imply, and a
 //! shape whose data ends early is an error.
@@ -35,7 +35,7 @@ use std::io::Read;
 use std::path::Path;
 
 use flate2::read::ZlibDecoder;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::Mesh;
 use crate::error::{Error, Result};
@@ -195,6 +195,17 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
     }
     let vertex_normals = (flags & flags::NORMALS != 0)
         .then(|| vectors(&data[vectors_size..2 * vectors_size], float_size));
+    let texcoords_start = vectors_size * (1 + usize::from(vertex_normals.is_some()));
+    let vertex_texcoords = (flags & flags::TEXCOORDS != 0).then(|| {
+        let end = texcoords_start + (vertices * 2 * float_size) as usize;
+        pairs(&data[texcoords_start..end], float_size)
+    });
+    if let Some(i) = (vertex_texcoords.iter().flatten()).position(|uv| !uv.is_finite()) {
+        return Err(format!("texture coordinates of vertex {i} are not finite"));
+    }
+    let mut texcoords = vertex_texcoords
+        .as_ref()
+        .map(|_| Vec::with_capacity(triangles as usize));
     let mut triangles = Vec::with_capacity(triangles as usize);
     let mut normals = vertex_normals
         .as_ref()
@@ -212,23 +223,41 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
         if let (Some(normals), Some(vertex_normals)) = (&mut normals, &vertex_normals) {
             normals.push(ijk.map(|i| vertex_normals[i]));
         }
+        if let (Some(texcoords), Some(vertex_texcoords)) = (&mut texcoords, &vertex_texcoords) {
+            texcoords.push(ijk.map(|i| vertex_texcoords[i]));
+        }
     }
-    Ok(Mesh { triangles, normals })
+    Ok(Mesh {
+        triangles,
+        normals,
+        texcoords,
+    })
+}
+
+/// Little-endian `f32` or `f64` pairs (`float_size` 4 or 8) as 2D vectors.
+fn pairs(bytes: &[u8], float_size: u64) -> Vec<DVec2> {
+    vectors_of(bytes, float_size, 2)
+        .map(|c| DVec2::new(c[0], c[1]))
+        .collect()
 }
 
 /// Little-endian `f32` or `f64` triples (`float_size` 4 or 8) as vectors.
 fn vectors(bytes: &[u8], float_size: u64) -> Vec<DVec3> {
+    vectors_of(bytes, float_size, 3)
+        .map(|c| DVec3::new(c[0], c[1], c[2]))
+        .collect()
+}
+
+/// Little-endian `f32` or `f64` values (`float_size` 4 or 8), `lanes` at a
+/// time.
+fn vectors_of(bytes: &[u8], float_size: u64, lanes: usize) -> impl Iterator<Item = Vec<f64>> + '_ {
     let float = |b: &[u8]| match b.len() {
         8 => f64::from_le_bytes(b.try_into().unwrap()),
         _ => f64::from(f32::from_le_bytes(b.try_into().unwrap())),
     };
     bytes
-        .chunks_exact(3 * float_size as usize)
-        .map(|xyz| {
-            let mut c = xyz.chunks_exact(float_size as usize).map(float);
-            DVec3::new(c.next().unwrap(), c.next().unwrap(), c.next().unwrap())
-        })
-        .collect()
+        .chunks_exact(lanes * float_size as usize)
+        .map(move |v| v.chunks_exact(float_size as usize).map(float).collect())
 }
 
 /// Skip the null-terminated shape name of a version 4 shape.

@@ -1,10 +1,12 @@
-//! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `roughplastic` and
-//! `twosided`. Colours are `<rgb>`, `<float>` or `<spectrum value>`;
-//! reflectances must lie in [0, 1].
+//! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `conductor`,
+//! `roughplastic`, `plastic`, `twosided` and `mask`. Colours are `<rgb>`,
+//! `<float>` or `<spectrum value>`; reflectances must lie in [0, 1]. A
+//! `diffuse` reflectance may be a texture (`checkerboard`, `bitmap`:
+//! `mitsuba/textures.rs`).
 //!
 //! | plugin           | parameter                                        | type                 | default         |
 //! |------------------|--------------------------------------------------|----------------------|-----------------|
-//! | `diffuse`        | `reflectance`                                    | colour               | 0.5             |
+//! | `diffuse`        | `reflectance`                                    | colour or texture    | 0.5             |
 //! | `ward` (0.6)     | `variant`: `ward`, `ward-duer`, `balanced`       | `<string>`           | `balanced`      |
 //! |                  | `alpha`; `alpha_u`/`alphaU`, `alpha_v`/`alphaV`  | `<float>` ≥ 1e-4     | 0.1; `alpha`    |
 //! |                  | `specular_reflectance` (`specularReflectance`)   | colour               | 0.2             |
@@ -14,14 +16,20 @@
 //! |                  | `material` (Mitsuba's names, e.g. `Au`, `Cu`)    | `<string>`           | `none` (mirror) |
 //! |                  | `eta`, `k` (instead of `material`)               | colour ≥ 0           | 0, 1            |
 //! |                  | `specular_reflectance`                           | colour               | 1               |
+//! | `conductor`      | `material`, `eta`, `k`, `specular_reflectance`   | as above             | as above        |
 //! | `roughplastic`   | `distribution`, `alpha` (isotropic only)         | as above             | `beckmann`, 0.1 |
 //! |                  | `int_ior`, `ext_ior` (number or name, e.g. `bk7`) | `<float>`/`<string>` | `polypropylene`, `air` |
 //! |                  | `specular_reflectance`, `diffuse_reflectance`    | colour               | 1, 0.5          |
 //! |                  | `nonlinear`                                      | `<boolean>`          | false           |
+//! | `plastic`        | `int_ior`, `ext_ior`, `specular_reflectance`, `diffuse_reflectance`, `nonlinear` | as above | as above |
 //! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
+//! | `mask`           | `opacity` 1 and one nested BSDF                  | `<float>`            | 1               |
 //!
 //! `sample_visible` is accepted when true (the only sampling wavrad has).
 //! Mitsuba rescales a `ward` whose ρ_s + ρ_d exceeds 1; wavrad rejects it.
+//! `plastic` and `conductor` are `roughplastic` and `roughconductor` at
+//! Mitsuba's smallest roughness, 10⁻⁴ (ARCHITECTURE.md, "Smooth specular
+//! and glass").
 //!
 //! ```xml
 //! <bsdf type="twosided" id="white">
@@ -32,7 +40,19 @@
 //! ```
 //!
 //! Without `twosided` a surface reflects on its front side only, as in
-//! Mitsuba. Textures and every other plugin are rejected.
+//! Mitsuba. Every other plugin, and a texture anywhere but on a `diffuse`
+//! reflectance, is an error naming it and its line; with `--approximate`
+//! ([`crate::LoadOptions`]) each is replaced, with one warning per plugin:
+//!
+//! | plugin                                          | replaced by                                              |
+//! |-------------------------------------------------|----------------------------------------------------------|
+//! | `dielectric`, `thindielectric`, `roughdielectric` | nothing: the shape is left out (fully transparent)     |
+//! | `principled`                                    | `roughplastic` of `base_color` (`metallic` < ½) or `roughconductor` tinted by it, GGX, α = `roughness`², η from `specular` |
+//! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
+//! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
+//! | a texture on another parameter                  | the texture's mean                                       |
+//! | a texture of another plugin                     | the parameter's default                                  |
+//! | any other BSDF                                  | `diffuse` 0.5 (Mitsuba's default BSDF)                   |
 
 use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
 use wavrad_core::scene::brdf::{
@@ -42,20 +62,40 @@ use wavrad_core::scene::brdf::{
 use wavrad_core::scene::Rgb;
 
 use super::params::{Document, FloatOrString, Nested, Object};
+use super::textures::{parse_texture, texture_mean};
 use crate::error::Result;
 
-/// The BRDF of the front side and, for `twosided`, of the back.
+/// One side of a material: its BRDF and the texture on the albedo of its
+/// Lambertian lobe (an index into the scene's textures).
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Material {
-    pub front: Brdf,
-    pub back: Option<Brdf>,
+pub(crate) struct Side {
+    pub brdf: Brdf,
+    pub texture: Option<u32>,
+}
+
+/// What a shape's surfaces are made of.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Material {
+    /// Surfaces reflecting by `front`, and for `twosided` by `back` behind.
+    Opaque { front: Side, back: Option<Side> },
+    /// No surfaces at all: glass approximated as fully transparent.
+    Transparent,
 }
 
 impl Default for Material {
     /// Mitsuba's default for shapes without a BSDF: one-sided diffuse 0.5.
     fn default() -> Self {
-        Material {
-            front: Brdf::diffuse(Rgb::splat(0.5)),
+        Material::opaque(Brdf::diffuse(Rgb::splat(0.5)))
+    }
+}
+
+impl Material {
+    fn opaque(brdf: Brdf) -> Material {
+        Material::Opaque {
+            front: Side {
+                brdf,
+                texture: None,
+            },
             back: None,
         }
     }
@@ -63,6 +103,14 @@ impl Default for Material {
 
 /// How deep `twosided` (and references) may nest before we call it a cycle.
 const MAX_NESTING: usize = 8;
+
+/// The BSDF plugins wavrad reads, for messages.
+const SUPPORTED: &str =
+    "diffuse, twosided, ward, roughconductor, conductor, roughplastic, plastic, mask (opaque)";
+
+/// What `--approximate` puts in place of each glass plugin.
+const GLASS: &str =
+    "left out: the shape is fully transparent (no reflection, refraction or shadow)";
 
 /// Read the BSDF `bsdf` (a `<bsdf>` element, possibly reached by `<ref>`).
 pub(crate) fn parse_bsdf(bsdf: Nested, doc: &Document) -> Result<Material> {
@@ -76,22 +124,42 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             .error("BSDFs nested too deeply (is there a <ref> cycle?)"));
     }
     let mut obj = Object::parse(bsdf.element, doc)?;
+    let plugin = format!("bsdf \"{}\"", obj.plugin);
     match obj.plugin {
         "diffuse" => {
-            let reflectance = obj.color("reflectance")?.unwrap_or(Rgb::splat(0.5));
-            check_unit(&obj, "reflectance", reflectance)?;
-            one_sided(&obj, Brdf::diffuse(reflectance))
+            let side = match albedo(&mut obj, "reflectance", 0.5, doc)? {
+                Albedo::Constant(rho) => {
+                    check_unit(&obj, "reflectance", rho)?;
+                    Side {
+                        brdf: Brdf::diffuse(rho),
+                        texture: None,
+                    }
+                }
+                Albedo::Texture(index) => Side {
+                    brdf: Brdf::diffuse(doc.with_texture(index, texture_mean)),
+                    texture: Some(index),
+                },
+            };
+            one_sided(&obj, side.brdf.clone())?;
+            Ok(Material::Opaque {
+                front: side,
+                back: None,
+            })
         }
         "ward" => {
-            let ward = parse_ward(&mut obj)?;
+            let ward = parse_ward(&mut obj, doc)?;
             one_sided(&obj, Brdf::Ward(ward))
         }
-        "roughconductor" => {
-            let conductor = parse_roughconductor(&mut obj)?;
+        "roughconductor" | "conductor" => {
+            let distribution = match obj.plugin {
+                "roughconductor" => parse_microfacet(&mut obj)?,
+                _ => Microfacet::isotropic(MicrofacetType::Beckmann, 0.0),
+            };
+            let conductor = parse_conductor(&mut obj, distribution, doc)?;
             one_sided(&obj, Brdf::RoughConductor(conductor))
         }
-        "roughplastic" => {
-            let params = parse_roughplastic(&mut obj)?;
+        "roughplastic" | "plastic" => {
+            let params = parse_plastic(&mut obj, doc)?;
             one_sided(&obj, Brdf::RoughPlastic(RoughPlastic::new(params)))
         }
         "twosided" => {
@@ -101,20 +169,22 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
                 if n.tag() != "bsdf" {
                     return Err(obj.unexpected(n));
                 }
-                let side = parse_nested(*n, doc, depth + 1)?;
-                if side.back.is_some() {
-                    return Err(n
-                        .at
-                        .error("a twosided BSDF cannot wrap another twosided BSDF"));
+                match parse_nested(*n, doc, depth + 1)? {
+                    Material::Opaque { back: Some(_), .. } => {
+                        return Err(n
+                            .at
+                            .error("a twosided BSDF cannot wrap another twosided BSDF"))
+                    }
+                    Material::Opaque { front, back: None } => sides.push(front),
+                    Material::Transparent => return Ok(Material::Transparent),
                 }
-                sides.push(side.front);
             }
             match sides.as_slice() {
-                [both] => Ok(Material {
+                [both] => Ok(Material::Opaque {
                     front: both.clone(),
                     back: Some(both.clone()),
                 }),
-                [front, back] => Ok(Material {
+                [front, back] => Ok(Material::Opaque {
                     front: front.clone(),
                     back: Some(back.clone()),
                 }),
@@ -124,11 +194,182 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
                 ))),
             }
         }
-        other => Err(obj.at().error(format!(
-            "unsupported bsdf plugin \"{other}\" (supported: diffuse, twosided, ward, \
-             roughconductor, roughplastic)"
+        "mask" => {
+            // Opaque where opacity is 1 (Mitsuba's default); partial
+            // opacity is approximated by the nested BSDF alone.
+            let opaque = match obj.nested.iter().position(|n| n.name == Some("opacity")) {
+                Some(i) => {
+                    let n = obj.nested.remove(i);
+                    doc.approximate(
+                        n.at,
+                        "bsdf \"mask\" with a textured opacity",
+                        "its nested BSDF, opaque everywhere",
+                    )?;
+                    true
+                }
+                None => obj.float("opacity")?.unwrap_or(1.0) >= 1.0,
+            };
+            if !opaque {
+                doc.approximate(
+                    obj.location_of("opacity"),
+                    "bsdf \"mask\" with opacity below 1",
+                    "its nested BSDF, opaque",
+                )?;
+            }
+            nested_only(obj, doc, depth)
+        }
+        "normalmap" | "bumpmap" => {
+            doc.approximate(
+                obj.at(),
+                &plugin,
+                "its nested BSDF, with the surface's own normals",
+            )?;
+            obj.nested.retain(|n| n.tag() == "bsdf");
+            obj.ignore_all();
+            nested_only(obj, doc, depth)
+        }
+        "dielectric" | "thindielectric" | "roughdielectric" => {
+            doc.approximate(obj.at(), &plugin, GLASS)?;
+            obj.ignore_all();
+            Ok(Material::Transparent)
+        }
+        "principled" => {
+            doc.approximate(
+                obj.at(),
+                &plugin,
+                "rough plastic of its base_color (metallic < 0.5) or rough conductor \
+                 (metallic ≥ 0.5), alpha = roughness², the index from specular; other \
+                 parameters dropped",
+            )?;
+            let material = approximate_principled(&mut obj, doc)?;
+            obj.ignore_all();
+            Ok(material)
+        }
+        other => {
+            if doc.approximate {
+                doc.approximate(obj.at(), &plugin, "diffuse 0.5 (Mitsuba's default BSDF)")?;
+                return Ok(Material::default());
+            }
+            Err(obj.at().error(format!(
+                "unsupported bsdf plugin \"{other}\" (supported: {SUPPORTED}; with \
+                 --approximate: the nearest supported model)"
+            )))
+        }
+    }
+}
+
+/// The one nested BSDF of a wrapper (`mask`, `normalmap`, `bumpmap`).
+fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
+    obj.finish()?;
+    match obj.nested.as_slice() {
+        [n] if n.tag() == "bsdf" => parse_nested(*n, doc, depth + 1),
+        [n] => Err(obj.unexpected(n)),
+        _ => Err(obj.at().error(format!(
+            "{} needs exactly one nested BSDF, found {}",
+            obj.describe(),
+            obj.nested.len()
         ))),
     }
+}
+
+/// Mitsuba 3's `principled` as the nearest supported model: rough plastic
+/// of its `base_color` or, when mostly metallic, a rough conductor tinted by
+/// it; `alpha = roughness²` (its mapping), the index from `specular` as its
+/// `eta = 2 / (1 − √(0.08·specular)) − 1`.
+fn approximate_principled(obj: &mut Object, doc: &Document) -> Result<Material> {
+    let base = constant_color(obj, "base_color", 0.5, doc)?;
+    let roughness = constant_float(obj, "roughness", 0.5, doc)?;
+    let metallic = constant_float(obj, "metallic", 0.0, doc)?;
+    let specular = constant_float(obj, "specular", 0.5, doc)?;
+    let alpha = (roughness * roughness).clamp(0.0, 1.0);
+    let base = base.map(|c| c.clamp(0.0, 1.0));
+    let brdf = if metallic >= 0.5 {
+        Brdf::RoughConductor(RoughConductor {
+            distribution: Microfacet::isotropic(MicrofacetType::Ggx, alpha),
+            specular_reflectance: base,
+            ..RoughConductor::default()
+        })
+    } else {
+        let eta = 2.0 / (1.0 - (0.08 * specular.clamp(0.0, 1.0)).sqrt()) - 1.0;
+        Brdf::RoughPlastic(RoughPlastic::new(RoughPlasticParams {
+            distribution: MicrofacetType::Ggx,
+            alpha,
+            int_ior: eta.max(1.0 + 1e-3),
+            ext_ior: 1.0,
+            diffuse_reflectance: base,
+            ..RoughPlasticParams::default()
+        }))
+    };
+    obj.nested.clear();
+    Ok(Material::opaque(brdf))
+}
+
+/// A reflectance given as a colour or as a texture.
+enum Albedo {
+    Constant(Rgb),
+    Texture(u32),
+}
+
+/// The nested object given for parameter `name`, taken out of `obj`'s list.
+fn take_named<'a>(obj: &mut Object<'a>, name: &str) -> Option<Nested<'a>> {
+    let i = obj.nested.iter().position(|n| n.name == Some(name))?;
+    Some(obj.nested.remove(i))
+}
+
+/// Parameter `name` as a colour or a texture (`<texture name=...>` nested or
+/// referenced); a texture of a plugin wavrad does not read is refused, or
+/// with `--approximate` replaced by the default.
+fn albedo(obj: &mut Object, name: &'static str, default: f64, doc: &Document) -> Result<Albedo> {
+    let Some(n) = take_named(obj, name) else {
+        return Ok(Albedo::Constant(
+            obj.color(name)?.unwrap_or(Rgb::splat(default)),
+        ));
+    };
+    if n.tag() != "texture" {
+        return Err(obj.unexpected(&n));
+    }
+    if obj.has(name) {
+        return Err(n
+            .at
+            .error(format!("{name} of {} given twice", obj.describe())));
+    }
+    if !["checkerboard", "bitmap"].contains(&n.plugin()) && doc.approximate {
+        let plugin = format!("texture \"{}\"", n.plugin());
+        doc.approximate(n.at, &plugin, &format!("the constant {default}"))?;
+        return Ok(Albedo::Constant(Rgb::splat(default)));
+    }
+    Ok(Albedo::Texture(parse_texture(n, doc)?))
+}
+
+/// Parameter `name` as a colour; a texture is refused, or with
+/// `--approximate` replaced by its mean.
+fn constant_color(
+    obj: &mut Object,
+    name: &'static str,
+    default: f64,
+    doc: &Document,
+) -> Result<Rgb> {
+    match albedo(obj, name, default, doc)? {
+        Albedo::Constant(c) => Ok(c),
+        Albedo::Texture(index) => {
+            let what = format!("a texture on {name} of {}", obj.describe());
+            doc.approximate(obj.at(), &what, "its mean value")?;
+            Ok(doc.with_texture(index, texture_mean))
+        }
+    }
+}
+
+/// Parameter `name` as a float; a texture is as in [`constant_color`].
+fn constant_float(
+    obj: &mut Object,
+    name: &'static str,
+    default: f64,
+    doc: &Document,
+) -> Result<f64> {
+    if obj.nested.iter().any(|n| n.name == Some(name)) {
+        return Ok(constant_color(obj, name, default, doc)?.average());
+    }
+    Ok(obj.float(name)?.unwrap_or(default))
 }
 
 /// A one-sided material from a plugin that takes no nested objects.
@@ -137,10 +378,7 @@ fn one_sided(obj: &Object, brdf: Brdf) -> Result<Material> {
         return Err(obj.unexpected(n));
     }
     obj.finish()?;
-    Ok(Material {
-        front: brdf,
-        back: None,
-    })
+    Ok(Material::opaque(brdf))
 }
 
 /// Reject a reflectance with a component outside [0, 1].
@@ -154,14 +392,20 @@ fn check_unit(obj: &Object, name: &str, value: Rgb) -> Result<()> {
     }
 }
 
-/// A colour under its Mitsuba 3 name or its Mitsuba 0.6 camelCase alias;
-/// returns the value and the name it was given under.
+/// A colour under its Mitsuba 3 name or its Mitsuba 0.6 camelCase alias
+/// (a texture as in [`constant_color`]); returns the value and the name it
+/// was given under.
 fn color_alias(
     obj: &mut Object,
-    name: &'static str,
-    alias: &'static str,
+    (name, alias): (&'static str, &'static str),
     default: f64,
+    doc: &Document,
 ) -> Result<(Rgb, &'static str)> {
+    for n in [name, alias] {
+        if obj.nested.iter().any(|x| x.name == Some(n)) {
+            return Ok((constant_color(obj, n, default, doc)?, n));
+        }
+    }
     both_not_allowed(obj, name, alias)?;
     Ok(match (obj.color(name)?, obj.color(alias)?) {
         (Some(v), _) => (v, name),
@@ -214,7 +458,7 @@ fn check_alpha(obj: &Object, name: &str, alpha: f64, strict: bool) -> Result<f64
     Ok(alpha)
 }
 
-fn parse_ward(obj: &mut Object) -> Result<Ward> {
+fn parse_ward(obj: &mut Object, doc: &Document) -> Result<Ward> {
     let variant = match obj.string("variant")? {
         None => WardVariant::Balanced,
         Some(v) => WardVariant::from_name(&v).ok_or_else(|| {
@@ -240,8 +484,10 @@ fn parse_ward(obj: &mut Object) -> Result<Ward> {
     };
     check_alpha(obj, name_u, alpha_u, true)?;
     check_alpha(obj, name_v, alpha_v, true)?;
-    let (spec, spec_name) = color_alias(obj, "specular_reflectance", "specularReflectance", 0.2)?;
-    let (diff, diff_name) = color_alias(obj, "diffuse_reflectance", "diffuseReflectance", 0.5)?;
+    let specular = ("specular_reflectance", "specularReflectance");
+    let (spec, spec_name) = color_alias(obj, specular, 0.2, doc)?;
+    let diffuse = ("diffuse_reflectance", "diffuseReflectance");
+    let (diff, diff_name) = color_alias(obj, diffuse, 0.5, doc)?;
     check_unit(obj, spec_name, spec)?;
     check_unit(obj, diff_name, diff)?;
     if let Some(c) = (0..3).find(|&c| spec[c] + diff[c] > 1.0) {
@@ -312,8 +558,12 @@ fn parse_microfacet(obj: &mut Object) -> Result<Microfacet> {
     Ok(Microfacet::new(kind, au, av))
 }
 
-fn parse_roughconductor(obj: &mut Object) -> Result<RoughConductor> {
-    let distribution = parse_microfacet(obj)?;
+/// The optics of `conductor` and `roughconductor` over `distribution`.
+fn parse_conductor(
+    obj: &mut Object,
+    distribution: Microfacet,
+    doc: &Document,
+) -> Result<RoughConductor> {
     let material = obj.string("material")?;
     let (eta, k) = (obj.unbounded_color("eta")?, obj.unbounded_color("k")?);
     let ior = match material.as_deref() {
@@ -349,9 +599,7 @@ fn parse_roughconductor(obj: &mut Object) -> Result<RoughConductor> {
             )));
         }
     }
-    let specular_reflectance = obj
-        .color("specular_reflectance")?
-        .unwrap_or(Rgb::splat(1.0));
+    let specular_reflectance = constant_color(obj, "specular_reflectance", 1.0, doc)?;
     check_unit(obj, "specular_reflectance", specular_reflectance)?;
     Ok(RoughConductor {
         distribution,
@@ -384,8 +632,13 @@ fn parse_ior(obj: &mut Object, name: &'static str, default: f64) -> Result<f64> 
     Ok(ior)
 }
 
-fn parse_roughplastic(obj: &mut Object) -> Result<RoughPlasticParams> {
-    let distribution = parse_microfacet(obj)?;
+/// `roughplastic`, or `plastic` as its smooth limit (Mitsuba's smallest
+/// roughness, [`wavrad_core::scene::brdf::microfacet::MIN_ALPHA`]).
+fn parse_plastic(obj: &mut Object, doc: &Document) -> Result<RoughPlasticParams> {
+    let distribution = match obj.plugin {
+        "roughplastic" => parse_microfacet(obj)?,
+        _ => Microfacet::isotropic(MicrofacetType::Beckmann, 0.0),
+    };
     if distribution.alpha_u != distribution.alpha_v {
         return Err(obj.location_of("alpha_u").error(format!(
             "{} is isotropic only (as in Mitsuba): alpha_u and alpha_v must be equal",
@@ -400,10 +653,8 @@ fn parse_roughplastic(obj: &mut Object) -> Result<RoughPlasticParams> {
             obj.describe()
         )));
     }
-    let specular_reflectance = obj
-        .color("specular_reflectance")?
-        .unwrap_or(Rgb::splat(1.0));
-    let diffuse_reflectance = obj.color("diffuse_reflectance")?.unwrap_or(Rgb::splat(0.5));
+    let specular_reflectance = constant_color(obj, "specular_reflectance", 1.0, doc)?;
+    let diffuse_reflectance = constant_color(obj, "diffuse_reflectance", 0.5, doc)?;
     check_unit(obj, "specular_reflectance", specular_reflectance)?;
     check_unit(obj, "diffuse_reflectance", diffuse_reflectance)?;
     Ok(RoughPlasticParams {

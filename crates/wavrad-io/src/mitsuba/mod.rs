@@ -26,11 +26,15 @@
 //! - parameters `<float>`, `<integer>`, `<boolean>`, `<string>`, `<point>`,
 //!   `<vector>`, `<rgb>`, `<spectrum>` (converted to RGB as Mitsuba 3's RGB
 //!   variants do: `mitsuba/spectrum.rs`) and `<transform>`
-//!   (`mitsuba/transform.rs`).
+//!   (`mitsuba/transform.rs`);
+//! - textures `checkerboard` and `bitmap` on a `diffuse` reflectance
+//!   (`mitsuba/textures.rs`).
 //!
-//! Everything else — other plugins, textures, media, unknown parameters or
-//! elements, malformed numbers — is an error naming the file, the line and
-//! the offending name. Nothing panics on bad input. What is loaded, but not
+//! Everything else — other plugins, media, unknown parameters or elements,
+//! malformed numbers — is an error naming the file, the line and the
+//! offending name; unsupported BSDFs and textures are replaced by the
+//! nearest supported model when loading with [`LoadOptions::approximate`]
+//! (one warning per plugin). Nothing panics on bad input. What is loaded, but not
 //! as written (a mesh's triangles of zero area are skipped, a sheared sphere
 //! stays a sphere), is a [`Warning`] beside the scene in [`Loaded`].
 //!
@@ -59,6 +63,7 @@ mod params;
 mod sensors;
 mod shapes;
 mod spectrum;
+mod textures;
 mod transform;
 
 use std::collections::HashMap;
@@ -107,17 +112,36 @@ pub fn load_scene(path: &Path) -> Result<Loaded> {
     load_scene_with(path, &[])
 }
 
+/// How a scene file is read.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct LoadOptions {
+    /// Replace every unsupported BSDF or texture by the nearest supported
+    /// model, with one [`Warning`] per plugin saying what was substituted
+    /// (`--approximate`), rather than refuse it.
+    pub approximate: bool,
+}
+
 /// Load a Mitsuba XML scene file with parameter overrides (`name`, `value`),
 /// which take precedence over the file's `<default>`s like Mitsuba's
 /// `-D name=value`.
 pub fn load_scene_with(path: &Path, defaults: &[(String, String)]) -> Result<Loaded> {
+    load_scene_with_options(path, defaults, LoadOptions::default())
+}
+
+/// [`load_scene_with`], read as `options` say.
+pub fn load_scene_with_options(
+    path: &Path,
+    defaults: &[(String, String)],
+    options: LoadOptions,
+) -> Result<Loaded> {
     let xml = document::read_xml(path, document::MAX_XML_BYTES).map_err(|e| Error::io(path, e))?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let own_path = std::fs::canonicalize(path).ok();
-    load(&xml, &dir, &path.display().to_string(), own_path, defaults)
+    let name = path.display().to_string();
+    load(&xml, &dir, &name, own_path, defaults, options)
 }
 
 /// Load a scene from XML text. Relative paths (includes, meshes) resolve
@@ -128,7 +152,14 @@ pub fn load_scene_str(
     name_for_messages: &str,
     overrides: &[(String, String)],
 ) -> Result<Loaded> {
-    load(xml, base_dir, name_for_messages, None, overrides)
+    load(
+        xml,
+        base_dir,
+        name_for_messages,
+        None,
+        overrides,
+        LoadOptions::default(),
+    )
 }
 
 fn load(
@@ -137,10 +168,12 @@ fn load(
     name: &str,
     own_path: Option<PathBuf>,
     overrides: &[(String, String)],
+    options: LoadOptions,
 ) -> Result<Loaded> {
     let expanded = read_scene_document(xml, name, dir, own_path, overrides)?;
     let root = Element::root(expanded.elements, name, dir);
-    let doc = Document::new(&root, expanded.search)?;
+    let mut doc = Document::new(&root, expanded.search)?;
+    doc.approximate = options.approximate;
     for warning in expanded.warnings {
         doc.warn(warning);
     }
@@ -240,6 +273,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         ),
         other_sensors: sensors.collect(),
         lights,
+        textures: doc.take_textures(),
     })
 }
 

@@ -8,9 +8,10 @@
 //! parameter is an error naming the plugin, the parameter and its line.
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 
 use glam::{DMat4, DVec3};
+use wavrad_core::scene::texture::Texture;
 use wavrad_core::scene::Rgb;
 
 use super::document::{read_text_file, Element, Location, SearchPath};
@@ -27,6 +28,13 @@ pub(crate) struct Document<'a> {
     /// Where relative file names (meshes, spectra) are looked up.
     pub search: SearchPath,
     warnings: RefCell<Vec<Warning>>,
+    /// Whether unsupported plugins are replaced by the nearest supported
+    /// model (`--approximate`) rather than refused.
+    pub approximate: bool,
+    /// The plugins approximated so far (each is warned about once).
+    approximated: RefCell<BTreeSet<String>>,
+    /// The textures read so far, and the element each came from.
+    textures: RefCell<(Vec<Texture>, HashMap<*const Element, u32>)>,
 }
 
 impl<'a> Document<'a> {
@@ -55,6 +63,9 @@ impl<'a> Document<'a> {
             ids,
             search,
             warnings: RefCell::new(Vec::new()),
+            approximate: false,
+            approximated: RefCell::new(BTreeSet::new()),
+            textures: RefCell::new((Vec::new(), HashMap::new())),
         })
     }
 
@@ -66,6 +77,50 @@ impl<'a> Document<'a> {
     /// The warnings, in the order they were made.
     pub fn into_warnings(self) -> Vec<Warning> {
         self.warnings.into_inner()
+    }
+
+    /// Replace the unsupported `plugin` at `at` as `substitute` says when
+    /// approximating, with one warning per plugin; otherwise the error
+    /// naming it and suggesting `--approximate`.
+    pub fn approximate(&self, at: &Location, plugin: &str, substitute: &str) -> Result<()> {
+        if !self.approximate {
+            return Err(at.error(format!(
+                "{plugin} is not supported (with --approximate: {substitute})"
+            )));
+        }
+        if self.approximated.borrow_mut().insert(plugin.to_string()) {
+            self.warn(at.warning(format!("approximated {plugin}: {substitute}")));
+        }
+        Ok(())
+    }
+
+    /// The index of the texture read from `element`, read by `read` on its
+    /// first use.
+    pub fn texture_index(
+        &self,
+        element: &Element,
+        read: impl FnOnce() -> Result<Texture>,
+    ) -> Result<u32> {
+        let key = std::ptr::from_ref(element);
+        if let Some(&index) = self.textures.borrow().1.get(&key) {
+            return Ok(index);
+        }
+        let texture = read()?;
+        let mut textures = self.textures.borrow_mut();
+        let index = textures.0.len() as u32;
+        textures.0.push(texture);
+        textures.1.insert(key, index);
+        Ok(index)
+    }
+
+    /// `f` of the texture at `index` ([`Document::texture_index`]).
+    pub fn with_texture<R>(&self, index: u32, f: impl FnOnce(&Texture) -> R) -> R {
+        f(&self.textures.borrow().0[index as usize])
+    }
+
+    /// Every texture read, in the order of their indices.
+    pub fn take_textures(&self) -> Vec<Texture> {
+        std::mem::take(&mut self.textures.borrow_mut().0)
     }
 }
 
@@ -79,14 +134,11 @@ const OBJECT_TAGS: &[&str] = &[
     "rfilter",
     "sampler",
     "integrator",
+    "texture",
 ];
 
 /// Tags of Mitsuba objects wavrad rejects, with the reason.
 const UNSUPPORTED_TAGS: &[(&str, &str)] = &[
-    (
-        "texture",
-        "textures are not supported; give a constant <rgb>, <float> or <spectrum> instead",
-    ),
     ("medium", "participating media are not supported"),
     ("phase", "participating media are not supported"),
     ("volume", "volumes are not supported"),
@@ -144,6 +196,9 @@ pub(crate) struct Nested<'a> {
     pub element: &'a Element,
     /// Where it is used: the `<ref>` or the element itself.
     pub at: &'a Location,
+    /// The parameter it is given for (`name`, on the `<ref>` or the
+    /// element), as a texture is.
+    pub name: Option<&'a str>,
 }
 
 impl<'a> Nested<'a> {
@@ -211,11 +266,13 @@ impl<'a> Object<'a> {
                 object.nested.push(Nested {
                     element: target,
                     at: &child.at,
+                    name: child.attr("name").or(target.attr("name")),
                 });
             } else if OBJECT_TAGS.contains(&tag) {
                 object.nested.push(Nested {
                     element: child,
                     at: &child.at,
+                    name: child.attr("name"),
                 });
             } else if let Some((_, why)) = UNSUPPORTED_TAGS.iter().find(|(t, _)| *t == tag) {
                 let plugin = child

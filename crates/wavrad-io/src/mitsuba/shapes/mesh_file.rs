@@ -6,7 +6,7 @@
 //! | `filename`        | all             | `<string>`    | required |
 //! | `shape_index`     | serialized      | `<integer>`   | 0        |
 //! | `face_normals`    | all             | `<boolean>`   | false    |
-//! | `flip_tex_coords` | obj, ply        | (ignored)     |          |
+//! | `flip_tex_coords` | obj, ply        | `<boolean>`   | true (obj), false (ply) |
 //!
 //! ```xml
 //! <shape type="serialized">
@@ -23,13 +23,16 @@
 //! counter-clockwise around after `to_world` (so a mirroring transform turns
 //! the mesh inside out). Triangles of zero area (collinear or repeated
 //! vertices) are skipped, and a warning counts them; a mesh with no other
-//! triangle is an error.
+//! triangle is an error. Texture coordinates are the file's (v turned to
+//! 1 − v when `flip_tex_coords`, as Mitsuba 3 does by default for OBJ), or
+//! without them each triangle's barycentric ones, as Mitsuba's.
 
-use glam::DMat4;
+use glam::{DMat4, DVec2, Vec2};
 use wavrad_core::scene::Patch;
 
 use super::super::document::Location;
 use super::super::params::{Document, Object};
+use super::{flip, Placed};
 use crate::error::Result;
 use crate::mesh;
 
@@ -51,6 +54,8 @@ pub(super) struct MeshFile {
     filename: String,
     /// Whether the file's vertex normals are ignored.
     face_normals: bool,
+    /// Whether v of the file's texture coordinates is turned to 1 − v.
+    flip_tex_coords: bool,
     /// Where `filename` is written.
     at: Location,
 }
@@ -73,9 +78,12 @@ impl MeshFile {
                 Format::Serialized { shape_index }
             }
         };
-        if matches!(format, Format::Obj | Format::Ply) {
-            obj.ignore(&["flip_tex_coords"]);
-        }
+        let flip_tex_coords = match format {
+            Format::Obj | Format::Ply => obj
+                .boolean("flip_tex_coords")?
+                .unwrap_or(format == Format::Obj),
+            Format::Serialized { .. } => false,
+        };
         let face_normals = obj.boolean("face_normals")?.unwrap_or(false);
         let filename = obj.string("filename")?.ok_or_else(|| {
             obj.at()
@@ -85,19 +93,20 @@ impl MeshFile {
             format,
             filename,
             face_normals,
+            flip_tex_coords,
             at: obj.location_of("filename").clone(),
         })
     }
 
-    /// The mesh's triangles in world space, less those of zero area (counted
-    /// in a warning). `describe` names the shape in messages; a relative
+    /// The mesh's triangles in world space with their texture coordinates,
+    /// less those of zero area (counted in a warning). `describe` names the shape in messages; a relative
     /// `filename` is looked up along the document's search path.
     pub fn patches(
         &self,
         world_from_local: &DMat4,
         describe: &str,
         doc: &Document,
-    ) -> Result<Vec<Patch>> {
+    ) -> Result<Vec<Placed>> {
         let path = doc.search.resolve(&self.filename, &self.at.dir);
         let mesh = match self.format {
             Format::Obj => mesh::read_obj(&path),
@@ -114,7 +123,16 @@ impl MeshFile {
         // round, and so is every one when to_world mirrors (it reverses the
         // winding but not the normals).
         let mirrored = world_from_local.determinant() < 0.0;
-        let patches: Vec<Patch> = mesh
+        let texcoord = |uv: DVec2| {
+            let v = if self.flip_tex_coords {
+                1.0 - uv.y
+            } else {
+                uv.y
+            };
+            Vec2::new(uv.x as f32, v as f32)
+        };
+        let barycentric = [Vec2::ZERO, Vec2::X, Vec2::Y];
+        let patches: Vec<Placed> = mesh
             .triangles
             .iter()
             .enumerate()
@@ -123,12 +141,17 @@ impl MeshFile {
                 if p.is_degenerate() {
                     return None;
                 }
+                let uv = (mesh.texcoords.as_ref()).map_or(barycentric, |uv| uv[i].map(texcoord));
                 let turn = normals.as_ref().is_some_and(|normals| {
                     let [a, b, c] = *t;
                     let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
                     against != mirrored
                 });
-                Some(if turn { p.flipped() } else { p })
+                Some(if turn {
+                    flip(&(p, Some(uv)))
+                } else {
+                    (p, Some(uv))
+                })
             })
             .collect();
         if patches.is_empty() {

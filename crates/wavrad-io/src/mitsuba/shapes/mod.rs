@@ -34,10 +34,12 @@ mod parallelogram;
 mod sphere;
 mod tessellation;
 
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec3, Vec2};
+use wavrad_core::scene::brdf::Brdf;
+use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
 use wavrad_core::scene::{Patch, Rgb, Surface};
 
-use super::bsdfs::{parse_bsdf, Material};
+use super::bsdfs::{parse_bsdf, Material, Side};
 use super::emitters::parse_area_emitter;
 use super::params::{Document, Nested, Object};
 use crate::error::Result;
@@ -55,6 +57,16 @@ enum Geometry {
     Cylinder { p0: DVec3, p1: DVec3, radius: f64 },
     Sphere { center: DVec3, radius: f64 },
     Mesh(MeshFile),
+}
+
+/// A patch and Mitsuba's texture coordinates at its parameters (0,0),
+/// (1,0) and (0,1), where wavrad has them for the shape.
+type Placed = (Patch, Option<[Vec2; 3]>);
+
+/// The patch seen from the other side, every point keeping its texture
+/// coordinates.
+fn flip(&(patch, uv): &Placed) -> Placed {
+    (patch.flipped(), uv.map(|uv| flipped_uv(uv, &patch)))
 }
 
 /// Which side of a shape is the front after a mirroring `to_world`.
@@ -93,13 +105,14 @@ impl Geometry {
     }
 
     /// The shape's patches in world space, front side Mitsuba's (before
-    /// `flip_normals`).
+    /// `flip_normals`), with texture coordinates for `rectangle`, `cube`
+    /// and meshes.
     fn patches(
         &self,
         obj: &Object,
         world_from_local: &DMat4,
         doc: &Document,
-    ) -> Result<Vec<Patch>> {
+    ) -> Result<Vec<Placed>> {
         let zero_area = || {
             obj.at()
                 .error(format!("{} has zero area after to_world", obj.describe()))
@@ -112,16 +125,25 @@ impl Geometry {
         };
         let (local, world_from_local, front) = match self {
             Geometry::Rectangle => (
-                vec![parallelogram::rectangle()],
+                vec![(
+                    parallelogram::rectangle(),
+                    Some(parallelogram::RECTANGLE_UV),
+                )],
                 *world_from_local,
                 Front::Normals,
             ),
             Geometry::Cube => (
-                parallelogram::cube().to_vec(),
+                (parallelogram::cube().into_iter())
+                    .zip(parallelogram::CUBE_UV.map(Some))
+                    .collect(),
                 *world_from_local,
                 Front::Normals,
             ),
-            Geometry::Disk => (disk::unit_disk(), *world_from_local, Front::Normals),
+            Geometry::Disk => (
+                untextured(disk::unit_disk()),
+                *world_from_local,
+                Front::Normals,
+            ),
             Geometry::Cylinder { p0, p1, radius } => {
                 let local_from_cylinder = cylinder::local_from_cylinder(*p0, *p1, *radius)
                     .ok_or_else(|| {
@@ -131,7 +153,7 @@ impl Geometry {
                         ))
                     })?;
                 (
-                    cylinder::unit_cylinder(),
+                    untextured(cylinder::unit_cylinder()),
                     *world_from_local * local_from_cylinder,
                     Front::Normals,
                 )
@@ -151,7 +173,7 @@ impl Geometry {
                     )));
                 }
                 (
-                    sphere::unit_sphere(),
+                    untextured(sphere::unit_sphere()),
                     placement.world_from_sphere,
                     Front::Winding,
                 )
@@ -161,19 +183,24 @@ impl Geometry {
         let mirrored = world_from_local.determinant() < 0.0;
         local
             .iter()
-            .map(|p| {
+            .map(|&(p, uv)| {
                 let p = p.transformed(&world_from_local);
                 if !p.vertices().iter().all(|v| v.is_finite()) {
                     return Err(too_large());
                 }
                 match (p.is_degenerate(), front == Front::Normals && mirrored) {
                     (true, _) => Err(zero_area()),
-                    (false, true) => Ok(p.flipped()),
-                    (false, false) => Ok(p),
+                    (false, true) => Ok(flip(&(p, uv))),
+                    (false, false) => Ok((p, uv)),
                 }
             })
             .collect()
     }
+}
+
+/// Patches of a shape whose texture coordinates wavrad does not have.
+fn untextured(patches: Vec<Patch>) -> Vec<Placed> {
+    patches.into_iter().map(|p| (p, None)).collect()
 }
 
 /// Append the surfaces of shape `shape` to `out`, all named by the shape's
@@ -221,11 +248,20 @@ pub(crate) fn build_shape<'a>(
         Some(n) => parse_area_emitter(n, doc)?,
         None => Rgb::ZERO,
     };
+    let Material::Opaque { front, back } = material else {
+        if let Some(n) = emitter {
+            return Err(n.at.error(format!(
+                "{} is left out as transparent (--approximate), so it cannot emit",
+                obj.describe()
+            )));
+        }
+        return Ok(None);
+    };
 
     // Geometry in world space.
     let mut patches = geometry.patches(&obj, &world_from_local, doc)?;
     if flip_normals {
-        patches = patches.iter().map(Patch::flipped).collect();
+        patches = patches.iter().map(flip).collect();
     }
 
     // Surfaces: the front carries the emission; twosided adds the back.
@@ -234,21 +270,44 @@ pub(crate) fn build_shape<'a>(
         .attr("id")
         .or(shape.element.attr("name"))
         .map_or_else(|| format!("{plugin}#{index}"), str::to_string);
-    for patch in patches {
-        out.push(Surface {
-            name: name.clone(),
-            patch,
-            brdf: material.front.clone(),
-            emission,
-        });
-        if let Some(back) = &material.back {
-            out.push(Surface {
-                name: name.clone(),
-                patch: patch.flipped(),
-                brdf: back.clone(),
-                emission: Rgb::ZERO,
-            });
+    for placed in patches {
+        let mut surface = textured(&front, placed, &obj, doc)?;
+        surface.name.clone_from(&name);
+        surface.emission = emission;
+        out.push(surface);
+        if let Some(back) = &back {
+            let mut surface = textured(back, flip(&placed), &obj, doc)?;
+            surface.name.clone_from(&name);
+            out.push(surface);
         }
     }
     Ok(emitter)
+}
+
+/// A surface of `side` on `placed`. A textured side's albedo is its
+/// texture's average over the patch, and the surface keeps the mapping; on
+/// a shape without texture coordinates a texture is an error, or with
+/// `--approximate` its mean.
+fn textured(side: &Side, (patch, uv): Placed, obj: &Object, doc: &Document) -> Result<Surface> {
+    let mut surface = Surface {
+        name: String::new(),
+        patch,
+        brdf: side.brdf.clone(),
+        emission: Rgb::ZERO,
+        texture: None,
+    };
+    let Some(index) = side.texture else {
+        return Ok(surface);
+    };
+    let Some(uv) = uv else {
+        let what = format!("a texture on {}", obj.describe());
+        let substitute = "the texture's mean (wavrad has no texture coordinates for this shape)";
+        doc.approximate(obj.at(), &what, substitute)?;
+        return Ok(surface);
+    };
+    let mapping = TextureMapping { texture: index, uv };
+    let average = doc.with_texture(index, |t| mapping.average(t, &patch, &patch));
+    surface.brdf = Brdf::diffuse(average);
+    surface.texture = Some(mapping);
+    Ok(surface)
 }

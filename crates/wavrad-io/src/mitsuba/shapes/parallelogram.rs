@@ -1,12 +1,25 @@
 //! `rectangle` and `cube`: Mitsuba's, as exact parallelograms.
 //!
 //! `rectangle` is [-1,1]² at z = 0 with normal +z, uv (0,0) at (-1,-1) and
-//! (1,0) at (1,-1); `cube` is [-1,1]³ as six outward-facing parallelograms.
+//! (1,0) at (1,-1); `cube` is [-1,1]³ as six outward-facing parallelograms,
+//! each with Mitsuba 3's texture coordinates.
 //! Both stay [`Patch::Parallelogram`]s under `to_world` (an affine map keeps
 //! parallelograms). Neither has parameters of its own.
 
-use glam::DVec3;
+use glam::{DVec3, Vec2};
 use wavrad_core::scene::Patch;
+
+/// Texture coordinates of [`rectangle`] at its parameters (0,0), (1,0),
+/// (0,1): Mitsuba 3's `(x + 1) / 2, (y + 1) / 2`.
+pub(super) const RECTANGLE_UV: [Vec2; 3] = [Vec2::ZERO, Vec2::X, Vec2::Y];
+
+/// Texture coordinates of each face of [`cube`] at its parameters (0,0),
+/// (1,0), (0,1), probed with rays in Mitsuba 3.9.1 (its cube is a mesh
+/// with texture coordinates per face).
+pub(super) const CUBE_UV: [[Vec2; 3]; 6] = {
+    const A: [Vec2; 3] = [Vec2::Y, Vec2::ONE, Vec2::ZERO];
+    [A, A, A, A, A, [Vec2::X, Vec2::ZERO, Vec2::ONE]]
+};
 
 /// Mitsuba's rectangle: [-1,1]² at z = 0, normal +z.
 pub(super) fn rectangle() -> Patch {

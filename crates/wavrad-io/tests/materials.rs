@@ -1,0 +1,260 @@
+//! Materials people use: textures on reflectance, `plastic`, `conductor`,
+//! and what `--approximate` puts in place of the rest.
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec2;
+use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
+use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
+use wavrad_core::scene::texture::Texture;
+use wavrad_core::scene::{Rgb, Scene};
+use wavrad_io::{load_scene_with_options, LoadOptions, Loaded};
+
+/// `body` in a scene file beside `wall.png` (the textured Cornell box's
+/// texture), loaded as `approximate` says.
+fn load(body: &str, approximate: bool) -> wavrad_io::Result<Loaded> {
+    let dir = tempfile::tempdir().unwrap();
+    let wall = repo().join("scenes/textured-cornell-box/wall.png");
+    std::fs::copy(wall, dir.path().join("wall.png")).unwrap();
+    let path = dir.path().join("scene.xml");
+    std::fs::write(
+        &path,
+        format!("<scene version=\"3.0.0\">\n{body}\n</scene>"),
+    )
+    .unwrap();
+    load_scene_with_options(&path, &[], LoadOptions { approximate })
+}
+
+fn scene(body: &str) -> Scene {
+    let loaded = load(body, false).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(loaded.warnings, [], "unexpected warnings");
+    loaded.scene
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+const CHECKER: &str = r#"<texture type="checkerboard" name="reflectance">
+    <transform name="to_uv"><scale x="4" y="4"/></transform>
+</texture>"#;
+
+#[test]
+fn a_checkerboard_is_read_at_mitsubas_uv_and_averaged_over_the_surface() {
+    let s = scene(&format!(
+        r#"<shape type="rectangle"><bsdf type="diffuse">{CHECKER}</bsdf></shape>"#
+    ));
+    assert_eq!(s.textures.len(), 1);
+    let surface = &s.surfaces[0];
+    let mapping = surface.texture.expect("textured");
+    // Mitsuba's defaults 0.4 and 0.2, four periods each way: mean 0.3.
+    let rho = surface.brdf.lambertian().unwrap();
+    assert!((rho[0] - 0.3).abs() < 1e-12, "{rho}");
+    // The rectangle's corner (-1, -1) is uv (0, 0): a color0 square.
+    let near_corner = DVec2::new(0.05, 0.05);
+    assert_eq!(s.lambertian_at(0, near_corner), Some(Rgb::splat(0.4)));
+    assert_eq!(mapping.uv_at(DVec2::new(1.0, 0.0)), DVec2::X);
+    assert_eq!(
+        s.lambertian_at(0, DVec2::new(0.2, 0.05)),
+        Some(Rgb::splat(0.2))
+    );
+}
+
+#[test]
+fn a_texture_is_stored_once_and_twosided_sides_read_the_same_point() {
+    let s = scene(
+        r#"<bsdf type="twosided" id="wall"><bsdf type="diffuse">
+               <texture type="bitmap" name="reflectance">
+                   <string name="filename" value="wall.png"/>
+               </texture>
+           </bsdf></bsdf>
+           <shape type="rectangle"><ref id="wall"/></shape>
+           <shape type="cube"><ref id="wall"/></shape>"#,
+    );
+    assert_eq!(s.textures.len(), 1, "one image for every surface");
+    assert!(matches!(&s.textures[0], Texture::Bitmap(b) if b.width == 16));
+    assert_eq!(s.surfaces.len(), 14);
+    let (front, back) = (&s.surfaces[0], &s.surfaces[1]);
+    let x = front.patch.point_at(DVec2::new(0.3, 0.8));
+    let at = |k: usize| {
+        let p = &s.surfaces[k].patch;
+        s.lambertian_at(k, p.param_of(x)).unwrap()
+    };
+    assert!(
+        (at(0) - at(1)).map(f64::abs).max_channel() < 1e-9,
+        "{} {}",
+        at(0),
+        at(1)
+    );
+    assert_ne!(front.brdf.lambertian(), Some(Rgb::splat(0.5)));
+    assert!(back.texture.is_some());
+}
+
+#[test]
+fn plastic_and_conductor_are_their_rough_models_smooth_limits() {
+    let s = scene(
+        r#"<shape type="rectangle"><bsdf type="plastic">
+               <rgb name="diffuse_reflectance" value="0.2, 0.4, 0.7"/>
+               <float name="int_ior" value="1.5"/>
+           </bsdf></shape>
+           <shape type="rectangle"><bsdf type="conductor">
+               <string name="material" value="Au"/>
+           </bsdf></shape>"#,
+    );
+    match &s.surfaces[0].brdf {
+        Brdf::RoughPlastic(p) => {
+            assert_eq!(p.params().diffuse_reflectance, Rgb([0.2, 0.4, 0.7]));
+            assert_eq!(p.params().int_ior, 1.5);
+            assert!(p.params().alpha <= MIN_ALPHA);
+        }
+        other => panic!("{other:?}"),
+    }
+    match &s.surfaces[1].brdf {
+        Brdf::RoughConductor(c) => assert_eq!(c.distribution.alpha_u, MIN_ALPHA),
+        other => panic!("{other:?}"),
+    }
+    assert!(s.surfaces[1]
+        .brdf
+        .flags()
+        .contains(BrdfFlags::GLOSSY_REFLECTION));
+}
+
+#[test]
+fn unsupported_plugins_name_their_line_and_suggest_approximate() {
+    for (body, plugin) in [
+        (r#"<bsdf type="dielectric"/>"#, "bsdf \"dielectric\""),
+        (
+            r#"<bsdf type="roughdielectric"/>"#,
+            "bsdf \"roughdielectric\"",
+        ),
+        (r#"<bsdf type="principled"/>"#, "bsdf \"principled\""),
+        (
+            r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
+            "bsdf \"normalmap\"",
+        ),
+        (
+            r#"<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf>"#,
+            "bsdf \"mask\" with opacity below 1",
+        ),
+        (
+            r#"<bsdf type="roughplastic">
+                <texture type="checkerboard" name="diffuse_reflectance"/></bsdf>"#,
+            "a texture on diffuse_reflectance",
+        ),
+        (
+            r#"<bsdf type="blendbsdf"/>"#,
+            "unsupported bsdf plugin \"blendbsdf\"",
+        ),
+    ] {
+        let xml = format!("<shape type=\"rectangle\">\n{body}\n</shape>");
+        let e = load(&xml, false).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:3"), "{e}");
+        assert!(e.contains(plugin) && e.contains("--approximate"), "{e}");
+    }
+    let e = load(
+        &format!(r#"<shape type="sphere"><bsdf type="diffuse">{CHECKER}</bsdf></shape>"#),
+        false,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("a texture on shape \"sphere\""), "{e}");
+}
+
+#[test]
+fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
+    let loaded = load(
+        &format!(
+            r#"<shape type="rectangle"><bsdf type="dielectric"/></shape>
+               <shape type="cube"><bsdf type="thindielectric"/></shape>
+               <shape type="rectangle"><bsdf type="dielectric"/></shape>
+               <shape type="rectangle"><bsdf type="principled">
+                   <rgb name="base_color" value="0.8, 0.1, 0.1"/>
+                   <float name="roughness" value="0.3"/>
+               </bsdf></shape>
+               <shape type="rectangle"><bsdf type="bumpmap">
+                   <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
+                   <bsdf type="diffuse"/>
+               </bsdf></shape>
+               <shape type="sphere"><bsdf type="diffuse">{CHECKER}</bsdf></shape>"#
+        ),
+        true,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let messages: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
+    assert_eq!(messages.len(), 5, "{messages:#?}");
+    for plugin in [
+        "bsdf \"dielectric\": left out",
+        "bsdf \"thindielectric\"",
+        "bsdf \"principled\": rough plastic",
+        "bsdf \"bumpmap\": its nested BSDF",
+        "a texture on shape \"sphere\": the texture's mean",
+    ] {
+        assert!(
+            messages.iter().any(|m| m.contains(plugin)),
+            "{plugin}: {messages:#?}"
+        );
+    }
+    let s = loaded.scene;
+    // Glass is left out; principled is a red rough plastic; the bump map's
+    // nested diffuse stays; the sphere is grey 0.3 throughout.
+    assert!(matches!(&s.surfaces[0].brdf,
+        Brdf::RoughPlastic(p) if p.params().diffuse_reflectance == Rgb([0.8, 0.1, 0.1])
+            && (p.params().alpha - 0.09).abs() < 1e-12));
+    assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
+    let sphere = &s.surfaces[2..];
+    assert!(sphere.iter().all(|t| t.texture.is_none()));
+    let rho = sphere[0].brdf.lambertian().unwrap();
+    assert!((rho[0] - 0.3).abs() < 1e-9, "{rho}");
+}
+
+#[test]
+fn mesh_texture_coordinates_follow_mitsubas_conventions() {
+    // One triangle with uv (0.1, 0.2), (0.3, 0.4), (0.5, 0.6): Mitsuba 3.9.1
+    // reads the OBJ's v as 1 − v (flip_tex_coords defaults to true there)
+    // and the PLY's as stored.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("t.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.3 0.4\nvt 0.5 0.6\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let ply = dir.path().join("t.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nproperty float u\nproperty float v\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n\
+         0 0 0 0.1 0.2\n1 0 0 0.3 0.4\n0 1 0 0.5 0.6\n3 0 1 2\n",
+    )
+    .unwrap();
+    let wall = repo().join("scenes/textured-cornell-box/wall.png");
+    for (file, flip, v0) in [
+        ("t.obj", None, 0.8),
+        ("t.obj", Some(false), 0.2),
+        ("t.ply", None, 0.2),
+        ("t.ply", Some(true), 0.8),
+    ] {
+        let flip = flip.map_or(String::new(), |f| {
+            format!("<boolean name=\"flip_tex_coords\" value=\"{f}\"/>")
+        });
+        let plugin = &file[2..];
+        let xml = format!(
+            r#"<scene version="3.0.0"><shape type="{plugin}">
+                 <string name="filename" value="{}"/>{flip}
+                 <bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+                     <string name="filename" value="{}"/></texture></bsdf>
+               </shape></scene>"#,
+            dir.path().join(file).display(),
+            wall.display()
+        );
+        let s = wavrad_io::load_scene_str(&xml, dir.path(), "mesh.xml", &[])
+            .unwrap_or_else(|e| panic!("{e}"))
+            .scene;
+        let uv = s.surfaces[0].texture.unwrap().uv_at(DVec2::ZERO);
+        assert!(
+            (uv.x - 0.1).abs() < 1e-6 && (uv.y - v0).abs() < 1e-6,
+            "{file}: {uv}"
+        );
+    }
+}
