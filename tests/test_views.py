@@ -108,21 +108,22 @@ def test_a_gather_cache_serves_every_view_alike(solution: wavrad.Solution) -> No
     assert wavrad.relative_rmse(first, per_ray) < 0.05
 
 
-TWO_SENSORS = """<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="60"/>
-        <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+def sensor_xml(origin: str, fov: float, width: int, height: int) -> str:
+    """A perspective sensor at ``origin`` looking at the origin."""
+    return f"""<sensor type="perspective">
+        <float name="fov" value="{fov}"/>
+        <transform name="to_world">
+            <lookat origin="{origin}" target="0,0,0" up="0,1,0"/>
+        </transform>
         <film type="hdrfilm">
-            <integer name="width" value="8"/><integer name="height" value="6"/>
+            <integer name="width" value="{width}"/><integer name="height" value="{height}"/>
         </film>
-    </sensor>
-    <sensor type="perspective">
-        <float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="0,2,3" target="0,0,0" up="0,1,0"/></transform>
-        <film type="hdrfilm">
-            <integer name="width" value="5"/><integer name="height" value="4"/>
-        </film>
-    </sensor>
+    </sensor>"""
+
+
+TWO_SENSORS = f"""<scene version="3.0.0">
+    {sensor_xml("0,0,3", 60, 8, 6)}
+    {sensor_xml("0,2,3", 40, 5, 4)}
     <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
     <shape type="rectangle">
         <transform name="to_world"><rotate x="1" angle="-90"/><translate y="-1" z="1"/></transform>

@@ -543,7 +543,7 @@ fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution,
     for warning in &read.warnings {
         eprintln!("wavrad: warning: {warning}");
     }
-    if let Some(stop) = read.solution.stats.stopped {
+    if let (Some(stop), Some(_)) = (read.solution.stats.stopped, &read.solution.checkpoint) {
         eprintln!(
             "wavrad: warning: {}: {stop} cut this solve short ({} surface pairs, triples or \
              links left unrefined); `wavrad solve SCENE --resume {0}` finishes it",

@@ -17,7 +17,7 @@ use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{concatenated, project_each, ItemLinks, Part, Projection};
+use crate::refine::{project_each, ItemLinks, Part, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
@@ -270,26 +270,12 @@ pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32, u3
 }
 
 /// The three-point links of the triples `(r, p, q)` (compute_kernel of §4.2
-/// for glossy surfaces), refined in parallel over triples; the result does
-/// not depend on the number of threads. `receiver(q)` gives the geometry of
-/// receiver `q`, which may be a hypothetical surface outside the scene. With
-/// an `estimate` the weighted oracles decide, else the paper's.
+/// for glossy surfaces), triple by triple, with whether each was refined in
+/// full; refined in parallel over triples, and the result does not depend
+/// on the number of threads. `receiver(q)` gives the geometry of receiver
+/// `q`, which may be a hypothetical surface outside the scene. With an
+/// `estimate` the weighted oracles decide, else the paper's.
 pub fn refine_three_point_links(
-    ctx: &KernelContext,
-    settings: ThreePointSettings,
-    estimate: Option<&LightEstimate>,
-    triples: &[(u32, u32, u32)],
-    receiver: impl Fn(u32) -> Patch + Sync,
-    progress: &dyn Progress,
-) -> Vec<ThreePointLink> {
-    concatenated(refine_three_point_links_by_item(
-        ctx, settings, estimate, triples, receiver, progress,
-    ))
-}
-
-/// [`refine_three_point_links`] triple by triple: the links of each, and
-/// whether it was refined in full.
-pub fn refine_three_point_links_by_item(
     ctx: &KernelContext,
     settings: ThreePointSettings,
     estimate: Option<&LightEstimate>,

@@ -11,6 +11,7 @@
 use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
 use crate::kernel::exposure::PairExposure;
 use crate::progress::Progress;
+use crate::refine::concatenated;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::three_point_projection::{refine_three_point_links, ThreePointLink};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -155,14 +156,14 @@ pub(crate) fn receiver_links(
             None,
         )
     });
-    refine_three_point_links(
+    concatenated(refine_three_point_links(
         &solution.kernel_context(),
         solution.settings.receiver_refine(),
         estimate.as_ref(),
         triples,
         receiver,
         progress,
-    )
+    ))
 }
 
 /// L_{c→a}: the average radiance of `solution` leaving element `c` of

@@ -322,7 +322,7 @@ impl Scene {
     /// scene file's order.
     ///
     /// # Errors
-    /// [`Error::NoSensor`] without any, [`Error::NoSuchSensor`] past the
+    /// [`crate::Error::NoSensor`] without any, [`crate::Error::NoSuchSensor`] past the
     /// last.
     pub fn sensor(&self, index: usize) -> crate::Result<Sensor> {
         let camera = self.camera.ok_or(crate::Error::NoSensor)?;

@@ -27,7 +27,7 @@ use crate::refine::light_links::{link_lights, LightLink};
 use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links_by_item, surface_triples, ThreePointLink, ThreePointSettings,
+    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
 };
 use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
@@ -348,7 +348,7 @@ impl Projector {
             element_pairs,
             progress,
         );
-        let three_point = refine_three_point_links_by_item(
+        let three_point = refine_three_point_links(
             &ctx,
             self.settings.three_point_refine(),
             self.estimate.as_ref(),
