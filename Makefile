@@ -93,6 +93,8 @@ profile:
 # Inputs are written to files, in memory where /dev/shm is.
 FUZZ_TARGETS ?= scene_xml obj ply serialized solution
 FUZZ_RUNS    ?= 1000000
+# More libFuzzer options, e.g. -max_total_time=600.
+FUZZ_OPTIONS ?=
 FUZZ_TMPDIR  := $(if $(wildcard /dev/shm),/dev/shm,$(or $(TMPDIR),/tmp))
 
 fuzz:
@@ -100,5 +102,5 @@ fuzz:
 		mkdir -p corpus-run/$$t && \
 		TMPDIR=$(FUZZ_TMPDIR) $(CARGO) +nightly fuzz run --sanitizer none --debug-assertions $$t \
 			corpus-run/$$t corpus/$$t -- -runs=$(FUZZ_RUNS) -rss_limit_mb=2048 -timeout=10 \
-			-print_final_stats=1 $$(test -f dict/$$t.dict && echo -dict=dict/$$t.dict) || exit 1; \
+			-print_final_stats=1 $$(test -f dict/$$t.dict && echo -dict=dict/$$t.dict) $(FUZZ_OPTIONS) || exit 1; \
 	done

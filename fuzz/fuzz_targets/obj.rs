@@ -1,11 +1,4 @@
 //! `cargo +nightly fuzz run obj`: see [`wavrad_fuzz::Workspace::obj`].
 #![no_main]
 
-use std::sync::OnceLock;
-
-use wavrad_fuzz::Workspace;
-
-libfuzzer_sys::fuzz_target!(|input: &[u8]| {
-    static WORKSPACE: OnceLock<(tempfile::TempDir, Workspace)> = OnceLock::new();
-    WORKSPACE.get_or_init(Workspace::temporary).1.obj(input);
-});
+wavrad_fuzz::workspace_target!(obj);

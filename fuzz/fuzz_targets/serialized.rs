@@ -1,14 +1,4 @@
 //! `cargo +nightly fuzz run serialized`: see [`wavrad_fuzz::Workspace::serialized`].
 #![no_main]
 
-use std::sync::OnceLock;
-
-use wavrad_fuzz::Workspace;
-
-libfuzzer_sys::fuzz_target!(|input: &[u8]| {
-    static WORKSPACE: OnceLock<(tempfile::TempDir, Workspace)> = OnceLock::new();
-    WORKSPACE
-        .get_or_init(Workspace::temporary)
-        .1
-        .serialized(input);
-});
+wavrad_fuzz::workspace_target!(serialized);

@@ -1,14 +1,4 @@
 //! `cargo +nightly fuzz run solution`: see [`wavrad_fuzz::Workspace::solution`].
 #![no_main]
 
-use std::sync::OnceLock;
-
-use wavrad_fuzz::Workspace;
-
-libfuzzer_sys::fuzz_target!(|input: &[u8]| {
-    static WORKSPACE: OnceLock<(tempfile::TempDir, Workspace)> = OnceLock::new();
-    WORKSPACE
-        .get_or_init(Workspace::temporary)
-        .1
-        .solution(input);
-});
+wavrad_fuzz::workspace_target!(solution);

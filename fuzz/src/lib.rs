@@ -37,6 +37,22 @@ const FIXED_FILES: [(&str, &[u8]); 3] = [
 /// then `-D` overrides.
 pub const PART_SEPARATOR: u8 = 0;
 
+/// A fuzz target (`fuzz_targets/`) that runs the [`Workspace`] method
+/// `$entry` on each input, in one temporary workspace per process.
+#[macro_export]
+macro_rules! workspace_target {
+    ($entry:ident) => {
+        libfuzzer_sys::fuzz_target!(|input: &[u8]| {
+            static WORKSPACE: std::sync::OnceLock<(tempfile::TempDir, $crate::Workspace)> =
+                std::sync::OnceLock::new();
+            WORKSPACE
+                .get_or_init($crate::Workspace::temporary)
+                .1
+                .$entry(input);
+        });
+    };
+}
+
 /// What a fuzz target runs on an input.
 pub type Target = fn(&Workspace, &[u8]);
 
