@@ -3,12 +3,13 @@
 #   make test      lint, then build everything (Rust + Python package) and run every test
 #   make lint      rustfmt, clippy -D warnings, rustdoc, ruff
 #   make bench     wavrad against Mitsuba 3 end to end -> docs/benchmarks.md
+#   make fuzz      every fuzz target, a million inputs each (nightly; docs/fuzzing.md)
 
 VENV   := .venv
 PYTHON := $(VENV)/bin/python
 CARGO  ?= cargo
 
-.PHONY: example build venv python test test-rust test-python lint llvm bench bench-bvh clean bench-micro profile
+.PHONY: example build venv python test test-rust test-python lint llvm bench bench-bvh clean bench-micro profile fuzz
 
 example: build
 	mkdir -p out
@@ -83,3 +84,23 @@ profile:
 	$(PERF_REPORT) -i out/perf-glossy-cornell-box.data > out/profile-glossy-cornell-box.txt
 	grep -m 15 '%' out/profile-cornell-box.txt
 	grep -m 15 '%' out/profile-glossy-cornell-box.txt
+
+# Fuzzing (docs/fuzzing.md): each target of fuzz/ in turn, FUZZ_RUNS inputs
+# each, one process at a time; what a run adds to the seed corpus goes to
+# fuzz/corpus-run/, crashes to fuzz/artifacts/. Needs a nightly toolchain
+# and `cargo install cargo-fuzz`; not part of `make test` (CI has stable
+# only, and runs the committed corpora: crates/wavrad-io/tests/fuzz_corpus.rs).
+# Inputs are written to files, in memory where /dev/shm is.
+FUZZ_TARGETS ?= scene_xml obj ply serialized solution
+FUZZ_RUNS    ?= 1000000
+# More libFuzzer options, e.g. -max_total_time=600.
+FUZZ_OPTIONS ?=
+FUZZ_TMPDIR  := $(if $(wildcard /dev/shm),/dev/shm,$(or $(TMPDIR),/tmp))
+
+fuzz:
+	cd fuzz && for t in $(FUZZ_TARGETS); do \
+		mkdir -p corpus-run/$$t && \
+		TMPDIR=$(FUZZ_TMPDIR) $(CARGO) +nightly fuzz run --sanitizer none --debug-assertions $$t \
+			corpus-run/$$t corpus/$$t -- -runs=$(FUZZ_RUNS) -rss_limit_mb=2048 -timeout=10 \
+			-print_final_stats=1 $$(test -f dict/$$t.dict && echo -dict=dict/$$t.dict) $(FUZZ_OPTIONS) || exit 1; \
+	done

@@ -683,7 +683,16 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 9] = [
+        let cases: [(&str, Edit); 11] = [
+            (
+                "the scene: a sampler of 4294967295 samples per pixel",
+                Box::new(|b| b.scene.to_mut().hints.samples_per_pixel = Some(u32::MAX)),
+            ),
+            (
+                // Found by fuzzing: the renderer drew emitters by it.
+                "surface 0: its emission Rgb([5.0, -100.0, 0.0])",
+                Box::new(|b| b.scene.to_mut().surfaces[0].emission = Rgb([5.0, -100.0, 0.0])),
+            ),
             (
                 "surface 1: its element tree: node 0's children start at node 4000",
                 Box::new(|b| b.trees.to_mut()[1].nodes[0].first_child = Some(4000)),

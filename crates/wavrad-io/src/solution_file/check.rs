@@ -10,6 +10,7 @@ use std::collections::BTreeMap;
 use std::fmt::Display;
 use std::ops::Range;
 
+use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
 use wavrad_core::scene::Rgb;
 use wavrad_core::solve::gather::{Interactions, Source};
 use wavrad_core::solve::Solution;
@@ -25,17 +26,26 @@ pub(super) fn inconsistent(part: impl Display, problem: impl Display) -> Solutio
 }
 
 /// Check that every part of `solution` fits the others, as the renderer
-/// assumes: one element tree (a well-formed one, over its surface) and one
-/// list per node of radiance, exposure and reflection limit per surface;
+/// assumes: per surface, an emission that is a radiance (finite, not
+/// negative: the renderer draws emitters by it), one element tree (a
+/// well-formed one, over its surface) and one list per node of radiance,
+/// exposure and reflection limit;
 /// every transfer's receiver and source within the trees, the directional
 /// structures and the cover lists; the directional structures' trees
 /// well-formed, indexed by their surface pairs, with one radiance and
 /// exposure per node; the cluster links as their ends arrange them; every
-/// value finite; and the settings valid. (The scene's bounds are checked
-/// before its ray queries are built.)
+/// value finite; the settings valid, and the scene's sampler within the
+/// loader's bound. (The scene's bounds are checked before its ray queries
+/// are built.)
 pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem> {
     let scene = &solution.scene;
     (solution.settings.validate()).map_err(|e| inconsistent("the settings", e))?;
+    if let Some(n) = (scene.hints.samples_per_pixel).filter(|&n| n > MAX_SAMPLES_PER_PIXEL) {
+        return Err(inconsistent(
+            "the scene",
+            format!("a sampler of {n} samples per pixel (at most {MAX_SAMPLES_PER_PIXEL})"),
+        ));
+    }
     let interactions = &solution.interactions;
     let surfaces = scene.surfaces.len();
     let per_surface = [
@@ -53,6 +63,17 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     }
     for (s, (tree, surface)) in solution.trees.iter().zip(&scene.surfaces).enumerate() {
         let part = || format!("surface {s}");
+        if !surface
+            .emission
+            .0
+            .iter()
+            .all(|c| *c >= 0.0 && c.is_finite())
+        {
+            return Err(inconsistent(
+                part(),
+                format!("its emission {:?}", surface.emission),
+            ));
+        }
         tree.check(&surface.patch)
             .map_err(|e| inconsistent(part(), format!("its element tree: {e}")))?;
         let nodes = tree.nodes.len();

@@ -350,7 +350,16 @@ fn visible_normal_quadrature(
     eta: f64,
     integrand: impl Fn(DVec3) -> f64,
 ) -> f64 {
-    let res = if eta > 1.0 { 32 } else { 128 };
+    // A fuzzed solution file (docs/fuzzing.md) makes a rough plastic, and
+    // so this table, of nearly every input; the full rule held the fuzzer
+    // to a few inputs a second.
+    let res = if cfg!(fuzzing) {
+        4
+    } else if eta > 1.0 {
+        32
+    } else {
+        128
+    };
     let (nodes, weights) = gauss_legendre(res);
     let mut sum = 0.0;
     for (y, wy) in nodes.iter().zip(&weights) {

@@ -94,11 +94,17 @@ pub struct RoughPlastic {
 }
 
 /// The model of parameters read from a file (a solution file may hold
-/// any): an error where [`RoughPlastic::new`] does not apply.
+/// any): an error where [`RoughPlastic::new`] does not apply. The surfaces
+/// of a mesh share one BSDF, each written with its parameters: the model
+/// last read is reused while they repeat, so its table is integrated once,
+/// as when the scene was loaded.
 impl TryFrom<RoughPlasticParams> for RoughPlastic {
     type Error = String;
 
     fn try_from(params: RoughPlasticParams) -> Result<RoughPlastic, String> {
+        thread_local! {
+            static LAST: std::cell::RefCell<Option<RoughPlastic>> = const { std::cell::RefCell::new(None) };
+        }
         let (int, ext) = (params.int_ior, params.ext_ior);
         if !(int > 0.0 && ext > 0.0 && int.is_finite() && ext.is_finite()) || int == ext {
             return Err(format!(
@@ -106,7 +112,10 @@ impl TryFrom<RoughPlasticParams> for RoughPlastic {
                  positive, finite and differ"
             ));
         }
-        Ok(RoughPlastic::new(params))
+        Ok(LAST.with_borrow_mut(|last| match last {
+            Some(brdf) if brdf.params == params => brdf.clone(),
+            _ => last.insert(RoughPlastic::new(params)).clone(),
+        }))
     }
 }
 

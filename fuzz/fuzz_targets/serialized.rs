@@ -1,0 +1,4 @@
+//! `cargo +nightly fuzz run serialized`: see [`wavrad_fuzz::Workspace::serialized`].
+#![no_main]
+
+wavrad_fuzz::workspace_target!(serialized);
