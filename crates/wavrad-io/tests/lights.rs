@@ -84,3 +84,23 @@ fn lights_load_with_mitsubas_defaults_and_conventions() {
         }
     );
 }
+
+/// `scenes/lights/envmap.xml`'s map, turned 100° about +y: its sun (3000 ×
+/// (1, 0.9, 0.75) within 2.5° of (−0.3, 0.85, 0.4) in the map's frame)
+/// lies along the turned direction, its zenith is the sky's brightest blue.
+#[test]
+fn envmap_loads_turned_by_its_to_world() {
+    let scene =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/lights/envmap.xml");
+    let lights = wavrad_io::load_scene(&scene).unwrap().scene.lights;
+    let [Light::Envmap(map)] = &lights[..] else {
+        panic!("{lights:?}")
+    };
+    let sun = glam::DVec3::new(-0.3, 0.85, 0.4).normalize();
+    let turned = glam::DMat3::from_rotation_y(100f64.to_radians()) * sun;
+    let l = map.radiance(turned);
+    assert!(l[0] > 1000.0 && l[0] > l[2], "{l}");
+    assert!(map.radiance(sun)[0] < 10.0);
+    let zenith = map.radiance(glam::DVec3::Y);
+    assert!((zenith[2] - 1.2).abs() < 1e-3, "{zenith}");
+}
