@@ -41,8 +41,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
   lights-spot         scenes/lights/spot.xml -> reference-spot.exr
   lights-directional  scenes/lights/directional.xml -> reference-directional.exr
   lights-sky          scenes/lights/sky.xml -> reference-sky.exr
+  lights-envmap       scenes/lights/envmap.xml -> reference-envmap.exr
                       path, 64x64, 16384 spp (the Cornell box with its area
-                      light replaced: point, spot, directional, constant sky)
+                      light replaced: point, spot, directional, constant sky, envmap)
 
   The ward BSDF (Mitsuba 0.6; Mitsuba 3 has none) comes from
   scenes/ward_bsdf.py, registered before any scene is loaded.
@@ -92,7 +93,7 @@ SCENES = {
                          64, 1048576, 1024, "ptracer"),
 }
 # The Cornell box lit by lights other than area lights (scenes/lights/).
-for _light in ("point", "spot", "directional", "sky"):
+for _light in ("point", "spot", "directional", "sky", "envmap"):
     SCENES[f"lights-{_light}"] = (os.path.join(HERE, "lights", f"{_light}.xml"),
                                   os.path.join(HERE, "lights", f"reference-{_light}.exr"),
                                   64, 16384, 1024, "path")

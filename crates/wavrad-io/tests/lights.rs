@@ -1,8 +1,9 @@
 //! Mitsuba 3's point, spot, directional and constant emitters load as the
 //! core's lights, with Mitsuba's defaults and conventions.
 
+use glam::DVec3;
 use std::path::Path;
-use wavrad_core::scene::Light;
+use wavrad_core::scene::{Light, Rgb};
 use wavrad_io::load_scene_str;
 
 fn lights_of(xml: &str) -> Vec<Light> {
@@ -28,28 +29,12 @@ fn lights_load_with_mitsubas_defaults_and_conventions() {
            <emitter type="constant"><float name="radiance" value="0.5"/></emitter>"#,
     );
     assert_eq!(lights.len(), 5);
-    let Light::Point {
-        position,
+    let point = |position: [f64; 3], intensity: Rgb| Light::Point {
+        position: DVec3::from_array(position),
         intensity,
-    } = lights[0]
-    else {
-        panic!("{lights:?}")
     };
-    assert_eq!(
-        (position.to_array(), intensity.0),
-        ([1.0, 2.0, 3.0], [1.0; 3])
-    );
-    let Light::Point {
-        position,
-        intensity,
-    } = lights[1]
-    else {
-        panic!("{lights:?}")
-    };
-    assert_eq!(
-        (position.to_array(), intensity.0),
-        ([-1.0, 0.0, 0.0], [2.0, 3.0, 4.0])
-    );
+    assert_eq!(lights[0], point([1.0, 2.0, 3.0], Rgb::splat(1.0)));
+    assert_eq!(lights[1], point([-1.0, 0.0, 0.0], Rgb([2.0, 3.0, 4.0])));
     // A spot shines along its local +z, 20° wide, full within three quarters.
     let Light::Spot {
         position,
@@ -61,26 +46,42 @@ fn lights_load_with_mitsubas_defaults_and_conventions() {
     else {
         panic!("{lights:?}")
     };
-    assert!((position - glam::DVec3::Y).length() < 1e-12);
-    assert!((axis + glam::DVec3::Y).length() < 1e-12, "{axis}");
+    assert!((position - DVec3::Y).length() < 1e-12);
+    assert!((axis + DVec3::Y).length() < 1e-12, "{axis}");
     assert!((cutoff - 20f64.to_radians()).abs() < 1e-12);
     assert!((beam_width - 15f64.to_radians()).abs() < 1e-12);
     // A directional light travels along its (normalised) direction.
-    let Light::Directional {
-        direction,
-        irradiance,
-    } = lights[3]
-    else {
-        panic!("{lights:?}")
-    };
     assert_eq!(
-        (direction.to_array(), irradiance.0),
-        ([0.0, -1.0, 0.0], [1.0; 3])
+        lights[3],
+        Light::Directional {
+            direction: -DVec3::Y,
+            irradiance: Rgb::splat(1.0)
+        }
     );
     assert_eq!(
         lights[4],
         Light::Constant {
-            radiance: wavrad_core::scene::Rgb::splat(0.5)
+            radiance: Rgb::splat(0.5)
         }
     );
+}
+
+/// `scenes/lights/envmap.xml`'s map, turned 100° about +y: its sun (3000 ×
+/// (1, 0.9, 0.75) within 2.5° of (−0.3, 0.85, 0.4) in the map's frame)
+/// lies along the turned direction, its zenith is the sky's brightest blue.
+#[test]
+fn envmap_loads_turned_by_its_to_world() {
+    let scene =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes/lights/envmap.xml");
+    let lights = wavrad_io::load_scene(&scene).unwrap().scene.lights;
+    let [Light::Envmap(map)] = &lights[..] else {
+        panic!("{lights:?}")
+    };
+    let sun = DVec3::new(-0.3, 0.85, 0.4).normalize();
+    let turned = glam::DMat3::from_rotation_y(100f64.to_radians()) * sun;
+    let l = map.radiance(turned);
+    assert!(l[0] > 1000.0 && l[0] > l[2], "{l}");
+    assert!(map.radiance(sun)[0] < 10.0);
+    let zenith = map.radiance(DVec3::Y);
+    assert!((zenith[2] - 1.2).abs() < 1e-3, "{zenith}");
 }

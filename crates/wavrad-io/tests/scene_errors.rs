@@ -320,7 +320,7 @@ fn unsupported_rfilter_and_huge_footprints() {
 
 #[test]
 fn unsupported_emitters() {
-    for plugin in ["envmap", "projector"] {
+    for plugin in ["projector", "area_light"] {
         assert_error(
             &format!("<scene version=\"3.0.0\">\n\n<emitter type=\"{plugin}\"/></scene>"),
             3,
@@ -347,6 +347,21 @@ fn unsupported_emitters() {
         "<scene version=\"3.0.0\">\n<emitter type=\"directional\">\n<rgb name=\"irradiance\" value=\"1, -1, 1\"/></emitter></scene>",
         3,
         &["irradiance", "negative"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"envmap\"/></scene>",
+        2,
+        &["envmap", "needs a filename"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"envmap\">\n<string name=\"filename\" value=\"sky.hdr\"/></emitter></scene>",
+        3,
+        &["sky.hdr", "only OpenEXR"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<emitter type=\"envmap\">\n<string name=\"filename\" value=\"missing.exr\"/></emitter></scene>",
+        3,
+        &["cannot read the envmap image", "missing.exr"],
     );
     // An area emitter lights one shape, as in Mitsuba.
     assert_error(

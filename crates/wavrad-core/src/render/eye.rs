@@ -8,11 +8,13 @@
 //! behind it along the view axis, so that every point sees it along the view
 //! direction) and is never subdivided.
 
-use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree};
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree, Hierarchy};
 use crate::kernel::exposure::PairExposure;
+use crate::kernel::lights::{grid, reflected_towards};
 use crate::progress::Progress;
 use crate::refine::concatenated;
 use crate::refine::estimate::LightEstimate;
+use crate::refine::light_links::SKY_GRID;
 use crate::refine::three_point_projection::{refine_three_point_links, ThreePointLink};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Patch, Projection, Rgb, Scene};
@@ -76,7 +78,9 @@ pub(crate) fn glossy_sources(solution: &Solution) -> BTreeSet<(u32, u32)> {
 
 impl EyeRadiance {
     /// Gather `solution` once into the eye at `camera` (three-point links
-    /// r → p → eye for every glossy p that faces it).
+    /// r → p → eye for every glossy p that faces it, and the light of the
+    /// scene's lights that are not surfaces reflected towards it,
+    /// [`reflected_towards`]).
     pub fn gather(solution: &Solution, camera: &Camera, progress: &dyn Progress) -> EyeRadiance {
         let scene = &solution.scene;
         let eye = eye_patch(scene, camera);
@@ -125,6 +129,30 @@ impl EyeRadiance {
             let e = exposed(l.p, l.a);
             let scale = if e > 0.0 { 1.0 / e } else { 1.0 };
             gathered[l.p as usize][node as usize] += l.coefficient * scale * source;
+        }
+        // The lights that are not surfaces, into every leaf.
+        if !scene.lights.is_empty() {
+            let sky = grid(SKY_GRID / 2);
+            let points = solution.settings.quadrature.points;
+            for (p, entry) in surfaces.iter().enumerate() {
+                let Some((tree, _)) = entry else { continue };
+                let brdf = scene.surfaces[p].brdf.without_lambertian();
+                for (node, n) in tree.nodes.iter().enumerate() {
+                    if tree.first_child(node).is_some() {
+                        continue;
+                    }
+                    let at = (p as u32, &brdf);
+                    let l = reflected_towards(
+                        scene,
+                        &solution.tracer,
+                        at,
+                        (&n.patch, &eye),
+                        (points, &sky),
+                    );
+                    let e = exposed(p as u32, n.id);
+                    gathered[p][node] += l * if e > 0.0 { 1.0 / e } else { 1.0 };
+                }
+            }
         }
         for (p, entry) in surfaces.iter_mut().enumerate() {
             if let Some((tree, radiance)) = entry {

@@ -36,10 +36,15 @@ pub struct GatherPoint {
     pub samples: Samples,
 }
 
+/// Rays towards the sky per shadow ray of a final gather: the sky fills the
+/// hemisphere that an emitter's shadow rays only cross.
+pub const SKY_RAYS_PER_SHADOW_RAY: u32 = 4;
+
 /// Direct radiance reflected at `point` towards any direction from the
 /// `emitters` and the scene's lights that are not surfaces: a shadow ray
-/// to each point, spot and directional light (exact: ρ·E/π), `grid` ×
-/// `grid` cosine-distributed rays towards the sky; for the emitters,
+/// to each point, spot and directional light (exact: ρ·E/π),
+/// [`SKY_RAYS_PER_SHADOW_RAY`] × `grid` × `grid` rays towards the sky
+/// (drawn as [`crate::scene::Light::incident`] draws them); for the emitters,
 /// `grid` × `grid` shadow rays in all, each to a point of an
 /// emitter drawn from their distribution (the point's own surface left
 /// out), so that the cost does not grow with their number. An emitter e
@@ -97,8 +102,9 @@ pub fn direct_radiance(
         }
     }
     if !scene.lights.is_empty() {
-        let sky: Vec<DVec2> = (0..n)
-            .map(|k| samples.point(Stream::Shadow, n, k))
+        let rays = n * SKY_RAYS_PER_SHADOW_RAY;
+        let sky: Vec<DVec2> = (0..rays)
+            .map(|k| samples.point(Stream::Shadow, rays, k))
             .collect();
         let e = lights::irradiance(scene, tracer, (surface, x), &sky);
         out += rho * e * std::f64::consts::FRAC_1_PI;

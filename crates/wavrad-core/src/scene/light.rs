@@ -1,23 +1,26 @@
 //! Lights that are not surfaces: Mitsuba 3's `point`, `spot` and
 //! `directional` emitters (delta lights: a point or a direction, never seen
-//! by a ray) and its `constant` emitter (the sky: a source of even radiance
+//! by a ray) and its `constant` and `envmap` emitters (the sky: a source
 //! enclosing the scene, seen by every ray that leaves it).
 //!
 //! What a light brings to a point is an [`Incident`]: a direction, a
 //! distance and the irradiance it gives the point's plane. For a delta light
 //! that is exact (E = I(ω)·cosθ/r², or E⊥·cosθ for a directional light); for
-//! the sky it is one sample of E = ∫ L cosθ dω drawn in proportion to cosθ
-//! (L·π, whatever the direction), so that averaging the samples of a
-//! stratified grid of directions estimates its irradiance. Whether the light
+//! the sky it is one sample of E = ∫ L cosθ dω: an even sky's drawn in
+//! proportion to cosθ (L·π, whatever the direction), an environment map's
+//! drawn by cosθ or by the map's light, half and half, and weighted by the
+//! balance heuristic (one-sample MIS, Veach 1997 §9.2.4), so that averaging
+//! the samples of a stratified grid estimates its irradiance. Whether the light
 //! is occluded is for the caller, who knows the scene's ray queries
 //! ([`crate::kernel::lights`]).
 
+use crate::scene::envmap::EnvMap;
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 
 /// A light that is not a surface.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Light {
     /// Mitsuba's `point`: radiant intensity `intensity` (W sr⁻¹) in every
     /// direction from `position`.
@@ -56,6 +59,9 @@ pub enum Light {
         /// Radiance per channel.
         radiance: Rgb,
     },
+    /// Mitsuba's `envmap`: radiance arriving from every direction that
+    /// leaves the scene, read from an image.
+    Envmap(EnvMap),
 }
 
 /// Light arriving at a point from a [`Light`] along one direction,
@@ -75,7 +81,7 @@ impl Light {
     /// True for a point, spot or directional light: light from one point or
     /// direction, which no ray can meet.
     pub fn is_delta(&self) -> bool {
-        !matches!(self, Light::Constant { .. })
+        !matches!(self, Light::Constant { .. } | Light::Envmap(_))
     }
 
     /// True when it sends no light (all of its values zero).
@@ -84,6 +90,7 @@ impl Light {
             Light::Point { intensity, .. } | Light::Spot { intensity, .. } => intensity,
             Light::Directional { irradiance, .. } => irradiance,
             Light::Constant { radiance } => radiance,
+            Light::Envmap(_) => return false, // a map without light is refused
         };
         value.max_channel() <= 0.0
     }
@@ -104,6 +111,11 @@ impl Light {
                 distance: r2.sqrt(),
                 irradiance: intensity * (cos / r2),
             })
+        };
+        let cosine = |u: DVec2| {
+            let local = crate::scene::brdf::cosine_hemisphere(u);
+            let (t, b) = normal.any_orthonormal_pair();
+            (local.x * t + local.y * b + local.z * normal).normalize()
         };
         match *self {
             Light::Point {
@@ -135,13 +147,25 @@ impl Light {
                 })
             }
             Light::Constant { radiance } => {
-                let local = crate::scene::brdf::cosine_hemisphere(u);
-                let (t, b) = normal.any_orthonormal_pair();
-                let direction = (local.x * t + local.y * b + local.z * normal).normalize();
-                (local.z > 0.0).then(|| Incident {
+                let direction = cosine(u);
+                (normal.dot(direction) > 0.0).then(|| Incident {
                     direction,
                     distance: f64::INFINITY,
                     irradiance: radiance * PI,
+                })
+            }
+            Light::Envmap(ref map) => {
+                // The first half of u.x draws by cosθ, the second by the map.
+                let direction = match u.x < 0.5 {
+                    true => cosine(DVec2::new(2.0 * u.x, u.y)),
+                    false => map.sample(DVec2::new(2.0 * u.x - 1.0, u.y)).0,
+                };
+                let cos = normal.dot(direction);
+                let density = 0.5 * cos * std::f64::consts::FRAC_1_PI + 0.5 * map.pdf(direction);
+                (cos > 0.0 && density > 0.0).then(|| Incident {
+                    direction,
+                    distance: f64::INFINITY,
+                    irradiance: map.radiance(direction) * (cos / density),
                 })
             }
         }
@@ -149,9 +173,10 @@ impl Light {
 
     /// Radiance a ray leaving the scene along `direction` meets: the sky's,
     /// zero for a delta light.
-    pub fn radiance_towards(&self, _direction: DVec3) -> Rgb {
-        match *self {
-            Light::Constant { radiance } => radiance,
+    pub fn radiance_towards(&self, direction: DVec3) -> Rgb {
+        match self {
+            Light::Constant { radiance } => *radiance,
+            Light::Envmap(map) => map.radiance(direction),
             _ => Rgb::ZERO,
         }
     }
@@ -167,6 +192,7 @@ impl Light {
             }
             Light::Directional { irradiance, .. } => irradiance.max_channel() / PI,
             Light::Constant { radiance } => radiance.max_channel(),
+            Light::Envmap(ref map) => map.mean_radiance(),
         }
     }
 }

@@ -9,6 +9,7 @@
 pub mod bounds;
 pub mod brdf;
 mod color;
+pub mod envmap;
 mod filter;
 pub mod light;
 pub mod texture;

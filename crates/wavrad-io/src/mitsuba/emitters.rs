@@ -1,7 +1,7 @@
 //! Emitter plugins: `area`, nested in a shape or declared at the top level
 //! with an `id` and referenced from one shape (`<ref id="..."/>`), as
 //! Mitsuba 3 attaches it; and at the top level `point`, `spot`,
-//! `directional` and `constant` ([`wavrad_core::scene::Light`]).
+//! `directional`, `constant` and `envmap` ([`wavrad_core::scene::Light`]).
 //!
 //! | plugin        | parameter         | type                        | default              |
 //! |---------------|-------------------|-----------------------------|----------------------|
@@ -17,12 +17,15 @@
 //! |               | `direction`       | `<vector>`                  | from `to_world`      |
 //! |               | `to_world`        | transform (travels along +z)| identity             |
 //! | `constant`    | `radiance`        | spectrum (W m⁻² sr⁻¹)       | 1                    |
+//! | `envmap`      | `filename`        | string, an OpenEXR image    | (required)           |
+//! |               | `scale`           | float                       | 1                    |
+//! |               | `to_world`        | transform (a rotation)      | identity             |
 //! | all           | `sampling_weight` | float (ignored)             | 1                    |
 //!
 //! A spectrum is an `<rgb>`, a `<float>` or a `<spectrum value>`; a
 //! spectral value becomes the colour Mitsuba's RGB variants give it
-//! (`mitsuba/spectrum.rs`). A spot's `texture` and the `envmap` plugin are
-//! errors that name them.
+//! (`mitsuba/spectrum.rs`). A spot's `texture` is an error naming it, and
+//! so is an `envmap` image in another format than OpenEXR.
 //!
 //! ```xml
 //! <shape type="rectangle">
@@ -46,7 +49,8 @@
 //! only, as in Mitsuba. An area emitter attached to two shapes is an error
 //! (Mitsuba's too); one attached to none lights nothing, with a warning.
 
-use glam::{DMat4, DVec3};
+use glam::{DMat3, DMat4, DVec3};
+use wavrad_core::scene::envmap::EnvMap;
 use wavrad_core::scene::{Light, Rgb};
 
 use super::params::{Document, Nested, Object};
@@ -134,10 +138,59 @@ pub(crate) fn parse_top_level_emitter(emitter: Nested, doc: &Document) -> Result
         "constant" => Light::Constant {
             radiance: emitted(&mut obj, "radiance")?,
         },
+        "envmap" => Light::Envmap(parse_envmap(&mut obj, doc)?),
         _ => return Err(unsupported(&obj)),
     };
     finish(obj)?;
     Ok(Some(light))
+}
+
+/// An `envmap`'s image, scale and rotation.
+fn parse_envmap(obj: &mut Object, doc: &Document) -> Result<EnvMap> {
+    let Some(filename) = obj.string("filename")? else {
+        return Err(obj.at().error("emitter \"envmap\" needs a filename"));
+    };
+    let at = obj.location_of("filename").clone();
+    let scale = obj.float("scale")?.unwrap_or(1.0);
+    if !(0.0..=MAX_RADIANCE).contains(&scale) {
+        return Err(obj.location_of("scale").error(format!(
+            "scale {scale} of emitter \"envmap\" must be in 0 to {MAX_RADIANCE:e}"
+        )));
+    }
+    let to_world = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    let rotation = DMat3::from_mat4(to_world);
+    let orthonormal = (rotation.transpose() * rotation - DMat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .all(|v| v.abs() < 1e-6);
+    if !orthonormal || rotation.determinant() <= 0.0 {
+        return Err(obj
+            .location_of("to_world")
+            .error("to_world of emitter \"envmap\" must be a rotation"));
+    }
+    obj.ignore(&["mis_compensation"]);
+    let path = doc.search.resolve(&filename, &at.dir);
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        return Err(at.error(format!(
+            "envmap image \"{filename}\": only OpenEXR (.exr) environment maps are supported"
+        )));
+    }
+    let (width, height, rgb) = crate::image::read_exr_rgb(&path)
+        .map_err(|e| at.error(format!("cannot read the envmap image: {e}")))?;
+    if let Some(v) = rgb.iter().find(|v| !v.is_finite()) {
+        return Err(at.error(format!(
+            "envmap image \"{filename}\" holds a pixel of {v}: wavrad needs finite radiance"
+        )));
+    }
+    EnvMap::new(width as usize, height as usize, &rgb, scale, rotation).ok_or_else(|| {
+        at.error(format!(
+            "envmap image \"{filename}\" ({width}x{height}) sends no light or has fewer than \
+             2 rows"
+        ))
+    })
 }
 
 /// The spectrum `name` of an emitter (default 1), each component in 0 to
@@ -191,7 +244,7 @@ fn finish(mut obj: Object) -> Result<()> {
 fn unsupported(obj: &Object) -> crate::Error {
     obj.at().error(format!(
         "unsupported emitter plugin \"{}\" (supported: area, nested in a shape or referenced \
-         by one; point, spot, directional and constant at the top level)",
+         by one; point, spot, directional, constant and envmap at the top level)",
         obj.plugin
     ))
 }
