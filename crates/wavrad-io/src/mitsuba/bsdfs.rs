@@ -74,6 +74,8 @@ pub(crate) struct Side {
 }
 
 /// What a shape's surfaces are made of.
+// One lives while a shape is read; boxing its sides would gain nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Material {
     /// Surfaces reflecting by `front`, and for `twosided` by `back` behind.
