@@ -351,11 +351,13 @@ fn constant_color(
     default: f64,
     doc: &Document,
 ) -> Result<Rgb> {
+    let given = obj.nested.iter().find(|n| n.name == Some(name));
+    let at = given.map_or(obj.at(), |n| n.at);
     match albedo(obj, name, default, doc)? {
         Albedo::Constant(c) => Ok(c),
         Albedo::Texture(index) => {
             let what = format!("a texture on {name} of {}", obj.describe());
-            doc.approximate(obj.at(), &what, "its mean value")?;
+            doc.approximate(at, &what, "its mean value")?;
             Ok(doc.with_texture(index, texture_mean))
         }
     }

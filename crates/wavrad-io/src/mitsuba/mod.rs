@@ -218,6 +218,9 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             "bsdf" => {
                 bsdfs::parse_bsdf(*n, doc)?;
             }
+            "texture" => {
+                textures::parse_texture(*n, doc)?;
+            }
             "emitter" => {
                 emitters::check_top_level_emitter(*n, doc)?;
                 top_level_emitters.push(*n);
