@@ -182,7 +182,7 @@ fn textured_cornell_box_matches_mitsuba_path_tracer() {
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
     assert!(solution.stats.converged);
     let renderer = Renderer::new(solution);
-    for (mode, bound) in [(Mode::Gather, 1.0), (Mode::Smooth, 1.0)] {
+    for (mode, bound) in [(Mode::Gather, 0.0095), (Mode::Smooth, 0.036)] {
         let image = renderer
             .render(&RenderSettings {
                 estimator: mode.estimator(true, false).unwrap(),

@@ -137,8 +137,7 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
             "bsdf \"mask\" with opacity below 1",
         ),
         (
-            r#"<bsdf type="roughplastic">
-                <texture type="checkerboard" name="diffuse_reflectance"/></bsdf>"#,
+            r#"<bsdf type="roughplastic"><texture type="checkerboard" name="diffuse_reflectance"/></bsdf>"#,
             "a texture on diffuse_reflectance",
         ),
         (

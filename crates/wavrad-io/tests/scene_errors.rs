@@ -99,20 +99,23 @@ fn degenerate_analytic_shapes() {
 
 #[test]
 fn unsupported_bsdfs() {
-    for plugin in ["conductor", "dielectric"] {
+    for (plugin, message) in [
+        ("blendbsdf", "unsupported bsdf plugin \"blendbsdf\" (supported: diffuse, twosided"),
+        ("dielectric", "bsdf \"dielectric\" is not supported"),
+    ] {
         assert_error(
             &format!(
                 "<scene version=\"3.0.0\">\n<shape type=\"rectangle\">\n<bsdf type=\"{plugin}\"/>\n</shape></scene>"
             ),
             3,
-            &[&format!("unsupported bsdf plugin \"{plugin}\""), "diffuse, twosided"],
+            &[message, "--approximate"],
         );
     }
     // Also when defined at the top level and never used.
     assert_error(
-        "<scene version=\"3.0.0\">\n<bsdf type=\"plastic\" id=\"p\"/></scene>",
+        "<scene version=\"3.0.0\">\n<bsdf type=\"hair\" id=\"p\"/></scene>",
         2,
-        &["\"plastic\""],
+        &["\"hair\""],
     );
 }
 
@@ -261,16 +264,21 @@ fn reflectance_out_of_range() {
 }
 
 #[test]
-fn textures_are_unsupported() {
+fn texture_errors() {
     assert_error(
         "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\">\n<texture type=\"bitmap\" name=\"reflectance\">\n<string name=\"filename\" value=\"wood.png\"/></texture></bsdf></scene>",
-        3,
-        &["<texture type=\"bitmap\">", "not supported"],
+        4,
+        &["wood.png", "of texture \"bitmap\"", "cannot open"],
     );
     assert_error(
-        "<scene version=\"3.0.0\">\n<texture type=\"checkerboard\" id=\"c\"/>\n</scene>",
+        "<scene version=\"3.0.0\">\n<texture type=\"mesh_attribute\" id=\"c\"/>\n</scene>",
         2,
-        &["texture", "checkerboard"],
+        &["unsupported texture plugin \"mesh_attribute\"", "checkerboard, bitmap"],
+    );
+    assert_error(
+        "<scene version=\"3.0.0\">\n<texture type=\"checkerboard\" id=\"c\">\n<float name=\"colour0\" value=\"1\"/></texture>\n</scene>",
+        3,
+        &["unknown parameter \"colour0\"", "color0"],
     );
 }
 
@@ -682,10 +690,10 @@ fn glossy_bsdf_parameter_errors() {
         &["\"alpha\"", "must be a <float>"],
     );
     bsdf_error(
-        "<texture type=\"bitmap\" name=\"diffuse_reflectance\"/>",
+        "<texture type=\"checkerboard\" name=\"diffuse_reflectance\"/>",
         "roughplastic",
         3,
-        &["<texture type=\"bitmap\">", "not supported"],
+        &["a texture on diffuse_reflectance", "--approximate"],
     );
     bsdf_error(
         "<float name=\"exponent\" value=\"3\"/>",

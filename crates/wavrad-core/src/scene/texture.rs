@@ -237,7 +237,7 @@ impl TextureMapping {
     /// The average of `texture` over `element`, a part of the surface
     /// `patch` (or the whole of it): a midpoint rule with about two points
     /// per texture feature (square, texel) along each side, between
-    /// [`AVERAGE_GRID`]'s bounds.
+    /// 4 and 64 points per side.
     pub fn average(&self, texture: &Texture, patch: &Patch, element: &Patch) -> Rgb {
         let [a, b, c] = self.uv.map(|v| v.as_dvec2());
         let uv_area = ((b - a).perp_dot(c - a)).abs() * element.area() / patch.area();

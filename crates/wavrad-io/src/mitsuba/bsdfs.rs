@@ -74,6 +74,8 @@ pub(crate) struct Side {
 }
 
 /// What a shape's surfaces are made of.
+// One lives while a shape is read; boxing its sides would gain nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Material {
     /// Surfaces reflecting by `front`, and for `twosided` by `back` behind.
@@ -349,11 +351,13 @@ fn constant_color(
     default: f64,
     doc: &Document,
 ) -> Result<Rgb> {
+    let given = obj.nested.iter().find(|n| n.name == Some(name));
+    let at = given.map_or(obj.at(), |n| n.at);
     match albedo(obj, name, default, doc)? {
         Albedo::Constant(c) => Ok(c),
         Albedo::Texture(index) => {
             let what = format!("a texture on {name} of {}", obj.describe());
-            doc.approximate(obj.at(), &what, "its mean value")?;
+            doc.approximate(at, &what, "its mean value")?;
             Ok(doc.with_texture(index, texture_mean))
         }
     }

@@ -220,6 +220,9 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             "bsdf" => {
                 bsdfs::parse_bsdf(*n, doc)?;
             }
+            "texture" => {
+                textures::parse_texture(*n, doc)?;
+            }
             "emitter" => match emitters::parse_top_level_emitter(*n, doc)? {
                 Some(light) => lights.push(light),
                 None => top_level_emitters.push(*n),
