@@ -28,10 +28,12 @@
 //! assert!(resumed.checkpoint.is_none());
 //! ```
 
+use super::settings::MAX_LEVEL;
 use super::{BlockLinks, Plan, Projector, Solution, SolveSettings};
 use crate::geometry::cluster::ClusterTree;
+use crate::geometry::hierarchy::ElementRef;
 use crate::progress::Progress;
-use crate::refine::cluster_links::Linking;
+use crate::refine::cluster_links::{End, Linking};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
 use crate::refine::ItemLinks;
@@ -109,8 +111,11 @@ impl Checkpoint {
     }
 
     /// An error unless the finished runs are ranges of the items, in order
-    /// and apart (as [`Checkpoint::new`] makes them).
-    fn check(&self) -> Result<()> {
+    /// and apart (as [`Checkpoint::new`] makes them), and every element,
+    /// cluster and value they and the linking name is one of `scene`'s
+    /// (whose cluster tree has `clusters` nodes): a checkpoint read from a
+    /// file is followed without further checks.
+    fn check(&self, scene: &Scene, clusters: usize) -> Result<()> {
         let mut next = 0;
         for block in &self.finished {
             if block.items.start < next || block.items.end > self.items {
@@ -120,6 +125,33 @@ impl Checkpoint {
                 )));
             }
             next = block.items.end;
+        }
+        let surfaces = scene.surfaces.len();
+        let element = |e: ElementRef| {
+            (e.surface as usize) < surfaces
+                && e.id.level <= MAX_LEVEL
+                && e.id.path < 1u64 << (2 * e.id.level)
+        };
+        let end = |e: &End| match *e {
+            End::Cluster(c) => (c as usize) < clusters,
+            End::Element(e) => element(e),
+        };
+        let linking = &self.linking;
+        let links_ok = self.finished.iter().all(|b| {
+            (b.two_point.iter())
+                .all(|l| l.elements().into_iter().all(element) && l.throughput.is_finite())
+                && (b.three_point.iter()).all(|l| {
+                    l.elements().into_iter().all(element)
+                        && l.coefficient.0.iter().all(|v| v.is_finite())
+                })
+        });
+        let linking_ok = linking.element_pairs.iter().flatten().all(|&e| element(e))
+            && (linking.cluster_links.iter())
+                .all(|l| l.ends.iter().all(end) && l.visibility.is_finite());
+        if !(links_ok && linking_ok) {
+            return Err(Error::Resume(
+                "the checkpoint names an element, cluster or value the scene does not have".into(),
+            ));
         }
         Ok(())
     }
@@ -303,12 +335,9 @@ pub fn resume(
     // The plan of the interrupted solve, its linking as it was.
     let mut times = PhaseTimes::default();
     let projector = Projector::timed(scene, settings, &mut times)?;
-    let plan = Plan::new(
-        projector,
-        ClusterTree::build(scene),
-        checkpoint.linking.clone(),
-        times,
-    );
+    let clusters = ClusterTree::build(scene);
+    checkpoint.check(scene, clusters.nodes.len())?;
+    let plan = Plan::new(projector, clusters, checkpoint.linking.clone(), times);
     if plan.items().end != checkpoint.items {
         return Err(Error::Resume(format!(
             "the checkpoint holds a plan of {} items, the scene's has {}",
@@ -316,7 +345,6 @@ pub fn resume(
             plan.items().end
         )));
     }
-    checkpoint.check()?;
     let resumed = checkpoint.finished_items();
     let left = plan.project_numbered(&checkpoint.unfinished(), progress);
     let runs = (checkpoint.finished.iter().cloned())
@@ -427,6 +455,31 @@ mod tests {
         let resumed = resume(&scene, &settings, &second, &Silent).unwrap();
         let whole = solve(&scene, &settings, &Silent).unwrap();
         assert_eq!(resumed.radiance, whole.radiance);
+    }
+
+    #[test]
+    fn a_checkpoint_naming_what_the_scene_lacks_is_refused_not_followed() {
+        let scene = glossy_box();
+        let settings = coarse();
+        let spoil: [fn(&mut Checkpoint); 3] = [
+            |c| c.linking.element_pairs[0][1].surface = 999,
+            |c| c.linking.element_pairs[0][0].id.path = 1 << 40,
+            |c| {
+                let block = c.finished.iter_mut().find(|b| !b.two_point.is_empty());
+                match block {
+                    Some(b) => b.two_point[0].throughput = f64::NAN,
+                    None => c.finished[0].three_point[0].coefficient.0[1] = f64::INFINITY,
+                }
+            },
+        ];
+        for (k, spoil) in spoil.into_iter().enumerate() {
+            let mut bad = solve(&scene, &settings, &interrupt_after(4000)).unwrap();
+            spoil(bad.checkpoint.as_mut().unwrap());
+            match resume(&scene, &settings, &bad, &Silent) {
+                Err(e) => assert!(e.to_string().contains("does not have"), "case {k}: {e}"),
+                Ok(_) => panic!("case {k}: resumed"),
+            }
+        }
     }
 
     #[test]
