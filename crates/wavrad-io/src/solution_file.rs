@@ -677,7 +677,12 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 12] = [
+        let cases: [(&str, Edit); 13] = [
+            (
+                // Found by fuzzing: the render allocated rays⁴ samples.
+                "the settings: quadrature orders 2 and 1073741824",
+                Box::new(|b| b.settings.quadrature.rays = 1 << 30),
+            ),
             (
                 // Found by fuzzing: the camera rays' origins were not finite.
                 "the sensor: to_world",

@@ -10,11 +10,13 @@ use std::collections::BTreeMap;
 use std::fmt::Display;
 use std::ops::Range;
 
+use wavrad_core::kernel::Quadrature;
 use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
 use wavrad_core::scene::bounds::MAX_COORDINATE;
 use wavrad_core::scene::{Camera, Projection, Rgb};
+use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::{Interactions, Source};
-use wavrad_core::solve::Solution;
+use wavrad_core::solve::{Solution, SolveSettings};
 
 use super::SolutionProblem;
 
@@ -40,7 +42,7 @@ pub(super) fn inconsistent(part: impl Display, problem: impl Display) -> Solutio
 /// are built.)
 pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem> {
     let scene = &solution.scene;
-    (solution.settings.validate()).map_err(|e| inconsistent("the settings", e))?;
+    check_settings(&solution.settings).map_err(|e| inconsistent("the settings", e))?;
     if let Some(n) = (scene.hints.samples_per_pixel).filter(|&n| n > MAX_SAMPLES_PER_PIXEL) {
         return Err(inconsistent(
             "the scene",
@@ -109,6 +111,30 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     (interactions.clusters)
         .check(scene, &solution.trees)
         .map_err(|e| inconsistent("the cluster links", e))
+}
+
+/// The largest quadrature order per axis a solution file may hold: solves
+/// use 2 ([`Quadrature::default`]); rendering allocates the square of the
+/// square of it per element point.
+const MAX_QUADRATURE_ORDER: usize = 16;
+
+/// Check `settings` as a solve's: every described setting within its range,
+/// [`SolveSettings::validate`], and quadrature orders of at most
+/// [`MAX_QUADRATURE_ORDER`].
+fn check_settings(settings: &SolveSettings) -> Result<(), String> {
+    for (name, value) in settings.values() {
+        SolveSettings::setting(name)
+            .and_then(|s| s.check(value))
+            .map_err(|e| e.to_string())?;
+    }
+    settings.validate().map_err(|e| e.to_string())?;
+    let Quadrature { points, rays } = settings.quadrature;
+    if points.max(rays) > MAX_QUADRATURE_ORDER {
+        return Err(format!(
+            "quadrature orders {points} and {rays} (at most {MAX_QUADRATURE_ORDER})"
+        ));
+    }
+    Ok(())
 }
 
 /// Check `camera` as the loader checks a sensor (`mitsuba/sensors.rs`): an
