@@ -683,7 +683,20 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 11] = [
+        let cases: [(&str, Edit); 13] = [
+            (
+                // Found by fuzzing: the render allocated rays⁴ samples.
+                "the settings: quadrature orders 2 and 1073741824",
+                Box::new(|b| b.settings.quadrature.rays = 1 << 30),
+            ),
+            (
+                // Found by fuzzing: the camera rays' origins were not finite.
+                "the sensor: to_world",
+                Box::new(|b| {
+                    let camera = b.scene.to_mut().camera.as_mut().unwrap();
+                    camera.world_from_camera.w_axis.x = f64::NAN;
+                }),
+            ),
             (
                 "the scene: a sampler of 4294967295 samples per pixel",
                 Box::new(|b| b.scene.to_mut().hints.samples_per_pixel = Some(u32::MAX)),

@@ -10,10 +10,13 @@ use std::collections::BTreeMap;
 use std::fmt::Display;
 use std::ops::Range;
 
+use wavrad_core::kernel::Quadrature;
 use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
-use wavrad_core::scene::Rgb;
+use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::{Camera, Projection, Rgb};
+use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::{Interactions, Source};
-use wavrad_core::solve::Solution;
+use wavrad_core::solve::{Solution, SolveSettings};
 
 use super::SolutionProblem;
 
@@ -34,17 +37,20 @@ pub(super) fn inconsistent(part: impl Display, problem: impl Display) -> Solutio
 /// structures and the cover lists; the directional structures' trees
 /// well-formed, indexed by their surface pairs, with one radiance and
 /// exposure per node; the cluster links as their ends arrange them; every
-/// value finite; the settings valid, and the scene's sampler within the
-/// loader's bound. (The scene's bounds are checked before its ray queries
+/// value finite; the settings valid, and the scene's sensor and sampler as
+/// the loader accepts them. (The scene's bounds are checked before its ray queries
 /// are built.)
 pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem> {
     let scene = &solution.scene;
-    (solution.settings.validate()).map_err(|e| inconsistent("the settings", e))?;
+    check_settings(&solution.settings).map_err(|e| inconsistent("the settings", e))?;
     if let Some(n) = (scene.hints.samples_per_pixel).filter(|&n| n > MAX_SAMPLES_PER_PIXEL) {
         return Err(inconsistent(
             "the scene",
             format!("a sampler of {n} samples per pixel (at most {MAX_SAMPLES_PER_PIXEL})"),
         ));
+    }
+    if let Some(camera) = &scene.camera {
+        check_camera(camera).map_err(|e| inconsistent("the sensor", e))?;
     }
     let interactions = &solution.interactions;
     let surfaces = scene.surfaces.len();
@@ -105,6 +111,57 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     (interactions.clusters)
         .check(scene, &solution.trees)
         .map_err(|e| inconsistent("the cluster links", e))
+}
+
+/// The largest quadrature order per axis a solution file may hold: solves
+/// use 2 ([`Quadrature::default`]); rendering allocates the square of the
+/// square of it per element point.
+const MAX_QUADRATURE_ORDER: usize = 16;
+
+/// Check `settings` as a solve's: every described setting within its range,
+/// [`SolveSettings::validate`], and quadrature orders of at most
+/// [`MAX_QUADRATURE_ORDER`].
+fn check_settings(settings: &SolveSettings) -> Result<(), String> {
+    for (name, value) in settings.values() {
+        SolveSettings::setting(name)
+            .and_then(|s| s.check(value))
+            .map_err(|e| e.to_string())?;
+    }
+    settings.validate().map_err(|e| e.to_string())?;
+    let Quadrature { points, rays } = settings.quadrature;
+    if points.max(rays) > MAX_QUADRATURE_ORDER {
+        return Err(format!(
+            "quadrature orders {points} and {rays} (at most {MAX_QUADRATURE_ORDER})"
+        ));
+    }
+    Ok(())
+}
+
+/// Check `camera` as the loader checks a sensor (`mitsuba/sensors.rs`): an
+/// invertible `to_world` with entries within the scene's coordinate bound
+/// ([`MAX_COORDINATE`]), 0 < `near_clip` < `far_clip`, a field of view
+/// between 0° and 180°. The renderer's camera rays must be finite.
+fn check_camera(camera: &Camera) -> Result<(), String> {
+    let m = &camera.world_from_camera;
+    if !(m.is_finite() && m.to_cols_array().iter().all(|v| v.abs() <= MAX_COORDINATE))
+        || m.determinant().abs() < 1e-300
+    {
+        return Err(format!(
+            "to_world {m} is not an invertible transform within {MAX_COORDINATE:e}"
+        ));
+    }
+    let (near, far) = (camera.near_clip, camera.far_clip);
+    if !(near > 0.0 && far > near && far.is_finite()) {
+        return Err(format!("near_clip {near} and far_clip {far}"));
+    }
+    match camera.projection {
+        Projection::Perspective { fov_x_degrees, .. }
+            if !(fov_x_degrees > 0.0 && fov_x_degrees < 180.0) =>
+        {
+            Err(format!("a field of view of {fov_x_degrees}°"))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// Check the directional structures of `solution`: each (p, q) within the
