@@ -100,7 +100,10 @@ fn degenerate_analytic_shapes() {
 #[test]
 fn unsupported_bsdfs() {
     for (plugin, message) in [
-        ("blendbsdf", "unsupported bsdf plugin \"blendbsdf\" (supported: diffuse, twosided"),
+        (
+            "blendbsdf",
+            "unsupported bsdf plugin \"blendbsdf\" (supported: diffuse, twosided",
+        ),
         ("dielectric", "bsdf \"dielectric\" is not supported"),
     ] {
         assert_error(
@@ -273,7 +276,10 @@ fn texture_errors() {
     assert_error(
         "<scene version=\"3.0.0\">\n<texture type=\"mesh_attribute\" id=\"c\"/>\n</scene>",
         2,
-        &["unsupported texture plugin \"mesh_attribute\"", "checkerboard, bitmap"],
+        &[
+            "unsupported texture plugin \"mesh_attribute\"",
+            "checkerboard, bitmap",
+        ],
     );
     assert_error(
         "<scene version=\"3.0.0\">\n<texture type=\"checkerboard\" id=\"c\">\n<float name=\"colour0\" value=\"1\"/></texture>\n</scene>",
