@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use flate2::write::ZlibEncoder;
 use flate2::Compression;
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use wavrad_io::mesh::read_serialized;
 use wavrad_io::{load_scene_str, Loaded};
 
@@ -154,6 +154,8 @@ fn single_precision_with_every_vertex_attribute() {
         let expected = QUAD_TRIANGLES.map(|t| t.map(|i| DVec3::from(QUAD[i as usize])));
         assert_eq!(mesh.triangles, expected, "version {version}");
         assert_eq!(mesh.normals, Some(vec![[NORMAL; 3]; 2]));
+        let uv = QUAD_TRIANGLES.map(|t| t.map(|i| DVec2::new(f64::from(i) / 4.0, 0.5)));
+        assert_eq!(mesh.texcoords, Some(uv.to_vec()), "version {version}");
     }
 }
 
