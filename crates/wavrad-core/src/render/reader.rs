@@ -308,7 +308,8 @@ fn reflected_power(solution: &Solution) -> Vec<f64> {
             match !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
                 && !surface.is_emitter()
             {
-                true => solution.radiance[s][0].average() * surface.patch.area(),
+                // Never below zero, even from a crafted solution file.
+                true => solution.radiance[s][0].average().max(0.0) * surface.patch.area(),
                 false => 0.0,
             }
         })
