@@ -161,7 +161,7 @@ def cases() -> list[Case]:
         ),
         Case(
             "`--threshold 1e-12 --max-level 12` (memory grows)",
-            ["--threshold", "1e-12", "--max-level", "12", "--max-memory", "2"],
+            ["--threshold", "1e-12", "--max-level", "12", "--max-memory", "0.3"],
             {"scene.xml": c},
             "solve",
             None,

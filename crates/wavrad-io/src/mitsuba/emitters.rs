@@ -205,7 +205,7 @@ fn emitted(obj: &mut Object, name: &'static str) -> Result<Rgb> {
     }
     if let Some(c) = value.0.iter().find(|c| **c > MAX_RADIANCE) {
         return Err(obj.location_of(name).error(format!(
-            "{name} {value} of emitter \"{plugin}\" has a component of {c}: wavrad accepts \
+            "{name} {value} of emitter \"{plugin}\" has a component of {c:e}: wavrad accepts \
              up to {MAX_RADIANCE:e}"
         )));
     }
