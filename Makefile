@@ -91,7 +91,7 @@ profile:
 # and `cargo install cargo-fuzz`; not part of `make test` (CI has stable
 # only, and runs the committed corpora: crates/wavrad-io/tests/fuzz_corpus.rs).
 # Inputs are written to files, in memory where /dev/shm is.
-FUZZ_TARGETS ?= scene_xml obj ply serialized solution
+FUZZ_TARGETS ?= scene_xml obj ply serialized solution checkpoint
 FUZZ_RUNS    ?= 1000000
 # More libFuzzer options, e.g. -max_total_time=600.
 FUZZ_OPTIONS ?=

@@ -133,3 +133,26 @@ def test_resuming_what_does_not_fit_is_refused(scene_file: Path) -> None:
     whole = wavrad.solve(scene, resume=cut, progress=False)
     with pytest.raises(wavrad.SolveError, match="nothing is left to resume"):
         wavrad.solve(scene, resume=whole, progress=False)
+
+
+def test_a_solve_saves_checkpoints_to_resume_from(scene_file: Path, tmp_path: Path) -> None:
+    scene = wavrad.load_scene(scene_file, res=24)
+    settings = {"threshold": 1e-3, "max_level": 4, "progress": False}
+    whole = wavrad.solve(scene, **settings)
+    path = tmp_path / "cornell.checkpoint.wavrad"
+    saving = wavrad.solve(scene, checkpoint=path, checkpoint_every=1e-3, **settings)
+    # Saving changes nothing in the solution; the last save is left.
+    np.testing.assert_array_equal(saving.radiance, whole.radiance)
+    assert path.exists()
+    resumed = wavrad.solve(scene, resume=path, progress=False)
+    assert 0 < resumed.stats["resumed_items"] < whole.stats["projected_items"]
+    np.testing.assert_array_equal(resumed.radiance, whole.radiance)
+    # A checkpoint is not a solution; bad intervals and places are refused.
+    with pytest.raises(wavrad.SceneError, match="not a solution"):
+        wavrad.load_solution(path)
+    with pytest.raises(wavrad.ArgumentError, match="checkpoint_every"):
+        wavrad.solve(scene, checkpoint=path, checkpoint_every=0)
+    with pytest.raises(wavrad.WavradError, match="missing"):
+        wavrad.solve(scene, checkpoint=tmp_path / "missing" / "x.checkpoint.wavrad")
+    with pytest.raises(wavrad.ArgumentError, match="shoot"):
+        wavrad.solve(scene, checkpoint=path, solver="shoot")

@@ -14,9 +14,13 @@
 use std::path::PathBuf;
 
 use wavrad_core::geometry::tracing::SceneTracer;
+use wavrad_core::progress::Silent;
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::Film;
-use wavrad_io::solution_file::{read_solution, solution_file_bytes};
+use wavrad_core::setting::Value;
+use wavrad_io::solution_file::{
+    checkpoint_file_bytes, read_solution, read_unfinished, solution_file_bytes,
+};
 
 /// The files a fuzzed scene may include or name besides its own: a scene
 /// fragment with a `<default>` and a BSDF with an `id`, and the loader
@@ -58,12 +62,13 @@ pub type Target = fn(&Workspace, &[u8]);
 
 /// The fuzz targets by name (their corpus directory, `corpus/NAME/`), with
 /// what each runs.
-pub const TARGETS: [(&str, Target); 5] = [
+pub const TARGETS: [(&str, Target); 6] = [
     ("scene_xml", Workspace::scene_xml),
     ("obj", Workspace::obj),
     ("ply", Workspace::ply),
     ("serialized", Workspace::serialized),
     ("solution", Workspace::solution),
+    ("checkpoint", Workspace::checkpoint),
 ];
 
 /// A directory the entry points write their inputs to, to be read as
@@ -174,5 +179,25 @@ impl Workspace {
         let renderer = Renderer::new(solution);
         let _ = renderer.render(&RenderSettings::default().with_samples_per_pixel(1));
         let _ = renderer.preview();
+    }
+
+    /// A checkpoint file's body before compression (postcard), framed as
+    /// [`Workspace::solution`]'s; what reads is resumed on its own scene
+    /// with a time limit of 20 ms (refinement stops there, and the items
+    /// left are linked whole), as `wavrad solve --resume` would resume it.
+    pub fn checkpoint(&self, input: &[u8]) {
+        let file = checkpoint_file_bytes(input).expect("zstd compresses any input");
+        let path = self.file("fuzz.checkpoint.wavrad", &file);
+        let Ok(read) = read_unfinished(&path) else {
+            return;
+        };
+        let Ok(settings) = read
+            .settings
+            .for_resuming(&[("time_limit", Value::Real(0.02))])
+        else {
+            return;
+        };
+        let _ =
+            wavrad_core::solve::resume(&read.scene, &settings, read.unfinished(), None, &Silent);
     }
 }

@@ -243,6 +243,8 @@ def solve(
     on_step: Callable[[dict[str, Any], _Image | None], bool | None] | None = None,
     progress: _Progress = None,
     resume: Solution | _Path | None = None,
+    checkpoint: _Path | None = None,
+    checkpoint_every: float = 300.0,
 ) -> Solution:
     """Solve ``scene``; the solve runs without the GIL.
 
@@ -279,8 +281,9 @@ def solve(
     ``"memory_limit"``) and ``stats["unrefined_items"]`` counts what it
     left unrefined (``None`` and 0 when nothing did).
 
-    ``resume``: a solution cut short (by a limit or Ctrl-C), or the path
-    of its solution file: its solve is resumed. The links of the
+    ``resume``: a solution cut short (by a limit or Ctrl-C), the path of
+    its solution file, or the path of a checkpoint file (below): its solve
+    is resumed. The links of the
     projection items it finished are kept, only the items it left are
     refined, and the solution is finished as an uninterrupted solve's (the
     same, bit for bit); ``stats["resumed_items"]`` counts the items kept
@@ -291,6 +294,14 @@ def solve(
     to the end (:attr:`Solution.checkpoint` is ``None``), another scene
     (naming what differs), or a setting that changes refinement given
     another value (naming it).
+
+    ``checkpoint``: a file (``NAME.checkpoint.wavrad``) where a gathering
+    solve saves what its kernel projection has finished, at most every
+    ``checkpoint_every`` seconds (atomically), so that a process killed
+    outright can be resumed from it (``resume=``). The solution is the same
+    with or without checkpoints; the file is left in place when the solve
+    returns. A save that fails gives one ``UserWarning`` and the solve goes
+    on. ``load_solution`` refuses a checkpoint file: it is not a solution.
 
     ``solver``: ``"gather"`` (the default and the paper's: every kernel
     projected up front, then Gauss-Seidel gathering) or ``"shoot"``

@@ -17,8 +17,10 @@ use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::Scene;
 use wavrad_core::setting::{Described, Domain, Group, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
-use wavrad_core::solve::{solve, Solution, SolveSettings, Solver};
-use wavrad_io::solution_file::{read_solution, write_solution, Source};
+use wavrad_core::solve::{solve_saving, CheckpointView, Saver, Solution, SolveSettings, Solver};
+use wavrad_io::solution_file::{
+    read_solution, read_unfinished, write_checkpoint, write_solution, Source,
+};
 
 /// Haar-wavelet global illumination (Pattanaik & Bouatouch 1994) for Mitsuba 3
 /// XML scenes.
@@ -59,13 +61,25 @@ enum Command {
         #[arg(short, long, help_heading = "Output options")]
         output: Option<PathBuf>,
         /// Resume the solve written to this solution file (.wavrad) when a
-        /// limit or Ctrl-C cut it short: the items it refined are kept,
-        /// only those it left are refined, then the solution is finished
-        /// as an uninterrupted solve's. Its settings are kept (a setting
-        /// that changes refinement may not differ); --time-limit and
-        /// --max-memory are this run's own.
+        /// limit or Ctrl-C cut it short, or saved to a checkpoint file
+        /// (NAME.checkpoint.wavrad) before the process was killed: the
+        /// items it refined are kept, only those it left are refined, then
+        /// the solution is finished as an uninterrupted solve's. Its
+        /// settings are kept (a setting that changes refinement may not
+        /// differ); --time-limit and --max-memory are this run's own.
         #[arg(long, value_name = "FILE", help_heading = Group::Solve.heading())]
         resume: Option<PathBuf>,
+        /// With -o NAME.wavrad, save what the kernel projection has
+        /// finished to NAME.checkpoint.wavrad at most every SECONDS, for
+        /// --resume after the process is killed (removed once the solution
+        /// is written); 0: never.
+        #[arg(
+            long,
+            value_name = "SECONDS",
+            default_value_t = 300.0,
+            help_heading = "Output options"
+        )]
+        checkpoint_every: f64,
     },
     /// Print the relative RMSE, sqrt(mean((a-b)^2))/mean(b), of an EXR image
     /// against an EXR reference of the same size.
@@ -269,8 +283,14 @@ impl Reporter {
 
     /// A note between phases (loading, writing), unless quiet.
     fn note(&self, text: &str) {
-        if self.show != Show::Nothing {
-            eprintln!("wavrad: {text}");
+        if self.show == Show::Nothing {
+            return;
+        }
+        let phase = self.phase.lock().expect("progress lock");
+        match phase.as_ref().and_then(|p| p.bar.as_ref()) {
+            // Above the bar, which goes on below.
+            Some(bar) => bar.println(format!("wavrad: {text}")),
+            None => eprintln!("wavrad: {text}"),
         }
     }
 
@@ -411,6 +431,7 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             solve: args,
             output,
             resume,
+            checkpoint_every,
         } => {
             if is_solution_file(&args.scene) {
                 return Err(format!(
@@ -425,12 +446,28 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
                 check_solution_extension(resume)?;
             }
             check_outputs(output.as_deref(), args.stats.as_deref())?;
-            let (solution, source) = load_and_solve(&args, resume.as_deref(), progress)?;
+            let checkpoints = checkpoint_path(output.as_deref(), checkpoint_every)?;
+            if let Some(checkpoints) = &checkpoints {
+                wavrad_io::check_writable(checkpoints).map_err(|e| e.to_string())?;
+            }
+            let saving = checkpoints.as_deref().map(|path| (path, checkpoint_every));
+            let (solution, source) = load_and_solve(&args, resume.as_deref(), saving, progress)?;
             report(&solution, None, progress);
             if let Some(output) = &output {
                 progress.note(&format!("writing {}", output.display()));
                 write_solution(output, &solution, Some(&source)).map_err(|e| e.to_string())?;
                 progress.note(&format!("wrote {}", output.display()));
+            }
+            // The solution (with its own checkpoint, if cut short) replaces
+            // the saved checkpoint, even the one resumed from.
+            if let Some(path) = checkpoints {
+                match std::fs::remove_file(&path) {
+                    Err(e) if e.kind() != std::io::ErrorKind::NotFound => eprintln!(
+                        "wavrad: warning: {}: could not remove the checkpoint: {e}",
+                        path.display()
+                    ),
+                    _ => {}
+                }
             }
             if solution.checkpoint.is_some() {
                 let scene = args.scene.display();
@@ -463,7 +500,7 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             } else {
                 let (scene, _) = load(&args, progress)?;
                 scene.sensor(sensor).map_err(in_scene)?;
-                solve_loaded(&args, &scene, None, progress)?
+                solve_loaded(&args, &scene, None, None, progress)?
             };
             let sensor = solution.scene.sensor(sensor).map_err(in_scene)?;
             let settings = RenderSettings::from_values(&sensor.hints, &settings.values)
@@ -554,16 +591,52 @@ fn read_solution_file(args: &SolveArgs, progress: &Reporter) -> Result<Solution,
     Ok(read.solution)
 }
 
+/// The checkpoint file of the solution file `output` (NAME.wavrad:
+/// NAME.checkpoint.wavrad) when checkpoints are saved every `every`
+/// seconds.
+fn checkpoint_path(output: Option<&Path>, every: f64) -> Result<Option<PathBuf>, String> {
+    if !(every.is_finite() && every >= 0.0) {
+        return Err(format!("--checkpoint-every is {every}: seconds, 0 or more"));
+    }
+    Ok(output.filter(|_| every > 0.0).map(|output| {
+        let stem = output.file_stem().unwrap_or_default().to_string_lossy();
+        output.with_file_name(format!("{stem}.checkpoint.{SOLUTION_EXTENSION}"))
+    }))
+}
+
 /// Load the scene of `args` and solve it, or resume the solve in the
-/// solution file `resume` ([`wavrad_core::solve::resume`]); with where it
-/// came from, for a solution file.
+/// solution or checkpoint file `resume` ([`wavrad_core::solve::resume`]),
+/// saving checkpoints to `saving`'s file every `saving`'s seconds; with
+/// where it came from, for a solution file.
 fn load_and_solve(
     args: &SolveArgs,
     resume: Option<&Path>,
+    saving: Option<(&Path, f64)>,
     progress: &Reporter,
 ) -> Result<(Solution, Source), String> {
     let (scene, source) = load(args, progress)?;
-    Ok((solve_loaded(args, &scene, resume, progress)?, source))
+    // A failed save is reported once; the solve goes on.
+    let failed = AtomicBool::new(false);
+    let save = |scene: &Scene, settings: &SolveSettings, view: CheckpointView<'_>| {
+        let Some((path, _)) = saving else { return };
+        let (finished, items) = (view.finished_items(), view.items);
+        match write_checkpoint(path, scene, settings, view, Some(&source)) {
+            Ok(()) => progress.note(&format!(
+                "saved a checkpoint ({finished} of {items} items projected) to {}",
+                path.display()
+            )),
+            Err(e) if !failed.swap(true, Ordering::SeqCst) => {
+                eprintln!("wavrad: warning: the checkpoint could not be saved: {e}")
+            }
+            Err(_) => {}
+        }
+    };
+    let saver = saving.map(|(_, every)| Saver {
+        every: Duration::from_secs_f64(every),
+        save: &save,
+    });
+    let solution = solve_loaded(args, &scene, resume, saver.as_ref(), progress)?;
+    Ok((solution, source))
 }
 
 /// The scene of `args`, loaded with its warnings shown, and where it came
@@ -592,11 +665,13 @@ fn load(args: &SolveArgs, progress: &Reporter) -> Result<(Scene, Source), String
 }
 
 /// Solve `scene`, loaded from `args`, or resume the solve in the solution
-/// file `resume`.
+/// or checkpoint file `resume`; a gathering solve saves checkpoints
+/// through `saver`.
 fn solve_loaded(
     args: &SolveArgs,
     scene: &Scene,
     resume: Option<&Path>,
+    saver: Option<&Saver>,
     progress: &Reporter,
 ) -> Result<Solution, String> {
     let in_scene = |e: wavrad_core::Error| format!("{}: {e}", args.scene.display());
@@ -607,21 +682,20 @@ fn solve_loaded(
                 .into());
         }
         progress.note(&format!("reading {}", resume.display()));
-        let read = read_solution(resume).map_err(|e| e.to_string())?;
+        let read = read_unfinished(resume).map_err(|e| e.to_string())?;
         for warning in &read.warnings {
             eprintln!("wavrad: warning: {warning}");
         }
-        let from = read.solution;
-        let settings = (from.settings)
+        let settings = (read.settings)
             .for_resuming(&args.settings.values)
             .map_err(in_scene)?;
-        return wavrad_core::solve::resume(scene, &settings, &from, progress)
+        return wavrad_core::solve::resume(scene, &settings, read.unfinished(), saver, progress)
             .map_err(|e| format!("{}: {e}", resume.display()));
     }
     let settings = SolveSettings::from_values(&args.settings.values)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     match (args.solver.unwrap_or_default(), &args.progressive) {
-        (Solver::Gather, None) => solve(scene, &settings, progress).map_err(in_scene),
+        (Solver::Gather, None) => solve_saving(scene, &settings, saver, progress).map_err(in_scene),
         (Solver::Gather, Some(_)) => Err("--progressive needs --solver shoot".into()),
         (Solver::Shoot, None) => solve_shooting(scene, &settings, progress, None).map_err(in_scene),
         (Solver::Shoot, Some(dir)) => {

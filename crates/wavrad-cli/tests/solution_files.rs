@@ -268,6 +268,64 @@ fn a_solve_cut_short_resumes_to_the_uninterrupted_solution() {
 }
 
 #[test]
+fn a_solve_killed_outright_resumes_from_its_last_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo().join("scenes/cornell-box/scene.xml");
+    let scene = scene.to_str().unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let solve = ["solve", scene, "-D", "res=16", "--max-level", "5"];
+    let checkpoint = dir.path().join("killed.checkpoint.wavrad");
+
+    // Saving checkpoints every 50 ms, killed (SIGKILL) once one is saved.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_wavrad"))
+        .args(solve)
+        .args(["-o", &at("killed.wavrad"), "--checkpoint-every", "0.05"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    while !checkpoint.exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the solve ended ({status}) before it saved a checkpoint");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!Path::new(&at("killed.wavrad")).exists());
+    std::fs::copy(&checkpoint, at("saved.checkpoint.wavrad")).unwrap();
+
+    // Resumed from the checkpoint: the uninterrupted solution, and the
+    // checkpoint is gone once the solution is written.
+    let resume = ["--resume", &at("killed.checkpoint.wavrad")];
+    let out = ["-o", &at("killed.wavrad"), "--stats", &at("resumed.json")];
+    let o = wavrad(&[&solve[..], &resume, &out].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!checkpoint.exists());
+    let out = ["-o", &at("whole.wavrad"), "--stats", &at("whole.json")];
+    succeed(&[&solve[..], &out, &["--checkpoint-every", "0"]].concat());
+    let (resumed, whole) = (
+        stats(Path::new(&at("resumed.json"))),
+        stats(Path::new(&at("whole.json"))),
+    );
+    let kept = resumed["resumed_items"].as_u64().unwrap();
+    assert!(kept > 0, "{resumed}");
+    for key in ["two_point_interactions", "iterations", "residual"] {
+        assert_eq!(resumed[key], whole[key], "{key}");
+    }
+    for name in ["killed", "whole"] {
+        let (solution, image) = (at(&format!("{name}.wavrad")), at(&format!("{name}.exr")));
+        succeed(&["render", &solution, "-o", &image, "--spp", "4"]);
+    }
+    assert!(std::fs::read(at("killed.exr")).unwrap() == std::fs::read(at("whole.exr")).unwrap());
+
+    // A checkpoint is not a solution to render.
+    let o = wavrad(&["render", &at("saved.checkpoint.wavrad"), "-o", &at("x.exr")]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not a solution"), "{}", stderr(&o));
+    assert!(!Path::new(&at("x.exr")).exists());
+}
+
+#[test]
 fn the_sensor_to_render_is_picked_by_number() {
     let dir = tempfile::tempdir().unwrap();
     // The small scene with a second sensor, 5×4, seeing the floor from above.

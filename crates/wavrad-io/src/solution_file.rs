@@ -22,8 +22,13 @@
 //! finished, for `wavrad solve --resume`). The ray queries are rebuilt
 //! from the scene on reading, as the solve built them.
 //!
+//! A solve under way can also save *checkpoint files* ([`write_checkpoint`]):
+//! the same header with [`CHECKPOINT_MAGIC`], and a body of the scene, the
+//! settings, the source and the [`Checkpoint`] alone, which only a resumed
+//! solve reads ([`read_unfinished`]).
+//!
 //! Reading refuses, each with its own [`SolutionProblem`]: a file that is
-//! not a solution, one of another format version, one cut short, one whose
+//! not a solution (or is a checkpoint file), one of another format version, one cut short, one whose
 //! body does not match its checksum, and one whose scene file now loads to
 //! another scene than the one solved (the scene file, an included file or
 //! a mesh was edited since the solve), so a stale solution is never
@@ -47,6 +52,11 @@
 //! ```
 
 mod check;
+mod checkpoint_file;
+
+pub use checkpoint_file::{
+    checkpoint_file_bytes, read_unfinished, write_checkpoint, ReadUnfinished, CHECKPOINT_MAGIC,
+};
 
 use crate::{Error, LoadOptions, Result};
 use serde::{Deserialize, Serialize};
@@ -130,6 +140,16 @@ pub enum SolutionProblem {
     /// It does not start with [`MAGIC`].
     #[error("not a wavrad solution file (it does not start with {:?})", String::from_utf8_lossy(&MAGIC))]
     NotASolution,
+    /// A checkpoint file ([`write_checkpoint`]): a solve under way, not a
+    /// solution.
+    #[error(
+        "a checkpoint of a solve that did not finish, not a solution: \
+         `wavrad solve SCENE --resume FILE -o NEW.wavrad` finishes it"
+    )]
+    Checkpoint,
+    /// A solution that ran to the end, given to resume.
+    #[error("the solve ran to the end: nothing is left to resume")]
+    Finished,
     /// Another format version.
     #[error(
         "format version {found}, written by wavrad {written_by}; this wavrad ({}) reads version \
@@ -193,9 +213,13 @@ pub enum SolutionProblem {
 /// renamed into place), with the `source` its scene was loaded from, if
 /// any, for [`read_solution`] to check.
 pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>) -> Result<()> {
-    let encoded =
-        postcard::to_allocvec(&Body::of(solution, source)).map_err(|e| unencodable(path, e))?;
-    let bytes = solution_file_bytes(&encoded).map_err(|e| Error::io(path, e))?;
+    write_body(path, &MAGIC, &Body::of(solution, source))
+}
+
+/// Write `body` to `path` atomically, in a file of the kind `magic`.
+fn write_body(path: &Path, magic: &[u8; 8], body: &impl Serialize) -> Result<()> {
+    let encoded = postcard::to_allocvec(body).map_err(|e| unencodable(path, e))?;
+    let bytes = file_bytes(magic, &encoded).map_err(|e| Error::io(path, e))?;
     crate::write_atomic(path, &bytes)
 }
 
@@ -205,9 +229,14 @@ pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>)
 /// writes these; tools that make files by other means (the fuzz targets,
 /// which fuzz the body behind a checksum that matches it) use it too.
 pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
+    file_bytes(&MAGIC, encoded)
+}
+
+/// [`solution_file_bytes`] for a file of the kind `magic`.
+fn file_bytes(magic: &[u8; 8], encoded: &[u8]) -> std::io::Result<Vec<u8>> {
     let body = zstd::bulk::compress(encoded, ZSTD_LEVEL)?;
     let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
-    bytes.extend_from_slice(&MAGIC);
+    bytes.extend_from_slice(magic);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     let mut writer = [0u8; WRITER_LEN];
     let version = env!("CARGO_PKG_VERSION").as_bytes();
@@ -228,6 +257,15 @@ pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
 /// not a solution file, is of another format version, is truncated or
 /// damaged, or its scene changed since the solve.
 pub fn read_solution(path: &Path) -> Result<ReadSolution> {
+    let bytes = read_file(path)?;
+    if bytes.starts_with(&CHECKPOINT_MAGIC) {
+        return Err(Error::solution(path, SolutionProblem::Checkpoint));
+    }
+    solution_of(path, &bytes)
+}
+
+/// The bytes of the regular file `path`.
+fn read_file(path: &Path) -> Result<Vec<u8>> {
     let metadata = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if !metadata.is_file() {
         return Err(Error::io(
@@ -235,8 +273,12 @@ pub fn read_solution(path: &Path) -> Result<ReadSolution> {
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
         ));
     }
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let (written_by, body) = decode(&bytes).map_err(|p| Error::solution(path, p))?;
+    std::fs::read(path).map_err(|e| Error::io(path, e))
+}
+
+/// [`read_solution`] of the solution file `path` whose bytes are `bytes`.
+fn solution_of(path: &Path, bytes: &[u8]) -> Result<ReadSolution> {
+    let (written_by, body) = decode(&MAGIC, bytes).map_err(|p| Error::solution(path, p))?;
     let Body {
         source,
         scene,
@@ -319,10 +361,14 @@ impl<'a> Body<'a> {
     }
 }
 
-/// The writer's version and the body of a solution file's `bytes`.
-fn decode(bytes: &[u8]) -> std::result::Result<(String, Body<'static>), SolutionProblem> {
-    let magic = &bytes[..bytes.len().min(MAGIC.len())];
-    if magic != &MAGIC[..magic.len()] || bytes.is_empty() {
+/// The writer's version and the body of the `bytes` of a file of the kind
+/// `magic`.
+fn decode<T: serde::de::DeserializeOwned>(
+    magic: &[u8; 8],
+    bytes: &[u8],
+) -> std::result::Result<(String, T), SolutionProblem> {
+    let start = &bytes[..bytes.len().min(magic.len())];
+    if start != &magic[..start.len()] || bytes.is_empty() {
         return Err(SolutionProblem::NotASolution);
     }
     if bytes.len() < HEADER_LEN {
@@ -371,7 +417,7 @@ fn decode(bytes: &[u8]) -> std::result::Result<(String, Body<'static>), Solution
             "it decompresses to more than {limit} bytes ({MAX_EXPANSION} times its size)"
         )));
     }
-    let body: Body = postcard::from_bytes(&encoded).map_err(|e| undecodable(&e))?;
+    let body = postcard::from_bytes(&encoded).map_err(|e| undecodable(&e))?;
     Ok((written_by, body))
 }
 
@@ -525,7 +571,8 @@ mod tests {
         let (path, _) = written(dir.path(), &cut, None);
         let read = read_solution(&path).unwrap().solution;
         assert_eq!(read.checkpoint, cut.checkpoint);
-        let resumed = wavrad_core::solve::resume(&loaded.scene, &settings, &read, &Silent);
+        let from = read.unfinished().unwrap();
+        let resumed = wavrad_core::solve::resume(&loaded.scene, &settings, from, None, &Silent);
         let whole = solve(&loaded.scene, &settings, &Silent).unwrap();
         assert_eq!(resumed.unwrap().radiance, whole.radiance);
     }

@@ -21,17 +21,22 @@ use pyo3::exceptions::{PyTypeError, PyUserWarning};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyRange, PyRangeMethods};
 use std::ops::ControlFlow;
+use std::sync::Mutex;
+use std::time::Duration;
 use wavrad_core::progress::Silent;
 use wavrad_core::render::{RenderSettings, Renderer};
 use wavrad_core::scene::Rgb;
+use wavrad_core::scene::Scene as CoreScene;
 use wavrad_core::setting::{Described, Domain, Value};
 use wavrad_core::solve::shoot::{solve_shooting, Step};
-use wavrad_core::solve::{SolveSettings, Solver};
+use wavrad_core::solve::{CheckpointView, Saver, SolveSettings, Solver};
 use wavrad_io::block_links::{
     decode_items, decode_links, encode_items, encode_links, fingerprint, projector_fingerprint,
     Fingerprint,
 };
-use wavrad_io::solution_file::{read_solution, write_solution, Source};
+use wavrad_io::solution_file::{
+    read_solution, read_unfinished, write_checkpoint, write_solution, Source,
+};
 
 use error::{argument_error, Error, Result, SceneError, SolveError, WavradError};
 use progress::PyProgress;
@@ -455,7 +460,11 @@ fn load_scene(
 /// resume its solve ([`wavrad_core::solve::resume`]) with its settings,
 /// those given set on top.
 #[pyfunction]
-#[pyo3(signature = (scene, *, solver=None, on_step=None, progress=None, resume=None, **settings))]
+#[pyo3(signature = (
+    scene, *, solver=None, on_step=None, progress=None, resume=None, checkpoint=None,
+    checkpoint_every=300.0, **settings
+))]
+#[allow(clippy::too_many_arguments)]
 fn solve(
     py: Python<'_>,
     scene: &Scene,
@@ -463,6 +472,8 @@ fn solve(
     on_step: Option<PyObject>,
     progress: Option<&Bound<'_, PyAny>>,
     resume: Option<&Bound<'_, PyAny>>,
+    checkpoint: Option<PathBuf>,
+    checkpoint_every: f64,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> Result<Solution> {
     let progress = PyProgress::new(py, progress)?;
@@ -478,23 +489,40 @@ fn solve(
         }
         let read;
         let from = match resume.downcast::<Solution>() {
-            Ok(solution) => solution.get().0.solution(),
+            Ok(solution) => solution.get().0.solution().unfinished().ok_or_else(|| {
+                wavrad_core::Error::Resume(
+                    "the solve ran to the end: nothing is left to resume".into(),
+                )
+            })?,
             Err(_) => {
                 let path: PathBuf = resume.extract().map_err(|_| {
                     Error::Argument(format!(
-                        "solve: resume expects a Solution or the path of a solution file, got \
-                         {resume}"
+                        "solve: resume expects a Solution or the path of a solution or \
+                         checkpoint file, got {resume}"
                     ))
                 })?;
-                read = load_solution(py, path)?;
-                read.0.solution()
+                read = py.allow_threads(|| read_unfinished(&path))?;
+                warn_all(py, &read.warnings)?;
+                read.unfinished()
             }
         };
         let settings = from.settings.for_resuming(&given)?;
+        let saving = checkpoint_saver(checkpoint.as_deref(), checkpoint_every, scene)?;
         let solution = progress.watch(py, || {
-            wavrad_core::solve::resume(&scene.0, &settings, from, &progress)
+            with_saver(saving.as_ref(), |saver| {
+                wavrad_core::solve::resume(&scene.0, &settings, from, saver, &progress)
+            })
         })??;
+        warn_unsaved(py, saving)?;
         return Ok(Solution(Renderer::new(solution), scene.1.clone()));
+    }
+    let saving = checkpoint_saver(checkpoint.as_deref(), checkpoint_every, scene)?;
+    if saving.is_some() && solver != Solver::Gather {
+        return Err(Error::Argument(
+            "solve: checkpoint saves a gathering solve's kernels; solver=\"shoot\" does not \
+             save checkpoints"
+                .into(),
+        ));
     }
     let settings = SolveSettings::from_values(&given)?;
     if on_step.is_some() && solver != Solver::Shoot {
@@ -519,7 +547,9 @@ fn solve(
         }
     });
     let solution = progress.watch(py, || match solver {
-        Solver::Gather => wavrad_core::solve::solve(&scene.0, &settings, &progress),
+        Solver::Gather => with_saver(saving.as_ref(), |saver| {
+            wavrad_core::solve::solve_saving(&scene.0, &settings, saver, &progress)
+        }),
         Solver::Shoot => solve_shooting(
             &scene.0,
             &settings,
@@ -532,18 +562,89 @@ fn solve(
     if let Some(e) = raised {
         return Err(Error::Python(e));
     }
+    warn_unsaved(py, saving)?;
     Ok(Solution(Renderer::new(solution), scene.1.clone()))
+}
+
+/// Checkpoints of a solve saved to a file ([`solve`]'s `checkpoint`).
+struct CheckpointSaving<'a> {
+    path: PathBuf,
+    every: Duration,
+    source: Option<&'a Source>,
+    /// The first failure to save, the solve going on.
+    failed: Mutex<Option<wavrad_io::Error>>,
+}
+
+impl CheckpointSaving<'_> {
+    /// Save what `view` shows of a solve of `scene` with `settings`.
+    fn save(&self, scene: &CoreScene, settings: &SolveSettings, view: CheckpointView<'_>) {
+        if let Err(e) = write_checkpoint(&self.path, scene, settings, view, self.source) {
+            let mut failed = self.failed.lock().unwrap_or_else(|e| e.into_inner());
+            failed.get_or_insert(e);
+        }
+    }
+}
+
+/// `work` given the saver of `saving`, if any.
+fn with_saver<R>(saving: Option<&CheckpointSaving>, work: impl FnOnce(Option<&Saver>) -> R) -> R {
+    let save = |scene: &CoreScene, settings: &SolveSettings, view: CheckpointView<'_>| {
+        if let Some(saving) = saving {
+            saving.save(scene, settings, view)
+        }
+    };
+    let saver = saving.map(|saving| Saver {
+        every: saving.every,
+        save: &save,
+    });
+    work(saver.as_ref())
+}
+
+/// A `UserWarning` for the first checkpoint `saving` failed to save.
+fn warn_unsaved(py: Python<'_>, saving: Option<CheckpointSaving>) -> PyResult<()> {
+    let failed = saving.and_then(|s| s.failed.into_inner().unwrap_or_else(|e| e.into_inner()));
+    match failed {
+        Some(e) => warn_all(py, &[format!("a checkpoint could not be saved: {e}")]),
+        None => Ok(()),
+    }
+}
+
+/// Where to save `scene`'s checkpoints (`path`, every `every` seconds),
+/// if anywhere.
+fn checkpoint_saver<'a>(
+    path: Option<&std::path::Path>,
+    every: f64,
+    scene: &'a Scene,
+) -> Result<Option<CheckpointSaving<'a>>> {
+    let Some(path) = path else { return Ok(None) };
+    if !(every.is_finite() && every > 0.0) {
+        return Err(Error::Argument(format!(
+            "solve: checkpoint_every is {every}: seconds, more than 0"
+        )));
+    }
+    wavrad_io::check_writable(path)?;
+    Ok(Some(CheckpointSaving {
+        path: path.to_path_buf(),
+        every: Duration::from_secs_f64(every),
+        source: scene.1.as_ref(),
+        failed: Mutex::new(None),
+    }))
+}
+
+/// Each of `warnings` as a Python `UserWarning`.
+fn warn_all(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let module = py.import("warnings")?;
+    for warning in warnings {
+        let category = py.get_type::<PyUserWarning>();
+        module.call_method1("warn", (warning.as_str(), category, 3))?;
+    }
+    Ok(())
 }
 
 /// Read a solution file written by `Solution.save` (or `wavrad solve -o`).
 #[pyfunction]
 fn load_solution(py: Python<'_>, path: PathBuf) -> Result<Solution> {
     let read = py.allow_threads(|| read_solution(&path))?;
-    let warnings = py.import("warnings")?;
-    for warning in &read.warnings {
-        let category = py.get_type::<PyUserWarning>();
-        warnings.call_method1("warn", (warning.as_str(), category, 2))?;
-    }
+    warn_all(py, &read.warnings)?;
     Ok(Solution(Renderer::new(read.solution), read.source))
 }
 

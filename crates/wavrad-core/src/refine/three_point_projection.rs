@@ -269,6 +269,9 @@ pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32, u3
         .collect()
 }
 
+/// The progress phase of the three-point projection.
+pub const PHASE: &str = "3-point kernels";
+
 /// The three-point links of the triples `(r, p, q)` (compute_kernel of §4.2
 /// for glossy surfaces), triple by triple, with whether each was refined in
 /// full; refined in parallel over triples, and the result does not depend
@@ -291,31 +294,26 @@ pub fn refine_three_point_links(
         },
         receiver_max_level: 0,
     };
-    project_each(
-        "3-point kernels",
-        triples,
-        progress,
-        |&(r, p, q), refine| {
-            let settings = if refine { settings } else { unrefined };
-            let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q), progress);
-            let (c, a, b) = (
-                Part::of(ctx.scene, ElementRef::root(r)),
-                Part::of(ctx.scene, ElementRef::root(p)),
-                Part {
-                    element: ElementRef::root(q),
-                    patch: receiver(q),
-                },
-            );
-            let k = refiner.coefficient(&c, &a, &b);
-            refiner.refine(c, a, b, k);
-            refiner.links
-        },
-    )
+    project_each(PHASE, triples, progress, |&(r, p, q), refine| {
+        let settings = if refine { settings } else { unrefined };
+        let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q), progress);
+        let (c, a, b) = (
+            Part::of(ctx.scene, ElementRef::root(r)),
+            Part::of(ctx.scene, ElementRef::root(p)),
+            Part {
+                element: ElementRef::root(q),
+                patch: receiver(q),
+            },
+        );
+        let k = refiner.coefficient(&c, &a, &b);
+        refiner.refine(c, a, b, k);
+        refiner.links
+    })
 }
 
 impl Projection for ThreePointSettings {
     type Link = ThreePointLink;
-    const PHASE: &'static str = "3-point kernels";
+    const PHASE: &'static str = PHASE;
 
     fn refine_link(
         &self,

@@ -17,7 +17,7 @@ use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::{concatenated, project_each, ItemLinks, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
-use crate::scene::{Patch, Surface};
+use crate::scene::{Patch, Scene, Surface};
 
 /// A two-point interaction between element `a` of surface `p` and element `c`
 /// of surface `r`, used in both directions.
@@ -458,6 +458,16 @@ pub fn refine_links(
     ))
 }
 
+/// The progress phase of the two-point projection.
+pub const PHASE: &str = "kernels";
+
+/// Whether the element pair `[a, c]` gets two-point links: one of its
+/// sides has a Lambertian lobe (three-point links carry the rest).
+pub fn has_two_point_links(scene: &Scene, [a, c]: [ElementRef; 2]) -> bool {
+    let lambertian = |s: u32| scene.surfaces[s as usize].brdf.lambertian().is_some();
+    lambertian(a.surface) || lambertian(c.surface)
+}
+
 /// [`refine_links`] start by start: the links of each of `starts`, and
 /// whether it was refined in full. A pair with no Lambertian side makes no
 /// two-point links (three-point links carry its light).
@@ -468,9 +478,8 @@ pub fn refine_links_by_item(
     starts: &[[ElementRef; 2]],
     progress: &dyn Progress,
 ) -> Vec<ItemLinks<Link>> {
-    let lambertian = |s: u32| ctx.scene.surfaces[s as usize].brdf.lambertian().is_some();
     let linked: Vec<bool> = (starts.iter())
-        .map(|[a, c]| lambertian(a.surface) || lambertian(c.surface))
+        .map(|&pair| has_two_point_links(ctx.scene, pair))
         .collect();
     let projected: Vec<[ElementRef; 2]> = (starts.iter().zip(&linked))
         .filter_map(|(&pair, &linked)| linked.then_some(pair))
@@ -480,7 +489,7 @@ pub fn refine_links_by_item(
         max_level: 0,
         ..settings
     };
-    let mut projected = project_each("kernels", &projected, progress, |&pair, refine| {
+    let mut projected = project_each(PHASE, &projected, progress, |&pair, refine| {
         let settings = if refine { settings } else { unrefined };
         refine_pair(ctx, settings, estimate, pair, progress)
     })
@@ -560,7 +569,7 @@ fn touches(small: &Part, large: &Part) -> bool {
 
 impl Projection for RefineSettings {
     type Link = Link;
-    const PHASE: &'static str = "kernels";
+    const PHASE: &'static str = PHASE;
 
     fn refine_link(&self, ctx: &KernelContext, estimate: &LightEstimate, l: &Link) -> Vec<Link> {
         let mut refiner = PairRefiner::new(ctx, *self, Some(estimate), (l.p, l.r), &Silent);

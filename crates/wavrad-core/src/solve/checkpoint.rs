@@ -14,6 +14,11 @@
 //! solution is an uninterrupted solve's bit for bit, as [`Plan::finish`]'s
 //! is for any split of the items.
 //!
+//! A process can also be killed outright (`kill -9`, a machine that
+//! goes down). Given a [`Saver`], a solve projects its items in chunks and
+//! hands the driver a [`CheckpointView`] of what it has finished at most
+//! every [`Saver::every`], to be written where a later run resumes from.
+//!
 //! ```
 //! use wavrad_core::progress::Silent;
 //! use wavrad_core::solve::{checkpoint::resume, solve, SolveSettings};
@@ -22,7 +27,7 @@
 //! let settings = SolveSettings::default();
 //! let cut = solve(&scene, &SolveSettings { time_limit: 1e-9, ..settings }, &Silent).unwrap();
 //! assert!(cut.checkpoint.is_some());
-//! let resumed = resume(&scene, &settings, &cut, &Silent).unwrap();
+//! let resumed = resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
 //! let whole = solve(&scene, &settings, &Silent).unwrap();
 //! assert_eq!(resumed.radiance, whole.radiance);
 //! assert!(resumed.checkpoint.is_none());
@@ -37,11 +42,14 @@ use crate::refine::cluster_links::{End, Linking};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
 use crate::refine::ItemLinks;
+use crate::refine::{three_point_projection, two_point_projection};
 use crate::scene::Scene;
 use crate::setting::{Described, Value};
 use crate::solve::stats::PhaseTimes;
 use crate::{Error, Result};
 use std::ops::Range;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 /// What a gathering solve cut short had finished, for [`resume`].
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -55,6 +63,71 @@ pub struct Checkpoint {
     /// their links, in item order (their `kernels_s` are 0: the time was
     /// the solve's that made them).
     pub finished: Vec<BlockLinks>,
+}
+
+/// [`Checkpoint`] borrowed from a solve under way, to be written
+/// ([`Saver`]): serialised, it is the checkpoint it views (the same fields
+/// in the same order; serde writes a borrowed value as the value).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CheckpointView<'a> {
+    /// [`Checkpoint::linking`].
+    pub linking: &'a Linking,
+    /// [`Checkpoint::items`].
+    pub items: usize,
+    /// [`Checkpoint::finished`]: runs of finished items in item order
+    /// (consecutive runs need not be merged).
+    pub finished: Vec<&'a BlockLinks>,
+}
+
+impl CheckpointView<'_> {
+    /// Items projected in full.
+    pub fn finished_items(&self) -> usize {
+        self.finished.iter().map(|b| b.items.len()).sum()
+    }
+
+    /// The checkpoint viewed, owned.
+    pub fn to_checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            linking: self.linking.clone(),
+            items: self.items,
+            finished: self.finished.iter().map(|&b| b.clone()).collect(),
+        }
+    }
+}
+
+/// A solve that stopped before its end, to [`resume`]: the scene and
+/// settings it was made with, and what it had finished.
+#[derive(Debug, Clone, Copy)]
+pub struct Unfinished<'a> {
+    /// The scene it solved.
+    pub scene: &'a Scene,
+    /// Its settings.
+    pub settings: &'a SolveSettings,
+    /// What it had finished.
+    pub checkpoint: &'a Checkpoint,
+}
+
+impl Solution {
+    /// The solve to [`resume`], when it was cut short.
+    pub fn unfinished(&self) -> Option<Unfinished<'_>> {
+        Some(Unfinished {
+            scene: &self.scene,
+            settings: &self.settings,
+            checkpoint: self.checkpoint.as_ref()?,
+        })
+    }
+}
+
+/// Where a solve under way saves its checkpoints, for a run that resumes
+/// after the process was killed.
+pub struct Saver<'a> {
+    /// The least time between two saves (the first comes after this long).
+    pub every: Duration,
+    /// Called with the scene, the settings and a view of what is finished
+    /// (it writes them; a failure is the driver's to report, and the solve
+    /// goes on).
+    #[allow(clippy::type_complexity)]
+    pub save: &'a (dyn Fn(&Scene, &SolveSettings, CheckpointView<'_>) + Sync),
 }
 
 /// Consecutive items of a plan projected together, all of them in full or
@@ -300,37 +373,36 @@ impl SolveSettings {
     }
 }
 
-/// Resume the gathering solve of `scene` that `from` was cut short in
-/// (its [`Solution::checkpoint`]): project the items it left, keep the
-/// links of those it finished, and finish as [`super::solve`] does, with
-/// `settings` (which must refine as `from.settings` did:
-/// [`SolveSettings::for_resuming`] makes them). The result is what the
-/// uninterrupted solve gives, bit for bit, and its statistics count the
-/// items taken from the checkpoint (`resumed_items`) and those projected
-/// (`projected_items`). Cut short again, it has a checkpoint of its own.
+/// Resume the gathering solve of `scene` that stopped `from` its
+/// checkpoint (a [`Solution::unfinished`], or one a [`Saver`] wrote):
+/// project the items it left, keep the links of those it finished, and
+/// finish as [`super::solve`] does, with `settings` (which must refine as
+/// `from.settings` did: [`SolveSettings::for_resuming`] makes them),
+/// saving checkpoints through `saver` as [`super::solve_saving`] does. The
+/// result is what the uninterrupted solve gives, bit for bit, and its
+/// statistics count the items taken from the checkpoint (`resumed_items`)
+/// and those projected (`projected_items`). Cut short again, it has a
+/// checkpoint of its own.
 ///
 /// # Errors
-/// [`Error::Resume`] when `from` has no checkpoint (it ran to the end),
-/// `scene` is not the scene it solved (naming the first difference), a
-/// setting that changes refinement differs (naming it), or the checkpoint
-/// does not fit the scene's plan; the errors of [`super::plan`].
+/// [`Error::Resume`] when `scene` is not the scene `from` solved (naming
+/// the first difference), a setting that changes refinement differs
+/// (naming it), or the checkpoint does not fit the scene's plan; the
+/// errors of [`super::plan`].
 pub fn resume(
     scene: &Scene,
     settings: &SolveSettings,
-    from: &Solution,
+    from: Unfinished<'_>,
+    saver: Option<&Saver>,
     progress: &dyn Progress,
 ) -> Result<Solution> {
-    let Some(checkpoint) = &from.checkpoint else {
-        return Err(Error::Resume(
-            "the solve ran to the end: nothing is left to resume".into(),
-        ));
-    };
+    let checkpoint = from.checkpoint;
     if let Some(difference) = from.scene.difference(scene) {
         return Err(Error::Resume(format!(
             "the scene changed since the solve: it now has {difference}"
         )));
     }
-    settings.check_resumes(&from.settings)?;
+    settings.check_resumes(from.settings)?;
 
     // The plan of the interrupted solve, its linking as it was.
     let mut times = PhaseTimes::default();
@@ -346,7 +418,12 @@ pub fn resume(
         )));
     }
     let resumed = checkpoint.finished_items();
-    let left = plan.project_numbered(&checkpoint.unfinished(), progress);
+    let left = plan.project_saving(
+        &checkpoint.unfinished(),
+        &checkpoint.finished,
+        saver,
+        progress,
+    );
     let runs = (checkpoint.finished.iter().cloned())
         .map(|links| Run {
             links,
@@ -355,6 +432,132 @@ pub fn resume(
         .chain(left)
         .collect();
     plan.finish_runs(runs, resumed, progress)
+}
+
+impl Plan {
+    /// [`Plan::project_numbered`], saving checkpoints through `saver`
+    /// (with the runs `before` finished by an earlier run): the items are
+    /// projected in chunks, each taking about a quarter of `saver.every`,
+    /// and after a chunk that ends `saver.every` or more after the last
+    /// save, what is finished is saved. The links are the same however the
+    /// items are chunked.
+    pub(super) fn project_saving(
+        &self,
+        numbers: &[usize],
+        before: &[BlockLinks],
+        saver: Option<&Saver>,
+        progress: &dyn Progress,
+    ) -> Vec<Run> {
+        let Some(saver) = saver else {
+            return self.project_numbered(numbers, progress);
+        };
+        let pairs = self.element_pairs();
+        let split = numbers.partition_point(|&n| n < pairs.len());
+        let scene = self.projector.scene();
+        let chunked = Chunked {
+            progress,
+            totals: [
+                (
+                    two_point_projection::PHASE,
+                    (numbers[..split].iter())
+                        .filter(|&&n| two_point_projection::has_two_point_links(scene, pairs[n]))
+                        .count() as u64,
+                ),
+                (
+                    three_point_projection::PHASE,
+                    (numbers.len() - split) as u64,
+                ),
+            ],
+            current: Mutex::new(None),
+        };
+        let chunk_time = (saver.every / 4).max(Duration::from_millis(10));
+        let mut chunk = 4 * rayon::current_num_threads();
+        let mut runs: Vec<Run> = Vec::new();
+        let mut saved = Instant::now();
+        let mut rest = numbers;
+        while !rest.is_empty() {
+            let clock = Instant::now();
+            let (now, later) = rest.split_at(chunk.min(rest.len()));
+            runs.extend(self.project_numbered(now, &chunked));
+            rest = later;
+            // The next chunk sized to take about `chunk_time`, by this one's pace.
+            let pace = chunk_time.as_secs_f64() / clock.elapsed().as_secs_f64().max(1e-6);
+            chunk =
+                ((chunk as f64 * pace.clamp(0.5, 4.0)) as usize).max(rayon::current_num_threads());
+            if !rest.is_empty() && saved.elapsed() >= saver.every && !progress.interrupted() {
+                (saver.save)(scene, self.projector.settings(), self.view(before, &runs));
+                saved = Instant::now();
+            }
+        }
+        chunked.end();
+        runs
+    }
+
+    /// The checkpoint of this plan with the runs `before` finished and
+    /// the finished ones of `runs`, borrowed.
+    fn view<'a>(&'a self, before: &'a [BlockLinks], runs: &'a [Run]) -> CheckpointView<'a> {
+        let mut finished: Vec<&BlockLinks> = (before.iter())
+            .chain(runs.iter().filter(|r| r.finished).map(|r| &r.links))
+            .collect();
+        finished.sort_by_key(|b| b.items.start);
+        CheckpointView {
+            linking: &self.linking,
+            items: self.items().end,
+            finished,
+        }
+    }
+}
+
+/// `progress` for a projection made in chunks: each phase starts once,
+/// with its steps over every chunk (`totals`), and ends when the next one
+/// starts or at [`Chunked::end`].
+struct Chunked<'a> {
+    progress: &'a dyn Progress,
+    totals: [(&'static str, u64); 2],
+    current: Mutex<Option<&'static str>>,
+}
+
+impl Progress for Chunked<'_> {
+    fn start(&self, phase: &str, total: u64) {
+        let Some(&(phase, all)) = self.totals.iter().find(|(p, _)| *p == phase) else {
+            return;
+        };
+        // A chunk without items of the phase still starts and finishes it.
+        if total == 0 {
+            return;
+        }
+        let mut current = self.current.lock().unwrap_or_else(|e| e.into_inner());
+        if *current != Some(phase) {
+            if current.is_some() {
+                self.progress.finish();
+            }
+            self.progress.start(phase, all);
+            *current = Some(phase);
+        }
+    }
+    fn advance(&self, steps: u64) {
+        self.progress.advance(steps)
+    }
+    fn interrupted(&self) -> bool {
+        self.progress.interrupted()
+    }
+    fn cut_short(&self, items: u64) {
+        self.progress.cut_short(items)
+    }
+}
+
+impl Chunked<'_> {
+    /// The last phase is over.
+    fn end(self) {
+        if self
+            .current
+            .into_inner()
+            .unwrap_or_else(|e| e.into_inner())
+            .is_some()
+        {
+            self.progress.finish();
+        }
+    }
 }
 
 #[cfg(test)]
@@ -426,7 +629,8 @@ mod tests {
             assert_eq!(checkpoint.items, items);
             let left = checkpoint.unfinished().len();
             assert_eq!(left + checkpoint.finished_items(), items);
-            let resumed = resume(&scene, &settings, &cut, &Silent).unwrap();
+            let resumed =
+                resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
             assert_eq!(
                 (resumed.stats.resumed_items, resumed.stats.projected_items),
                 (items - left, left),
@@ -449,10 +653,24 @@ mod tests {
         let settings = coarse();
         let first = solve(&scene, &settings, &interrupt_after(30)).unwrap();
         let done = first.checkpoint.as_ref().unwrap().finished_items();
-        let second = resume(&scene, &settings, &first, &interrupt_after(30)).unwrap();
+        let second = resume(
+            &scene,
+            &settings,
+            first.unfinished().unwrap(),
+            None,
+            &interrupt_after(30),
+        )
+        .unwrap();
         let checkpoint = second.checkpoint.clone().expect("cut short again");
         assert!(checkpoint.finished_items() >= done);
-        let resumed = resume(&scene, &settings, &second, &Silent).unwrap();
+        let resumed = resume(
+            &scene,
+            &settings,
+            second.unfinished().unwrap(),
+            None,
+            &Silent,
+        )
+        .unwrap();
         let whole = solve(&scene, &settings, &Silent).unwrap();
         assert_eq!(resumed.radiance, whole.radiance);
     }
@@ -475,7 +693,7 @@ mod tests {
         for (k, spoil) in spoil.into_iter().enumerate() {
             let mut bad = solve(&scene, &settings, &interrupt_after(4000)).unwrap();
             spoil(bad.checkpoint.as_mut().unwrap());
-            match resume(&scene, &settings, &bad, &Silent) {
+            match resume(&scene, &settings, bad.unfinished().unwrap(), None, &Silent) {
                 Err(e) => assert!(e.to_string().contains("does not have"), "case {k}: {e}"),
                 Ok(_) => panic!("case {k}: resumed"),
             }
@@ -496,23 +714,114 @@ mod tests {
         let finer = settings
             .for_resuming(&[("threshold", Value::Real(1e-4))])
             .unwrap();
-        let refused = message(resume(&scene, &finer, &cut(), &Silent));
+        let refused = message(resume(
+            &scene,
+            &finer,
+            cut().unfinished().unwrap(),
+            None,
+            &Silent,
+        ));
         assert!(refused.contains("threshold is 1e-4"), "{refused}");
         // The limits and the sweeps' settings may change.
         let longer = settings
             .for_resuming(&[("max_iterations", Value::Count(300))])
             .unwrap();
-        assert!(resume(&scene, &longer, &cut(), &Silent).is_ok());
+        assert!(resume(&scene, &longer, cut().unfinished().unwrap(), None, &Silent).is_ok());
 
         let mut other = scene.clone();
         let light = other.surfaces.last_mut().unwrap();
         light.emission = light.emission * 2.0;
-        let refused = message(resume(&other, &settings, &cut(), &Silent));
+        let refused = message(resume(
+            &other,
+            &settings,
+            cut().unfinished().unwrap(),
+            None,
+            &Silent,
+        ));
         assert!(refused.contains("scene changed"), "{refused}");
 
         let whole = solve(&scene, &settings, &Silent).unwrap();
-        let refused = message(resume(&scene, &settings, &whole, &Silent));
-        assert!(refused.contains("ran to the end"), "{refused}");
+        assert!(whole.unfinished().is_none());
+    }
+
+    /// Records the phases started, with their totals and the steps
+    /// advanced in each.
+    #[derive(Default)]
+    struct Phases(Mutex<Vec<(String, u64, u64)>>);
+
+    impl Progress for Phases {
+        fn start(&self, phase: &str, total: u64) {
+            self.0.lock().unwrap().push((phase.into(), total, 0));
+        }
+        fn advance(&self, steps: u64) {
+            self.0.lock().unwrap().last_mut().unwrap().2 += steps;
+        }
+    }
+
+    #[test]
+    fn a_solve_that_saves_as_it_goes_is_the_same_and_resumes_from_every_save() {
+        let scene = glossy_box();
+        let settings = coarse();
+        let whole = solve(&scene, &settings, &Phases::default()).unwrap();
+        let saved = Mutex::new(Vec::new());
+        let save = |s: &Scene, t: &SolveSettings, view: CheckpointView<'_>| {
+            assert!(s.difference(&scene).is_none() && *t == settings);
+            saved.lock().unwrap().push(view.to_checkpoint());
+        };
+        let saver = Saver {
+            every: Duration::ZERO,
+            save: &save,
+        };
+        let phases = Phases::default();
+        let saving = super::super::solve_saving(&scene, &settings, Some(&saver), &phases).unwrap();
+        assert_eq!(saving.radiance, whole.radiance);
+        assert_eq!(saving.trees, whole.trees);
+        assert_eq!(saving.directional, whole.directional);
+
+        // Each projection phase started once, with every chunk's steps.
+        let phases = phases.0.into_inner().unwrap();
+        for phase in [two_point_projection::PHASE, three_point_projection::PHASE] {
+            let started: Vec<_> = phases.iter().filter(|p| p.0 == phase).collect();
+            assert_eq!(started.len(), 1, "{phase}: {phases:?}");
+            assert_eq!(started[0].1, started[0].2, "{phase}: {phases:?}");
+        }
+
+        // Saved after every chunk but the last, each with more finished.
+        let saved = saved.into_inner().unwrap();
+        assert!(saved.len() >= 2, "{} saves", saved.len());
+        let items = whole.stats.projected_items;
+        let finished: Vec<usize> = saved.iter().map(Checkpoint::finished_items).collect();
+        assert!(finished.windows(2).all(|w| w[0] < w[1]), "{finished:?}");
+        assert!(*finished.last().unwrap() < items);
+        for checkpoint in &saved {
+            let from = Unfinished {
+                scene: &scene,
+                settings: &settings,
+                checkpoint,
+            };
+            let resumed = resume(&scene, &settings, from, None, &Silent).unwrap();
+            assert_eq!(resumed.radiance, whole.radiance);
+            assert_eq!(resumed.stats.resumed_items, checkpoint.finished_items());
+        }
+
+        // A resume saves too, with the runs it was given.
+        let saved_again = Mutex::new(Vec::new());
+        let save = |_: &Scene, _: &SolveSettings, view: CheckpointView<'_>| {
+            saved_again.lock().unwrap().push(view.finished_items());
+        };
+        let saver = Saver {
+            every: Duration::ZERO,
+            save: &save,
+        };
+        let from = Unfinished {
+            scene: &scene,
+            settings: &settings,
+            checkpoint: &saved[0],
+        };
+        let resumed = resume(&scene, &settings, from, Some(&saver), &Silent).unwrap();
+        assert_eq!(resumed.radiance, whole.radiance);
+        let again = saved_again.into_inner().unwrap();
+        assert!(again.first().is_some_and(|&n| n > finished[0]), "{again:?}");
     }
 
     #[test]

@@ -34,7 +34,7 @@ use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use checkpoint::{merged, runs_of, Run, RunSpan};
-pub use checkpoint::{resume, Checkpoint};
+pub use checkpoint::{resume, Checkpoint, CheckpointView, Saver, Unfinished};
 use cluster_gather::ClusterTransfers;
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
@@ -165,9 +165,24 @@ pub struct Solution {
 /// where nothing emits, all before any kernel work; [`Error::Diverged`]
 /// when Gauss–Seidel's residual keeps growing.
 pub fn solve(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) -> Result<Solution> {
+    solve_saving(scene, settings, None, progress)
+}
+
+/// [`solve`], saving a checkpoint through `saver` as the kernels are
+/// projected, for [`resume`] after the process is killed (the solution is
+/// [`solve`]'s bit for bit).
+///
+/// # Errors
+/// Those of [`solve`].
+pub fn solve_saving(
+    scene: &Scene,
+    settings: &SolveSettings,
+    saver: Option<&Saver>,
+    progress: &dyn Progress,
+) -> Result<Solution> {
     let plan = plan(scene, settings, progress)?;
     let all: Vec<usize> = plan.items().collect();
-    let runs = plan.project_numbered(&all, progress);
+    let runs = plan.project_saving(&all, &[], saver, progress);
     plan.finish_runs(runs, 0, progress)
 }
 

@@ -121,7 +121,7 @@ const MAX_QUADRATURE_ORDER: usize = 16;
 /// Check `settings` as a solve's: every described setting within its range,
 /// [`SolveSettings::validate`], and quadrature orders of at most
 /// [`MAX_QUADRATURE_ORDER`].
-fn check_settings(settings: &SolveSettings) -> Result<(), String> {
+pub(super) fn check_settings(settings: &SolveSettings) -> Result<(), String> {
     for (name, value) in settings.values() {
         SolveSettings::setting(name)
             .and_then(|s| s.check(value))
