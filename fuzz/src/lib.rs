@@ -183,7 +183,7 @@ impl Workspace {
 
     /// A checkpoint file's body before compression (postcard), framed as
     /// [`Workspace::solution`]'s; what reads is resumed on its own scene
-    /// with a time limit of 20 ms (refinement stops there, and the items
+    /// with a time limit of 5 ms (refinement stops there, and the items
     /// left are linked whole), as `wavrad solve --resume` would resume it.
     pub fn checkpoint(&self, input: &[u8]) {
         let file = checkpoint_file_bytes(input).expect("zstd compresses any input");
@@ -193,7 +193,7 @@ impl Workspace {
         };
         let Ok(settings) = read
             .settings
-            .for_resuming(&[("time_limit", Value::Real(0.02))])
+            .for_resuming(&[("time_limit", Value::Real(0.005))])
         else {
             return;
         };
