@@ -252,3 +252,81 @@ fn a_repeated_default_warns_once_and_the_first_wins() {
     assert_eq!(loaded.warnings.len(), 1, "{:?}", loaded.warnings);
     assert!(loaded.warnings[0].message.contains("stays \"0.1\""));
 }
+
+/// A shape group of a rectangle and a rough-conductor cube, instanced
+/// twice, loads to the shapes it stands for, written out one by one with
+/// the instances' transforms applied after their own (Mitsuba's order).
+#[test]
+fn instances_of_a_shape_group_are_its_shapes_placed_by_each_instance() {
+    let scene = |body: &str| {
+        let xml = format!("<scene version=\"3.0.0\">\n{body}\n</scene>");
+        let loaded = load_scene_str(&xml, Path::new("."), "i.xml", &[]);
+        loaded.unwrap_or_else(|e| panic!("{e}")).scene
+    };
+    let rectangle = "<shape type=\"rectangle\"><transform name=\"to_world\">\
+        <scale value=\"0.5\"/>{more}</transform></shape>";
+    let cube = "<shape type=\"cube\"><transform name=\"to_world\"><translate z=\"2\"/>{more}\
+        </transform><bsdf type=\"roughconductor\"/></shape>";
+    let place = [
+        "<rotate y=\"1\" angle=\"30\"/><translate x=\"3\"/>",
+        "<scale value=\"2\"/>",
+    ];
+    let grouped = scene(&format!(
+        "<shape type=\"shapegroup\" id=\"pair\">{}{}</shape>\n\
+         <shape type=\"instance\"><ref id=\"pair\"/><transform name=\"to_world\">{}</transform></shape>\n\
+         <shape type=\"instance\"><ref id=\"pair\"/><transform name=\"to_world\">{}</transform></shape>",
+        rectangle.replace("{more}", ""),
+        cube.replace("{more}", ""),
+        place[0],
+        place[1]
+    ));
+    let flat = scene(
+        &place
+            .iter()
+            .flat_map(|p| [rectangle.replace("{more}", p), cube.replace("{more}", p)])
+            .collect::<String>(),
+    );
+    assert_eq!(grouped.surfaces.len(), 2 * (1 + 6));
+    assert_eq!(grouped.surfaces.len(), flat.surfaces.len());
+    for (g, f) in grouped.surfaces.iter().zip(&flat.surfaces) {
+        assert_eq!(g.brdf, f.brdf);
+        for (a, b) in g.patch.vertices().iter().zip(f.patch.vertices()) {
+            assert!((*a - b).length() < 1e-12, "{a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn what_mitsuba_does_not_instance_is_refused_at_its_line() {
+    let error = |body: &str| {
+        let xml = format!("<scene version=\"3.0.0\">\n{body}\n</scene>");
+        match load_scene_str(&xml, Path::new("."), "i.xml", &[]) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("loaded: {body}"),
+        }
+    };
+    let group = |shapes: &str| format!("<shape type=\"shapegroup\" id=\"g\">\n{shapes}\n</shape>");
+    let instance = "<shape type=\"instance\"><ref id=\"g\"/></shape>";
+    let emitting = group(
+        "<shape type=\"rectangle\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
+    );
+    let message = error(&format!("{emitting}\n{instance}"));
+    assert!(message.starts_with("i.xml:3:"), "{message}");
+    assert!(
+        message.contains("instanced shapes cannot emit"),
+        "{message}"
+    );
+    let nested =
+        group("<shape type=\"rectangle\"/>\n<shape type=\"instance\"><ref id=\"g\"/></shape>");
+    let message = error(&format!("{nested}\n{instance}"));
+    assert!(message.starts_with("i.xml:4:"), "{message}");
+    assert!(message.contains("nested instancing"), "{message}");
+    let message = error("<shape type=\"instance\"/>");
+    assert!(message.starts_with("i.xml:2:"), "{message}");
+    assert!(message.contains("needs one shape group"), "{message}");
+    let message = error(
+        "<bsdf type=\"diffuse\" id=\"g\"/>\n<shape type=\"instance\"><ref id=\"g\"/></shape>",
+    );
+    assert!(message.starts_with("i.xml:3:"), "{message}");
+    assert!(message.contains("cannot contain a <bsdf>"), "{message}");
+}

@@ -202,9 +202,18 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 .error("a <ref> at the top level of the scene does nothing"));
         }
         match n.tag() {
+            // A group's shapes are built where an instance places them.
+            "shape" if n.plugin() == "shapegroup" => {}
+            "shape" if n.plugin() == "instance" => {
+                let first_surface = surfaces.len();
+                shapes::build_instance(*n, doc, shape_index, &mut surfaces)?;
+                check_coordinates(&surfaces[first_surface..], n)?;
+                shape_index += 1;
+            }
             "shape" => {
                 let first_surface = surfaces.len();
-                let emitter = shapes::build_shape(*n, doc, shape_index, &mut surfaces)?;
+                let identity = glam::DMat4::IDENTITY;
+                let emitter = shapes::build_shape(*n, doc, shape_index, &identity, &mut surfaces)?;
                 check_coordinates(&surfaces[first_surface..], n)?;
                 if let Some(e) = emitter {
                     if let Some(first) = attached.insert(e.element, e.at) {

@@ -1,7 +1,10 @@
 //! Shape plugins: `rectangle`, `cube` (`parallelogram.rs`), `disk`,
-//! `cylinder`, `sphere` (tessellated: `tessellation.rs`), and the meshes
-//! `obj`, `ply`, `serialized` (`mesh_file.rs`). Each plugin's module lists
-//! its own parameters; every shape takes
+//! `cylinder`, `sphere` (tessellated: `tessellation.rs`), the meshes
+//! `obj`, `ply`, `serialized` (`mesh_file.rs`), and `instance`s of a
+//! `shapegroup` (each instance's shapes are the group's, copied and placed
+//! by the instance's `to_world`: the solution is per surface, so instances
+//! share nothing but their input). Each plugin's module lists its own
+//! parameters; every shape takes
 //!
 //! | parameter      | type          | default  |
 //! |----------------|---------------|----------|
@@ -46,7 +49,8 @@ use crate::error::Result;
 use mesh_file::MeshFile;
 
 /// The shape plugins wavrad reads, for messages.
-const SUPPORTED: &str = "rectangle, cube, disk, cylinder, sphere, obj, ply, serialized";
+const SUPPORTED: &str =
+    "rectangle, cube, disk, cylinder, sphere, obj, ply, serialized, shapegroup, instance";
 
 /// A shape plugin with its own parameters read.
 #[derive(Debug, Clone)]
@@ -205,11 +209,13 @@ fn untextured(patches: Vec<Patch>) -> Vec<Placed> {
 
 /// Append the surfaces of shape `shape` to `out`, all named by the shape's
 /// `id` (else its `name`, else `plugin#index`), and return its area
-/// emitter, nested or referenced, if it has one.
+/// emitter, nested or referenced, if it has one. `world_from_parent`
+/// places it (an instance's `to_world`; the identity at the top level).
 pub(crate) fn build_shape<'a>(
     shape: Nested<'a>,
     doc: &'a Document<'a>,
     index: usize,
+    world_from_parent: &DMat4,
     out: &mut Vec<Surface>,
 ) -> Result<Option<Nested<'a>>> {
     let mut obj = Object::parse(shape.element, doc)?;
@@ -217,7 +223,8 @@ pub(crate) fn build_shape<'a>(
 
     // Parameters.
     let geometry = Geometry::parse(&mut obj)?;
-    let world_from_local = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    let world_from_local =
+        *world_from_parent * obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
     if !world_from_local.is_finite() {
         return Err(obj
             .location_of("to_world")
@@ -282,6 +289,61 @@ pub(crate) fn build_shape<'a>(
         }
     }
     Ok(emitter)
+}
+
+/// Append the surfaces of the shape group an `instance` names to `out`,
+/// placed by the instance's `to_world` after each shape's own (numbered
+/// from `index` on, for their names), as Mitsuba's `instance` and
+/// `shapegroup` do. As in Mitsuba, a group's shapes cannot emit and a
+/// group holds no instances or groups.
+pub(crate) fn build_instance<'a>(
+    instance: Nested<'a>,
+    doc: &'a Document<'a>,
+    index: usize,
+    out: &mut Vec<Surface>,
+) -> Result<()> {
+    let mut obj = Object::parse(instance.element, doc)?;
+    let world_from_instance = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    if !world_from_instance.is_finite() {
+        return Err(obj
+            .location_of("to_world")
+            .error(format!("to_world of {} is not finite", obj.describe())));
+    }
+    obj.finish()?;
+    let group = match obj.nested.as_slice() {
+        [group] if group.tag() == "shape" && group.plugin() == "shapegroup" => *group,
+        [other] => return Err(obj.unexpected(other)),
+        _ => {
+            return Err(obj.at().error(format!(
+                "{} needs one shape group (<ref id=\"…\"/> to a <shape type=\"shapegroup\">), \
+                 got {}",
+                obj.describe(),
+                obj.nested.len()
+            )))
+        }
+    };
+    let members = Object::parse(group.element, doc)?;
+    members.finish()?;
+    for (k, shape) in members.nested.iter().enumerate() {
+        if shape.tag() != "shape" {
+            return Err(members.unexpected(shape));
+        }
+        if matches!(shape.plugin(), "shapegroup" | "instance") {
+            return Err(shape.at.error(format!(
+                "a <shape type=\"{}\"> inside a shape group: nested instancing is not \
+                 supported (nor in Mitsuba)",
+                shape.plugin()
+            )));
+        }
+        if let Some(emitter) = build_shape(*shape, doc, index + k, &world_from_instance, out)? {
+            return Err(emitter.at.error(format!(
+                "an area emitter on a shape of the shape group at {}: instanced shapes \
+                 cannot emit (nor in Mitsuba)",
+                group.element.at
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// A surface of `side` on `placed`. A textured side's albedo is its
