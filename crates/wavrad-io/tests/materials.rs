@@ -3,11 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
 use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
 use wavrad_core::scene::texture::Texture;
-use wavrad_core::scene::{Rgb, Scene};
+use wavrad_core::scene::{Patch, Rgb, Scene};
 use wavrad_io::{load_scene_with_options, LoadOptions, Loaded};
 
 /// `body` in a scene file beside `wall.png` (the textured Cornell box's
@@ -150,13 +150,6 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
         assert!(e.contains("scene.xml:3"), "{e}");
         assert!(e.contains(plugin) && e.contains("--approximate"), "{e}");
     }
-    let e = load(
-        &format!(r#"<shape type="sphere"><bsdf type="diffuse">{CHECKER}</bsdf></shape>"#),
-        false,
-    )
-    .unwrap_err()
-    .to_string();
-    assert!(e.contains("a texture on shape \"sphere\""), "{e}");
 }
 
 #[test]
@@ -174,19 +167,18 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
                    <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
                    <bsdf type="diffuse"/>
                </bsdf></shape>
-               <shape type="sphere"><bsdf type="diffuse">{CHECKER}</bsdf></shape>"#
+"#
         ),
         true,
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let messages: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
-    assert_eq!(messages.len(), 5, "{messages:#?}");
+    assert_eq!(messages.len(), 4, "{messages:#?}");
     for plugin in [
         "bsdf \"dielectric\": left out",
         "bsdf \"thindielectric\"",
         "bsdf \"principled\": rough plastic",
         "bsdf \"bumpmap\": its nested BSDF",
-        "a texture on shape \"sphere\": the texture's mean",
     ] {
         assert!(
             messages.iter().any(|m| m.contains(plugin)),
@@ -195,15 +187,11 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     }
     let s = loaded.scene;
     // Glass is left out; principled is a red rough plastic; the bump map's
-    // nested diffuse stays; the sphere is grey 0.3 throughout.
+    // nested diffuse stays.
     assert!(matches!(&s.surfaces[0].brdf,
         Brdf::RoughPlastic(p) if p.params().diffuse_reflectance == Rgb([0.8, 0.1, 0.1])
             && (p.params().alpha - 0.09).abs() < 1e-12));
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
-    let sphere = &s.surfaces[2..];
-    assert!(sphere.iter().all(|t| t.texture.is_none()));
-    let rho = sphere[0].brdf.lambertian().unwrap();
-    assert!((rho[0] - 0.3).abs() < 1e-9, "{rho}");
 }
 
 #[test]
@@ -256,4 +244,86 @@ fn mesh_texture_coordinates_follow_mitsubas_conventions() {
             "{file}: {uv}"
         );
     }
+}
+
+/// The texture coordinates the surfaces of `scene` give where the ray from
+/// `origin` along `direction` first meets them.
+fn uv_along(scene: &Scene, origin: DVec3, direction: DVec3) -> DVec2 {
+    let mut nearest = (f64::INFINITY, DVec2::NAN);
+    for surface in &scene.surfaces {
+        let patch = &surface.patch;
+        let (normal, corner) = (patch.normal(), patch.vertices()[0]);
+        let t = (corner - origin).dot(normal) / direction.dot(normal);
+        let param = patch.param_of(origin + t * direction);
+        let inside = match patch {
+            Patch::Triangle(_) => param.min_element() >= -1e-9 && param.element_sum() <= 1.0 + 1e-9,
+            Patch::Parallelogram { .. } => {
+                param.min_element() >= -1e-9 && param.max_element() <= 1.0 + 1e-9
+            }
+        };
+        if t > 1e-9 && t < nearest.0 && inside {
+            nearest = (t, surface.texture.expect("textured").uv_at(param));
+        }
+    }
+    nearest.1
+}
+
+#[test]
+fn curved_shapes_carry_mitsubas_texture_coordinates() {
+    use std::f64::consts::{PI, TAU};
+    let bsdf = format!(r#"<bsdf type="diffuse">{CHECKER}</bsdf>"#);
+    let placed = r#"<transform name="to_world"><scale value="2"/><translate x="1" y="-1" z="0.5"/></transform>"#;
+    let scene_of =
+        |plugin: &str| scene(&format!(r#"<shape type="{plugin}">{placed}{bsdf}</shape>"#));
+    let centre = DVec3::new(1.0, -1.0, 0.5);
+    let unwrap = |u: f64, near: f64| u + (near - u).round();
+    // Directions all round the axis, across the seam at φ = 0, and away
+    // from the sphere's poles, where u is any.
+    for k in 0..40 {
+        let phi = TAU * (k as f64 + 0.37) / 40.0;
+        let around = DVec3::new(phi.cos(), phi.sin(), 0.0);
+        let u = phi / TAU;
+        for (plugin, origin, direction, expected) in [
+            // Mitsuba's sphere: (φ/2π, θ/π).
+            (
+                "sphere",
+                centre,
+                around * 0.8 + DVec3::Z * 0.6,
+                DVec2::new(u, 0.6f64.acos() / PI),
+            ),
+            // Its cylinder: (φ/2π, z) for z from 0 to 1 along its axis.
+            (
+                "cylinder",
+                centre + DVec3::Z * 2.0 * 0.3,
+                around,
+                DVec2::new(u, 0.3),
+            ),
+            // Its disk: (r, φ/2π).
+            (
+                "disk",
+                centre + around * 2.0 * 0.7 + DVec3::Z,
+                -DVec3::Z,
+                DVec2::new(0.7, u),
+            ),
+        ] {
+            let uv = uv_along(&scene_of(plugin), origin, direction);
+            let uv = match plugin {
+                "disk" => DVec2::new(uv.x, unwrap(uv.y, expected.y)),
+                _ => DVec2::new(unwrap(uv.x, expected.x), uv.y),
+            };
+            assert!(
+                (uv - expected).abs().max_element() < 0.01,
+                "{plugin} at φ = {phi}: {uv} vs {expected}"
+            );
+        }
+    }
+    // Each surface's albedo is the checkerboard's mean over it.
+    let sphere = scene_of("sphere");
+    let mean: f64 = sphere
+        .surfaces
+        .iter()
+        .map(|s| s.brdf.lambertian().unwrap()[0] * s.patch.area())
+        .sum::<f64>()
+        / sphere.surfaces.iter().map(|s| s.patch.area()).sum::<f64>();
+    assert!((mean - 0.3).abs() < 0.01, "{mean}");
 }

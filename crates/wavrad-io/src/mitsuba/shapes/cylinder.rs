@@ -23,10 +23,11 @@
 
 use std::f64::consts::PI;
 
-use glam::{DMat4, DVec3, DVec4};
+use glam::{DMat4, DVec3, DVec4, Vec2};
 use wavrad_core::scene::Patch;
 
-use super::tessellation::{around, SEGMENTS};
+use super::tessellation::{around, u_of, with_uv, SEGMENTS};
+use super::Placed;
 
 /// The unit cylinder as [`SEGMENTS`] rectangles facing outwards, at the
 /// radius that makes the total area 2π.
@@ -40,6 +41,11 @@ pub(super) fn unit_cylinder() -> Vec<Patch> {
             edge_t: DVec3::Z,
         })
         .collect()
+}
+
+/// [`unit_cylinder`] with Mitsuba's texture coordinates: (φ/2π, z).
+pub(super) fn textured_unit_cylinder() -> Vec<Placed> {
+    with_uv(unit_cylinder(), |p, phi| Vec2::new(u_of(phi), p.z as f32))
 }
 
 /// Mitsuba's placement of the unit cylinder between `p0` and `p1`; `None`

@@ -16,19 +16,34 @@
 
 use std::f64::consts::PI;
 
-use glam::DVec3;
+use glam::{DVec3, Vec2};
 use wavrad_core::scene::Patch;
 
-use super::tessellation::{around, SEGMENTS};
+use super::tessellation::{around, u_of, with_uv, SEGMENTS};
+use super::Placed;
+
+/// The radius of the tessellated disk's rim: that which makes its area π.
+fn rim() -> f64 {
+    let n = SEGMENTS as f64;
+    (2.0 * PI / (n * (2.0 * PI / n).sin())).sqrt()
+}
 
 /// The unit disk as [`SEGMENTS`] triangles around its centre, facing +z,
 /// their rim at the radius that makes the total area π.
 pub(super) fn unit_disk() -> Vec<Patch> {
-    let n = SEGMENTS as f64;
-    let rim = (2.0 * PI / (n * (2.0 * PI / n).sin())).sqrt();
+    let rim = rim();
     (0..SEGMENTS)
         .map(|j| Patch::Triangle([DVec3::ZERO, rim * around(j), rim * around(j + 1)]))
         .collect()
+}
+
+/// [`unit_disk`] with Mitsuba's texture coordinates: (r, φ/2π), the rim at
+/// r = 1.
+pub(super) fn textured_unit_disk() -> Vec<Placed> {
+    let rim = rim();
+    with_uv(unit_disk(), |p, phi| {
+        Vec2::new((p.truncate().length() / rim) as f32, u_of(phi))
+    })
 }
 
 #[cfg(test)]

@@ -147,11 +147,7 @@ impl MeshFile {
                     let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
                     against != mirrored
                 });
-                Some(if turn {
-                    flip(&(p, Some(uv)))
-                } else {
-                    (p, Some(uv))
-                })
+                Some(if turn { flip(&(p, uv)) } else { (p, uv) })
             })
             .collect();
         if patches.is_empty() {

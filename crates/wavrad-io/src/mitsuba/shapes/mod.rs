@@ -65,12 +65,12 @@ enum Geometry {
 
 /// A patch and Mitsuba's texture coordinates at its parameters (0,0),
 /// (1,0) and (0,1), where wavrad has them for the shape.
-type Placed = (Patch, Option<[Vec2; 3]>);
+type Placed = (Patch, [Vec2; 3]);
 
 /// The patch seen from the other side, every point keeping its texture
 /// coordinates.
 fn flip(&(patch, uv): &Placed) -> Placed {
-    (patch.flipped(), uv.map(|uv| flipped_uv(uv, &patch)))
+    (patch.flipped(), flipped_uv(uv, &patch))
 }
 
 /// Which side of a shape is the front after a mirroring `to_world`.
@@ -109,8 +109,8 @@ impl Geometry {
     }
 
     /// The shape's patches in world space, front side Mitsuba's (before
-    /// `flip_normals`), with texture coordinates for `rectangle`, `cube`
-    /// and meshes.
+    /// `flip_normals`), with Mitsuba's texture coordinates (meshes where
+    /// their files have them).
     fn patches(
         &self,
         obj: &Object,
@@ -129,22 +129,19 @@ impl Geometry {
         };
         let (local, world_from_local, front) = match self {
             Geometry::Rectangle => (
-                vec![(
-                    parallelogram::rectangle(),
-                    Some(parallelogram::RECTANGLE_UV),
-                )],
+                vec![(parallelogram::rectangle(), parallelogram::RECTANGLE_UV)],
                 *world_from_local,
                 Front::Normals,
             ),
             Geometry::Cube => (
                 (parallelogram::cube().into_iter())
-                    .zip(parallelogram::CUBE_UV.map(Some))
+                    .zip(parallelogram::CUBE_UV)
                     .collect(),
                 *world_from_local,
                 Front::Normals,
             ),
             Geometry::Disk => (
-                untextured(disk::unit_disk()),
+                disk::textured_unit_disk(),
                 *world_from_local,
                 Front::Normals,
             ),
@@ -157,7 +154,7 @@ impl Geometry {
                         ))
                     })?;
                 (
-                    untextured(cylinder::unit_cylinder()),
+                    cylinder::textured_unit_cylinder(),
                     *world_from_local * local_from_cylinder,
                     Front::Normals,
                 )
@@ -177,7 +174,7 @@ impl Geometry {
                     )));
                 }
                 (
-                    untextured(sphere::unit_sphere()),
+                    sphere::textured_unit_sphere(),
                     placement.world_from_sphere,
                     Front::Winding,
                 )
@@ -200,11 +197,6 @@ impl Geometry {
             })
             .collect()
     }
-}
-
-/// Patches of a shape whose texture coordinates wavrad does not have.
-fn untextured(patches: Vec<Patch>) -> Vec<Placed> {
-    patches.into_iter().map(|p| (p, None)).collect()
 }
 
 /// Append the surfaces of shape `shape` to `out`, all named by the shape's
@@ -278,12 +270,12 @@ pub(crate) fn build_shape<'a>(
         .or(shape.element.attr("name"))
         .map_or_else(|| format!("{plugin}#{index}"), str::to_string);
     for placed in patches {
-        let mut surface = textured(&front, placed, &obj, doc)?;
+        let mut surface = textured(&front, placed, doc);
         surface.name.clone_from(&name);
         surface.emission = emission;
         out.push(surface);
         if let Some(back) = &back {
-            let mut surface = textured(back, flip(&placed), &obj, doc)?;
+            let mut surface = textured(back, flip(&placed), doc);
             surface.name.clone_from(&name);
             out.push(surface);
         }
@@ -347,10 +339,8 @@ pub(crate) fn build_instance<'a>(
 }
 
 /// A surface of `side` on `placed`. A textured side's albedo is its
-/// texture's average over the patch, and the surface keeps the mapping; on
-/// a shape without texture coordinates a texture is an error, or with
-/// `--approximate` its mean.
-fn textured(side: &Side, (patch, uv): Placed, obj: &Object, doc: &Document) -> Result<Surface> {
+/// texture's average over the patch, and the surface keeps the mapping.
+fn textured(side: &Side, (patch, uv): Placed, doc: &Document) -> Surface {
     let mut surface = Surface {
         name: String::new(),
         patch,
@@ -358,18 +348,11 @@ fn textured(side: &Side, (patch, uv): Placed, obj: &Object, doc: &Document) -> R
         emission: Rgb::ZERO,
         texture: None,
     };
-    let Some(index) = side.texture else {
-        return Ok(surface);
-    };
-    let Some(uv) = uv else {
-        let what = format!("a texture on {}", obj.describe());
-        let substitute = "the texture's mean (wavrad has no texture coordinates for this shape)";
-        doc.approximate(obj.at(), &what, substitute)?;
-        return Ok(surface);
-    };
-    let mapping = TextureMapping { texture: index, uv };
-    let average = doc.with_texture(index, |t| mapping.average(t, &patch, &patch));
-    surface.brdf = Brdf::diffuse(average);
-    surface.texture = Some(mapping);
-    Ok(surface)
+    if let Some(index) = side.texture {
+        let mapping = TextureMapping { texture: index, uv };
+        let average = doc.with_texture(index, |t| mapping.average(t, &patch, &patch));
+        surface.brdf = Brdf::diffuse(average);
+        surface.texture = Some(mapping);
+    }
+    surface
 }

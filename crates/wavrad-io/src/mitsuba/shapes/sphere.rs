@@ -27,10 +27,11 @@
 
 use std::f64::consts::PI;
 
-use glam::{DMat4, DVec3};
+use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::Patch;
 
-use super::tessellation::{around, SEGMENTS};
+use super::tessellation::{around, polar_v, u_of, with_uv, SEGMENTS};
+use super::Placed;
 
 /// Arcs from pole to pole.
 const RINGS: usize = SEGMENTS / 2;
@@ -72,6 +73,12 @@ pub(super) fn unit_sphere() -> Vec<Patch> {
         .into_iter()
         .map(|t| Patch::Triangle(t.map(|v| scale * v)))
         .collect()
+}
+
+/// [`unit_sphere`] with Mitsuba's texture coordinates: (φ/2π, θ/π), θ the
+/// polar angle from +z.
+pub(super) fn textured_unit_sphere() -> Vec<Placed> {
+    with_uv(unit_sphere(), |p, phi| Vec2::new(u_of(phi), polar_v(p)))
 }
 
 /// Where Mitsuba's sphere is: the unit sphere's transform (`to_world ·

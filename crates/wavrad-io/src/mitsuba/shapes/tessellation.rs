@@ -14,7 +14,20 @@
 //! 0.6 % of the radius of the exact disk and cylinder, and within 1 % of the
 //! exact sphere (each shape's tests check its bound).
 
-use glam::DVec3;
+//!
+//! Each patch carries Mitsuba's texture coordinates at its parameter points
+//! ([`with_uv`]), so that textures map onto the tessellated shape as onto
+//! the exact one, up to the tessellation: the coordinates are exact at the
+//! patch's corners (the azimuth continued across the seam at 2π, and taken
+//! at the patch's middle where the corner is on the axis) and affine in
+//! between.
+
+use std::f64::consts::{PI, TAU};
+
+use glam::{DVec3, Vec2};
+use wavrad_core::scene::Patch;
+
+use super::Placed;
 
 /// Arcs per full circle around a shape's axis.
 pub(super) const SEGMENTS: usize = 24;
@@ -26,9 +39,71 @@ pub(super) fn around(j: usize) -> DVec3 {
     DVec3::new(phi.cos(), phi.sin(), 0.0)
 }
 
+/// The points of `patch` at its parameters (0,0), (1,0) and (0,1).
+fn parameter_points(patch: &Patch) -> [DVec3; 3] {
+    match *patch {
+        Patch::Parallelogram {
+            origin,
+            edge_s,
+            edge_t,
+        } => [origin, origin + edge_s, origin + edge_t],
+        Patch::Triangle(v) => v,
+    }
+}
+
+/// `patches` (of a unit shape around the z axis) with texture coordinates
+/// `uv(p, phi)` at their parameter points p, phi being p's azimuth in
+/// radians, continued from the patch's middle (so that a patch across the
+/// seam at 0 = 2π has coordinates on both sides of 1, as its texture lookups
+/// need) and the middle's where p is on the axis.
+pub(super) fn with_uv(patches: Vec<Patch>, uv: impl Fn(DVec3, f64) -> Vec2) -> Vec<Placed> {
+    let azimuth = |p: DVec3| p.y.atan2(p.x).rem_euclid(TAU);
+    patches
+        .into_iter()
+        .map(|patch| {
+            let vertices = patch.vertices();
+            let middle = vertices.iter().sum::<DVec3>() / vertices.len() as f64;
+            let phi_middle = azimuth(middle);
+            let coordinates = parameter_points(&patch).map(|p| {
+                let phi = if p.truncate().length() < 1e-12 {
+                    phi_middle
+                } else {
+                    let phi = azimuth(p);
+                    phi + TAU * ((phi_middle - phi) / TAU).round()
+                };
+                uv(p, phi)
+            });
+            (patch, coordinates)
+        })
+        .collect()
+}
+
+/// Mitsuba's u around the axis: the azimuth over 2π.
+pub(super) fn u_of(phi: f64) -> f32 {
+    (phi / TAU) as f32
+}
+
+/// Mitsuba's sphere v: the polar angle from +z over π.
+pub(super) fn polar_v(p: DVec3) -> f32 {
+    ((p.z / p.length()).clamp(-1.0, 1.0).acos() / PI) as f32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn coordinates_continue_across_the_seam_and_take_the_middle_on_the_axis() {
+        let seam = Patch::Triangle([DVec3::ZERO, around(SEGMENTS - 1), around(SEGMENTS)]);
+        let [(_, uv)] = with_uv(vec![seam], |_, phi| Vec2::new(u_of(phi), 0.0))[..] else {
+            panic!()
+        };
+        let [centre, a, b] = uv.map(|c| c.x);
+        let n = SEGMENTS as f32;
+        assert!((a - (n - 1.0) / n).abs() < 1e-6, "{a}");
+        assert!((b - 1.0).abs() < 1e-6, "{b}: past the seam, not 0");
+        assert!((centre - (n - 0.5) / n).abs() < 1e-3, "{centre}");
+    }
 
     #[test]
     fn a_loop_closes_exactly() {
