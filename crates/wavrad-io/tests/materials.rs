@@ -155,8 +155,7 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
 #[test]
 fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     let loaded = load(
-        &format!(
-            r#"<shape type="rectangle"><bsdf type="dielectric"/></shape>
+        r#"<shape type="rectangle"><bsdf type="dielectric"/></shape>
                <shape type="cube"><bsdf type="thindielectric"/></shape>
                <shape type="rectangle"><bsdf type="dielectric"/></shape>
                <shape type="rectangle"><bsdf type="principled">
@@ -166,9 +165,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
                <shape type="rectangle"><bsdf type="bumpmap">
                    <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
                    <bsdf type="diffuse"/>
-               </bsdf></shape>
-"#
-        ),
+               </bsdf></shape>"#,
         true,
     )
     .unwrap_or_else(|e| panic!("{e}"));
