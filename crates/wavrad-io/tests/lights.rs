@@ -85,3 +85,46 @@ fn envmap_loads_turned_by_its_to_world() {
     let zenith = map.radiance(DVec3::Y);
     assert!((zenith[2] - 1.2).abs() < 1e-3, "{zenith}");
 }
+
+/// An envmap image of another format is read as Mitsuba reads it: Radiance
+/// HDR as stored (the same map as the OpenEXR of the same values), an 8-bit
+/// PNG made linear from sRGB.
+#[test]
+fn envmaps_of_hdr_and_png_images_read_as_linear_radiance() {
+    let dir = tempfile::tempdir().unwrap();
+    let sky = |x: u32, y: u32| [0.25 + x as f32, 2.0 * y as f32 + 0.5, 0.125];
+    let float = image::Rgb32FImage::from_fn(8, 4, |x, y| image::Rgb(sky(x, y)));
+    float.save(dir.path().join("sky.exr")).unwrap();
+    float.save(dir.path().join("sky.hdr")).unwrap();
+    image::RgbImage::from_pixel(8, 4, image::Rgb([128, 128, 128]))
+        .save(dir.path().join("grey.png"))
+        .unwrap();
+    let map = |file: &str| {
+        let xml = format!(
+            "<scene version=\"3.0.0\"><emitter type=\"envmap\">\
+             <string name=\"filename\" value=\"{file}\"/></emitter></scene>"
+        );
+        let loaded = wavrad_io::load_scene_str(&xml, dir.path(), "sky.xml", &[]);
+        match &loaded.unwrap_or_else(|e| panic!("{e}")).scene.lights[..] {
+            [Light::Envmap(map)] => map.clone(),
+            other => panic!("{other:?}"),
+        }
+    };
+    let (exr, hdr) = (map("sky.exr"), map("sky.hdr"));
+    for k in 0..20 {
+        let towards =
+            DVec3::new((k as f64).cos(), 0.3 * k as f64 - 3.0, (k as f64).sin()).normalize();
+        let (a, b) = (exr.radiance(towards), hdr.radiance(towards));
+        // HDR stores 8-bit mantissas with a shared exponent.
+        assert!(
+            (a - b).0.iter().all(|d| d.abs() <= 0.01 * a.0[1].max(1.0)),
+            "{a} vs {b}"
+        );
+    }
+    // sRGB 128 is 0.2158605 linear (Mitsuba's srgb_to_linear).
+    let grey = map("grey.png").radiance(DVec3::Y);
+    assert!(
+        grey.0.iter().all(|v| (v - 0.2158605).abs() < 1e-5),
+        "{grey}"
+    );
+}

@@ -17,15 +17,16 @@
 //! |               | `direction`       | `<vector>`                  | from `to_world`      |
 //! |               | `to_world`        | transform (travels along +z)| identity             |
 //! | `constant`    | `radiance`        | spectrum (W m⁻² sr⁻¹)       | 1                    |
-//! | `envmap`      | `filename`        | string, an OpenEXR image    | (required)           |
+//! | `envmap`      | `filename`        | string, an image (EXR, HDR, PNG, JPEG, …) | (required) |
 //! |               | `scale`           | float                       | 1                    |
 //! |               | `to_world`        | transform (a rotation)      | identity             |
 //! | all           | `sampling_weight` | float (ignored)             | 1                    |
 //!
 //! A spectrum is an `<rgb>`, a `<float>` or a `<spectrum value>`; a
 //! spectral value becomes the colour Mitsuba's RGB variants give it
-//! (`mitsuba/spectrum.rs`). A spot's `texture` is an error naming it, and
-//! so is an `envmap` image in another format than OpenEXR.
+//! (`mitsuba/spectrum.rs`). A spot's `texture` is an error naming it. An
+//! `envmap` image is linear RGB as Mitsuba reads it: OpenEXR and Radiance
+//! HDR as stored, 8- and 16-bit images (PNG, JPEG, …) made linear from sRGB.
 //!
 //! ```xml
 //! <shape type="rectangle">
@@ -173,13 +174,16 @@ fn parse_envmap(obj: &mut Object, doc: &Document) -> Result<EnvMap> {
     let is_exr = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if !is_exr {
-        return Err(at.error(format!(
-            "envmap image \"{filename}\": only OpenEXR (.exr) environment maps are supported"
-        )));
-    }
-    let (width, height, rgb) = crate::image::read_exr_rgb(&path)
-        .map_err(|e| at.error(format!("cannot read the envmap image: {e}")))?;
+    // OpenEXR through the exr crate (every layout Mitsuba writes); the
+    // rest (HDR, PNG, JPEG, …) as bitmap textures are read, sRGB made linear.
+    let (width, height, rgb) = if is_exr {
+        crate::image::read_exr_rgb(&path)
+            .map_err(|e| at.error(format!("cannot read the envmap image: {e}")))?
+    } else {
+        let (width, height, texels) = super::textures::read_linear_rgb(&path, false)
+            .map_err(|e| at.error(format!("envmap image \"{}\": {e}", path.display())))?;
+        (width, height, texels.concat())
+    };
     if let Some(v) = rgb.iter().find(|v| !v.is_finite()) {
         return Err(at.error(format!(
             "envmap image \"{filename}\" holds a pixel of {v}: wavrad needs finite radiance"

@@ -147,6 +147,28 @@ fn parse_bitmap(obj: &mut Object, doc: &Document) -> Result<Bitmap> {
 
 /// The image at `path` as linear RGB texels, row 0 first (Mitsuba's v = 0).
 fn read_texels(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let (width, height, texels) = read_linear_rgb(path, raw)?;
+    if let Some((i, bad)) = texels
+        .iter()
+        .enumerate()
+        .find(|(_, t)| !t.iter().all(|v| (0.0..=1.0).contains(v)))
+    {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        return Err(format!(
+            "texel ({x}, {y}) is {bad:?}: a reflectance must lie in [0, 1] in every channel"
+        ));
+    }
+    Ok((width, height, texels))
+}
+
+/// The image at `path` decoded to linear RGB, row 0 first: integer pixels
+/// (8 or 16 bits) sRGB-encoded and made linear unless `raw`, floating-point
+/// ones (EXR, HDR) as stored, as Mitsuba 3's `Bitmap` converts them; at
+/// most [`MAX_TEXELS`] pixels.
+pub(crate) fn read_linear_rgb(
+    path: &Path,
+    raw: bool,
+) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), String> {
     let reader = image::ImageReader::open(path)
         .map_err(|e| format!("cannot open: {e}"))?
         .with_guessed_format()
@@ -178,16 +200,6 @@ fn read_texels(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f3
         .pixels()
         .map(|p| p.0.map(|v| if srgb { srgb_to_linear(v) } else { v }))
         .collect();
-    if let Some((i, bad)) = texels
-        .iter()
-        .enumerate()
-        .find(|(_, t)| !t.iter().all(|v| (0.0..=1.0).contains(v)))
-    {
-        let (x, y) = (i as u32 % width, i as u32 / width);
-        return Err(format!(
-            "texel ({x}, {y}) is {bad:?}: a reflectance must lie in [0, 1] in every channel"
-        ));
-    }
     Ok((width, height, texels))
 }
 
