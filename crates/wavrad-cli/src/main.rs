@@ -449,6 +449,14 @@ fn run(cli: Cli, progress: &Reporter) -> Result<(), String> {
             let checkpoints = checkpoint_path(output.as_deref(), checkpoint_every)?;
             if let Some(checkpoints) = &checkpoints {
                 wavrad_io::check_writable(checkpoints).map_err(|e| e.to_string())?;
+                if checkpoints.exists() && resume.as_deref() != Some(checkpoints.as_path()) {
+                    eprintln!(
+                        "wavrad: warning: {0} is the checkpoint of an earlier solve that did not \
+                         finish; this solve starts over and replaces it (`--resume {0}` would \
+                         have gone on from it)",
+                        checkpoints.display()
+                    );
+                }
             }
             let saving = checkpoints.as_deref().map(|path| (path, checkpoint_every));
             let (solution, source) = load_and_solve(&args, resume.as_deref(), saving, progress)?;

@@ -294,6 +294,23 @@ fn a_solve_killed_outright_resumes_from_its_last_checkpoint() {
     assert!(!Path::new(&at("killed.wavrad")).exists());
     std::fs::copy(&checkpoint, at("saved.checkpoint.wavrad")).unwrap();
 
+    // Solving again from the start says what it replaces.
+    let o = wavrad(
+        &[
+            &solve[..],
+            &["-o", &at("killed.wavrad"), "--threshold", "0.5"],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("starts over and replaces it"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!checkpoint.exists());
+    std::fs::copy(at("saved.checkpoint.wavrad"), &checkpoint).unwrap();
+
     // Resumed from the checkpoint: the uninterrupted solution, and the
     // checkpoint is gone once the solution is written.
     let resume = ["--resume", &at("killed.checkpoint.wavrad")];
