@@ -183,15 +183,16 @@ impl Checkpoint {
         }
     }
 
-    /// An error unless the finished runs are ranges of the items, in order
-    /// and apart (as [`Checkpoint::new`] makes them), and every element,
+    /// An error unless the finished runs are ranges of the items (none
+    /// reversed), in order and apart (as [`Checkpoint::new`] makes them), and every element,
     /// cluster and value they and the linking name is one of `scene`'s
     /// (whose cluster tree has `clusters` nodes): a checkpoint read from a
     /// file is followed without further checks.
     fn check(&self, scene: &Scene, clusters: usize) -> Result<()> {
         let mut next = 0;
         for block in &self.finished {
-            if block.items.start < next || block.items.end > self.items {
+            let (start, end) = (block.items.start, block.items.end);
+            if start > end || start < next || end > self.items {
                 return Err(Error::Resume(format!(
                     "the checkpoint's finished items {:?} are not in order within its {} items",
                     block.items, self.items
@@ -695,6 +696,40 @@ mod tests {
             spoil(bad.checkpoint.as_mut().unwrap());
             match resume(&scene, &settings, bad.unfinished().unwrap(), None, &Silent) {
                 Err(e) => assert!(e.to_string().contains("does not have"), "case {k}: {e}"),
+                Ok(_) => panic!("case {k}: resumed"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_checkpoint_whose_runs_are_not_ranges_of_its_items_in_order_is_refused() {
+        let scene = glossy_box();
+        let settings = coarse();
+        let cut = solve(&scene, &settings, &interrupt_after(400)).unwrap();
+        let items = cut.checkpoint.as_ref().unwrap().items;
+        // A reversed range (found by the fuzzer: it reached past the items),
+        // one past the end, and two out of order.
+        let spoil: [&dyn Fn(&mut Checkpoint); 3] = [
+            &|c| c.finished[0].items = items + 12..items - 1,
+            &|c| c.finished[0].items.end = items + 1,
+            &|c| {
+                let first = c.finished[0].items.clone();
+                c.finished.push(BlockLinks {
+                    items: first,
+                    ..c.finished[0].clone()
+                });
+            },
+        ];
+        for (k, spoil) in spoil.iter().enumerate() {
+            let mut bad = cut.checkpoint.clone().unwrap();
+            spoil(&mut bad);
+            let from = Unfinished {
+                scene: &scene,
+                settings: &settings,
+                checkpoint: &bad,
+            };
+            match resume(&scene, &settings, from, None, &Silent) {
+                Err(e) => assert!(e.to_string().contains("not in order"), "case {k}: {e}"),
                 Ok(_) => panic!("case {k}: resumed"),
             }
         }
