@@ -668,49 +668,26 @@ mod tests {
 
     #[test]
     fn a_triangle_beyond_both_polygons_is_apart_only_past_the_one_it_touches() {
-        // Along one axis: polygon extents `a`, `c` and a triangle's.
+        // Along one axis: a triangle's extent, the polygons' extents, and
+        // whether the triangle is apart from the shaft between them.
         let (apart, touch) = (1e-5, 1e-12);
-        // Touching a, well clear of c, on the far side of both: apart.
-        assert!(beyond_both(
-            (1.0, 2.0),
-            [(0.0, 1.0), (0.0, 0.5)],
-            apart,
-            touch
-        ));
-        assert!(beyond_both(
-            (-2.0, 0.0),
-            [(0.0, 1.0), (0.5, 1.0)],
-            apart,
-            touch
-        ));
-        // Touching both (a shaft's side that the triangle lies against).
-        assert!(!beyond_both(
-            (1.0, 2.0),
-            [(0.0, 1.0), (0.2, 1.0)],
-            apart,
-            touch
-        ));
-        // Reaching into one of them.
-        assert!(!beyond_both(
-            (0.9, 2.0),
-            [(0.0, 1.0), (0.0, 0.5)],
-            apart,
-            touch
-        ));
-        // Between them: beyond each, but on opposite sides.
-        assert!(!beyond_both(
-            (1.0, 2.0),
-            [(0.0, 0.5), (2.5, 3.0)],
-            apart,
-            touch
-        ));
-        // Clear of both: apart, as without touching.
-        assert!(beyond_both(
-            (3.0, 4.0),
-            [(0.0, 1.0), (0.0, 2.0)],
-            apart,
-            touch
-        ));
+        let cases = [
+            // Touching a, well clear of c, beyond both (either side).
+            ((1.0, 2.0), [(0.0, 1.0), (0.0, 0.5)], true),
+            ((-2.0, 0.0), [(0.0, 1.0), (0.5, 1.0)], true),
+            // Touching both (a shaft's side that the triangle lies against).
+            ((1.0, 2.0), [(0.0, 1.0), (0.2, 1.0)], false),
+            // Reaching into one of them.
+            ((0.9, 2.0), [(0.0, 1.0), (0.0, 0.5)], false),
+            // Between them: beyond each, but on opposite sides.
+            ((1.0, 2.0), [(0.0, 0.5), (2.5, 3.0)], false),
+            // Clear of both: apart, as without touching.
+            ((3.0, 4.0), [(0.0, 1.0), (0.0, 2.0)], true),
+        ];
+        for (triangle, polygons, want) in cases {
+            let got = beyond_both(triangle, polygons, apart, touch);
+            assert_eq!(got, want, "{triangle:?} {polygons:?}");
+        }
     }
 
     #[test]

@@ -245,13 +245,7 @@ impl Linker<'_> {
                 }
             }
             End::Element(e) => {
-                let patch = self.patch(e);
-                let center = patch.centroid();
-                let radius = patch
-                    .vertices()
-                    .into_iter()
-                    .map(|v| v.distance(center))
-                    .fold(0.0, f64::max);
+                let (center, radius) = bounding_sphere(&self.patch(e));
                 Bounds { center, radius }
             }
         }
@@ -338,22 +332,22 @@ impl Linker<'_> {
     /// Link two distinct ends, or split one of them and link its parts.
     fn pair(&self, x: End, y: End, out: &mut Linking) {
         if let (End::Element(a), End::Element(c)) = (x, y) {
-            if a.surface != c.surface && !self.emits(a, c) && self.carries_little(a, c) {
+            if a.surface == c.surface || self.ctx.exchange_nothing(&self.patch(a), &self.patch(c)) {
+                return;
+            }
+            if !self.emits(a, c) && self.carries_little(a, c) {
                 if let Some(link) = self.cluster_link(x, y) {
                     out.cluster_links.push(link);
                 }
                 return;
             }
-            if a.surface != c.surface && !self.ctx.exchange_nothing(&self.patch(a), &self.patch(c))
-            {
-                // In surface order, as the projection of every pair of
-                // surfaces from their roots takes them.
-                out.element_pairs.push(if a.surface < c.surface {
-                    [a, c]
-                } else {
-                    [c, a]
-                });
-            }
+            // In surface order, as the projection of every pair of
+            // surfaces from their roots takes them.
+            out.element_pairs.push(if a.surface < c.surface {
+                [a, c]
+            } else {
+                [c, a]
+            });
             return;
         }
         let (bx, by) = (self.bounds(x), self.bounds(y));
@@ -457,6 +451,17 @@ impl Linker<'_> {
             visibility: f64::from(clear) / f64::from(facing),
         })
     }
+}
+
+/// A sphere about a patch's centroid that holds it: (centre, radius).
+fn bounding_sphere(patch: &Patch) -> (DVec3, f64) {
+    let center = patch.centroid();
+    let radius = patch
+        .vertices()
+        .into_iter()
+        .map(|v| v.distance(center))
+        .fold(0.0, f64::max);
+    (center, radius)
 }
 
 /// A number that names an end, to seed its samples (the same for any
@@ -573,12 +578,7 @@ mod tests {
                 triangle(DVec3::new(along, 0.0, 0.3 * r(21).y), 40),
             );
             let extent = |p: &Patch, rho: f64| {
-                let centre = p.centroid();
-                let radius = p
-                    .vertices()
-                    .into_iter()
-                    .map(|v| v.distance(centre))
-                    .fold(0.0, f64::max);
+                let (centre, radius) = bounding_sphere(p);
                 (centre, radius, p.area(), rho)
             };
             let (ea, ec) = (extent(&a, r(22).x), extent(&c, r(22).y));
