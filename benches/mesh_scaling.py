@@ -184,7 +184,7 @@ def main() -> int:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--wavrad", type=Path, default=ROOT / "target/release/wavrad")
-    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000, 1000000])
+    parser.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000, 100000, 1000000])
     parser.add_argument("--bowl-sizes", type=int, nargs="*", default=[1000, 10000])
     parser.add_argument(
         "--compare-up-to",

@@ -270,11 +270,16 @@ impl Occluder {
     /// [`occluded_except`](Self::occluded_except) is false for every such
     /// segment, and its rays need not be traced (shaft culling, Haines &
     /// Wallace 1991). Conservative: the triangles whose boxes meet the
-    /// shaft's box must each be kept apart from it, by more than the boxes'
-    /// padding, along one of a few separating axes (the polygons' and the
-    /// triangle's normals, and cross products of their edges and the line
-    /// between the polygons' centres), else the answer is `false`; so is
-    /// it when more than [`SHAFT_TRIANGLES`] triangles' boxes meet it.
+    /// shaft's box must each be kept apart from it along one of a few
+    /// separating axes (the polygons' and the triangle's normals, and cross
+    /// products of their edges and the line between the polygons' centres),
+    /// else the answer is `false`; so is it when more than
+    /// [`SHAFT_TRIANGLES`] triangles' boxes meet it. Apart means beyond
+    /// both polygons along the axis, by more than the boxes' padding from
+    /// one of them and at least touching the other ([`beyond_both`]): a
+    /// mesh's triangle that shares an edge or a corner with `a` touches
+    /// the shaft only there, and a segment leaving that corner towards the
+    /// other polygon leaves the triangle's side at once.
     pub fn clear_between(&self, a: &[DVec3], c: &[DVec3], skip: impl Fn(u32) -> bool) -> bool {
         let Some(BoxTree(boxes)) = &self.boxes else {
             return true;
@@ -300,12 +305,14 @@ impl Occluder {
         // when the polygons are alike) and between their centres.
         let sides = (0..3).map(|i| c[i.min(c.len() - 1)] - a[i.min(a.len() - 1)]);
         let lines: Vec<DVec3> = std::iter::once(along).chain(sides).collect();
-        let shaft_axes: Vec<(DVec3, (f64, f64))> =
+        let spans = |axis: DVec3| [span(a.iter(), axis), span(c.iter(), axis)];
+        let shaft_axes: Vec<(DVec3, [(f64, f64); 2])> =
             [edges[0].cross(edges[1]), edges[2].cross(edges[3])]
                 .into_iter()
                 .chain(lines.iter().flat_map(|l| edges.map(|e| l.cross(e))))
-                .map(|axis| (axis, span(hull(), axis)))
+                .map(|axis| (axis, spans(axis)))
                 .collect();
+        let (pad, touch) = (self.pad, self.pad * TOUCH);
         let (mut clear, mut budget) = (true, SHAFT_TRIANGLES);
         boxes.aabb_traverse(query, |bvh, node| {
             let node = &bvh.nodes[node as usize];
@@ -323,10 +330,10 @@ impl Occluder {
                 }
                 budget -= 1;
                 let corners = [tri.v0, tri.v0 + tri.e1, tri.v0 + tri.e2];
-                let apart = |axis: DVec3, (h0, h1): (f64, f64)| {
-                    let (t0, t1) = span(corners.iter(), axis);
-                    let gap = (t0 - h1).max(h0 - t1);
-                    gap > 0.0 && gap * gap > self.pad * self.pad * axis.length_squared()
+                let apart = |axis: DVec3, polygons: [(f64, f64); 2]| {
+                    let length = axis.length();
+                    let triangle = span(corners.iter(), axis);
+                    beyond_both(triangle, polygons, pad * length, touch * length)
                 };
                 if shaft_axes.iter().any(|&(axis, h)| apart(axis, h)) {
                     continue;
@@ -339,7 +346,7 @@ impl Occluder {
                             .chain(edges.iter().map(move |e| e.cross(f)))
                     }),
                 );
-                if !axes.any(|axis| apart(axis, span(hull(), axis))) {
+                if !axes.any(|axis| apart(axis, spans(axis))) {
                     clear = false;
                     return false;
                 }
@@ -455,6 +462,27 @@ impl Occluder {
     }
 }
 
+/// How far, relative to the boxes' padding, a triangle may reach into a
+/// shaft where it touches one of the shaft's polygons
+/// ([`Occluder::clear_between`]): rounding of coordinates, far below the
+/// [`SEGMENT_EPSILON`] part of the padding by which a segment leaving that
+/// polygon has left the triangle's side.
+const TOUCH: f64 = 1e-7;
+
+/// Whether an interval `triangle` (a triangle's extent along an axis) lies
+/// beyond both intervals `polygons` (the extents of a shaft's two polygons)
+/// on one side: farther than `apart` from one of them and not reaching
+/// more than `touch` into the other. Then no segment from one polygon to
+/// the other meets the triangle at a parameter t ∈ (ε, 1 − ε)
+/// ([`SEGMENT_EPSILON`]) when `touch < ε · apart`: its extent along the
+/// axis stays short of the triangle's by at least ε·apart − touch.
+fn beyond_both(triangle: (f64, f64), polygons: [(f64, f64); 2], apart: f64, touch: f64) -> bool {
+    let (t0, t1) = triangle;
+    let [(a0, a1), (c0, c1)] = polygons;
+    let beyond = |ga: f64, gc: f64| ga.min(gc) >= -touch && ga.max(gc) > apart;
+    beyond(t0 - a1, t0 - c1) || beyond(a0 - t1, c0 - t1)
+}
+
 /// The extent of `points` along `axis` (in units of its length).
 fn span<'a>(points: impl Iterator<Item = &'a DVec3>, axis: DVec3) -> (f64, f64) {
     points.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
@@ -550,6 +578,116 @@ mod tests {
             }
         }
         assert!(clear > 10, "{clear} clear shafts");
+    }
+
+    /// The inside of a hemisphere of radius 1 about the origin, open at
+    /// the top (`rows` × `columns` quads, two triangles each), and its
+    /// outside: the same triangles wound the other way, as a `twosided`
+    /// bowl's two sides are. Inside triangles first.
+    fn bowl(rows: usize, columns: usize) -> Vec<[DVec3; 3]> {
+        let at = |i: usize, j: usize| {
+            let theta = std::f64::consts::FRAC_PI_2 * (1.0 + i as f64 / rows as f64);
+            let phi = std::f64::consts::TAU * j as f64 / columns as f64;
+            DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            )
+        };
+        let mut inside = Vec::new();
+        for i in 0..rows {
+            for j in 0..columns {
+                let [p, q, r, s] = [at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)];
+                for tri in [[p, q, r], [p, r, s]] {
+                    // Skip the slivers at the pole; face the centre.
+                    if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length() < 1e-12 {
+                        continue;
+                    }
+                    let [a, b, c] = tri;
+                    let faces_in = (b - a).cross(c - a).dot(-(a + b + c)) > 0.0;
+                    inside.push(if faces_in { tri } else { [a, c, b] });
+                }
+            }
+        }
+        let outside: Vec<[DVec3; 3]> = inside.iter().map(|&[a, b, c]| [a, c, b]).collect();
+        [inside, outside].concat()
+    }
+
+    #[test]
+    fn shafts_inside_a_bowl_are_clear_past_the_triangles_their_ends_touch() {
+        // Pairs of a two-sided bowl's inside triangles: nothing can block
+        // a segment between them (it runs inside the ball), yet the
+        // triangles next to each end touch the shaft along a shared edge
+        // or corner. Those shafts are clear; and wherever a shaft is called
+        // clear, no segment between the two triangles, from a corner, an
+        // edge or the inside, is blocked.
+        let tris = bowl(8, 16);
+        let n = tris.len() / 2;
+        let occ = Occluder::new(&tris);
+        let (mut pairs, mut clear) = (0, 0);
+        for i in 0..300u64 {
+            let r = crate::sampling::hash2(i, 3);
+            let (p, q) = ((r.x * n as f64) as usize, (r.y * n as f64) as usize);
+            if p == q {
+                continue;
+            }
+            pairs += 1;
+            let skip = |t: u32| [p, q, p + n, q + n].contains(&(t as usize));
+            if !occ.clear_between(&tris[p], &tris[q], skip) {
+                continue;
+            }
+            clear += 1;
+            for k in 0..24 {
+                let point = |tri: &[DVec3; 3], salt: u64| {
+                    let u = crate::sampling::hash2(i * 1000 + k, salt);
+                    // Corners, edge midpoints and inner points alike.
+                    let (s, t) = match k % 3 {
+                        0 => ((k / 3 % 3) as f64 * 0.5, 0.0),
+                        1 => (u.x, 0.0),
+                        _ => (u.x, u.y),
+                    };
+                    let (s, t) = if s + t > 1.0 {
+                        (1.0 - s, 1.0 - t)
+                    } else {
+                        (s, t)
+                    };
+                    tri[0] + s * (tri[1] - tri[0]) + t * (tri[2] - tri[0])
+                };
+                let (x, y) = (point(&tris[p], 1), point(&tris[q], 2));
+                assert!(
+                    !occ.occluded_except(x, y, skip),
+                    "pair {p} {q}, segment {k}"
+                );
+            }
+        }
+        assert!(
+            clear * 2 > pairs,
+            "{clear} of {pairs} shafts inside the bowl clear"
+        );
+    }
+
+    #[test]
+    fn a_triangle_beyond_both_polygons_is_apart_only_past_the_one_it_touches() {
+        // Along one axis: a triangle's extent, the polygons' extents, and
+        // whether the triangle is apart from the shaft between them.
+        let (apart, touch) = (1e-5, 1e-12);
+        let cases = [
+            // Touching a, well clear of c, beyond both (either side).
+            ((1.0, 2.0), [(0.0, 1.0), (0.0, 0.5)], true),
+            ((-2.0, 0.0), [(0.0, 1.0), (0.5, 1.0)], true),
+            // Touching both (a shaft's side that the triangle lies against).
+            ((1.0, 2.0), [(0.0, 1.0), (0.2, 1.0)], false),
+            // Reaching into one of them.
+            ((0.9, 2.0), [(0.0, 1.0), (0.0, 0.5)], false),
+            // Between them: beyond each, but on opposite sides.
+            ((1.0, 2.0), [(0.0, 0.5), (2.5, 3.0)], false),
+            // Clear of both: apart, as without touching.
+            ((3.0, 4.0), [(0.0, 1.0), (0.0, 2.0)], true),
+        ];
+        for (triangle, polygons, want) in cases {
+            let got = beyond_both(triangle, polygons, apart, touch);
+            assert_eq!(got, want, "{triangle:?} {polygons:?}");
+        }
     }
 
     #[test]

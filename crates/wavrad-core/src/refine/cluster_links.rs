@@ -12,7 +12,11 @@
 //! children's pairs. When both ends are elements (whole surfaces, or
 //! elements a cluster's neighbourhood split), the pair is handed to the
 //! paper's adaptive projection ([`crate::refine::two_point_projection`],
-//! [`crate::refine::three_point_projection`]) as before. So a scene's pairs
+//! [`crate::refine::three_point_projection`]) as before, unless the light
+//! they can exchange is within the oracle's threshold however the kernel
+//! varies over them ([`element_bound`]; neither emits): then one cluster
+//! link carries it. Neighbouring triangles of a fine concave mesh, each
+//! a little above the other's plane, are such pairs. So a scene's pairs
 //! of nearby surfaces are linked as the paper links them, and distant
 //! groups of small surfaces exchange light through O(n log n) cluster links
 //! rather than O(n²) surface pairs.
@@ -20,7 +24,13 @@
 //! A cluster link's transfer is evaluated with every member's own cosine
 //! and area, towards the other end's centre, and one visibility fraction
 //! for the pair ([`crate::solve::cluster_gather`]); its error is of order
-//! `ratio` in the directions and `ratio²` in the distances.
+//! `ratio` in the directions and `ratio²` in the distances. The visibility
+//! fraction is estimated with as many rays as the light the link can carry
+//! needs ([`transfer_bound`], [`rays_needed`]): a link between small ends
+//! far apart, whose whole transfer is near the oracle's threshold, is
+//! sampled with one ray, a large one with up to [`CLUSTER_LINK_RAYS`]
+//! (Smits, Arvo & Greenberg 1994 bound a cluster link's error the same
+//! way, by the transfer it could carry).
 
 use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::ElementRef;
@@ -31,8 +41,9 @@ use crate::scene::Patch;
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Visibility rays of one cluster link (between points picked by area on
-/// its two ends).
+/// Most visibility rays of one cluster link (between points picked by area
+/// on its two ends): also the most pairs of points drawn, of which only
+/// those facing each other are traced.
 pub const CLUSTER_LINK_RAYS: u32 = 16;
 
 /// A pair with more members than this splits its work over threads.
@@ -98,6 +109,77 @@ pub struct ClusterSettings {
     /// Deepest element level a cluster's neighbourhood may split an
     /// element to.
     pub max_level: u32,
+    /// The two-point oracle's threshold, read as the largest error a
+    /// link's visibility estimate may make in its receiver's radiance
+    /// relative to its source's ([`rays_needed`]).
+    pub threshold: f64,
+}
+
+/// Upper bound on the light a link between two ends carries, as a
+/// fraction of the source's radiance reaching the receiver's radiance:
+/// ρ_x·F(x←y) for either direction, with F(x←y) the form factor from any
+/// point of `x` to every member of `y` (each member counted on its own, as
+/// the cluster gather sums them, [`crate::solve::cluster_gather`]). Each
+/// member m of y adds at most A_m/(π d²) (both cosines at most 1), and no
+/// point of x is closer than d_min = |c_x − c_y| − r_x − r_y to one of y,
+/// so F(x←y) ≤ A_y/(π d_min²) (eq. 12 with the kernel bounded). `reach`
+/// gives each end's (bounding sphere centre, radius, area of its members,
+/// largest Lambertian reflectance). Infinite for spheres that overlap.
+pub fn transfer_bound(x: (DVec3, f64, f64, f64), y: (DVec3, f64, f64, f64)) -> f64 {
+    let ((cx, rx, ax, rho_x), (cy, ry, ay, rho_y)) = (x, y);
+    let gap = cx.distance(cy) - rx - ry;
+    if gap <= 0.0 {
+        return f64::INFINITY;
+    }
+    (rho_x * ay).max(rho_y * ax) / (std::f64::consts::PI * gap * gap)
+}
+
+/// [`transfer_bound`] for two planar elements `a` and `c`, with their
+/// cosines bounded too: for x on `a` and y on `c`, r·cosθ_x = n_a·(y − x)
+/// is the height of y over `a`'s plane, at most the highest corner of `c`
+/// over it, H_ac (and likewise H_ca), so the kernel cosθ_x cosθ_y/(π r²)
+/// is at most min(1, H_ac/d_min)·min(1, H_ca/d_min)/(π d_min²). Two
+/// triangles of a smooth concave mesh, nearly in one plane, exchange
+/// little however near: each lies a little above the other's plane.
+pub fn element_bound(
+    a: &Patch,
+    c: &Patch,
+    ea: (DVec3, f64, f64, f64),
+    ec: (DVec3, f64, f64, f64),
+) -> f64 {
+    let height = |from: &Patch, to: &Patch| {
+        let (n, origin) = (from.normal(), from.centroid());
+        let top = to
+            .vertices()
+            .into_iter()
+            .map(|v| n.dot(v - origin))
+            .fold(f64::NEG_INFINITY, f64::max);
+        top.max(0.0)
+    };
+    let gap = ea.0.distance(ec.0) - ea.1 - ec.1;
+    if gap <= 0.0 {
+        return f64::INFINITY;
+    }
+    let cosines = (height(a, c) / gap).min(1.0) * (height(c, a) / gap).min(1.0);
+    cosines * transfer_bound(ea, ec)
+}
+
+/// Facing rays a cluster link whose transfer is at most `bound`
+/// ([`transfer_bound`]) traces so that its visibility estimate errs by at
+/// most `threshold` in the receiver's radiance relative to the source's:
+/// the fraction of N rays that pass errs by at most 1/(2√N) (one standard
+/// deviation of a binomial fraction), so N ≥ (bound / 2·threshold)²; at
+/// least one, at most [`CLUSTER_LINK_RAYS`].
+pub fn rays_needed(bound: f64, threshold: f64) -> u32 {
+    if threshold <= 0.0 || !bound.is_finite() {
+        return CLUSTER_LINK_RAYS;
+    }
+    let n = (bound / (2.0 * threshold)).powi(2).ceil();
+    if n >= f64::from(CLUSTER_LINK_RAYS) {
+        CLUSTER_LINK_RAYS
+    } else {
+        (n as u32).max(1)
+    }
 }
 
 /// Where an end is and how large.
@@ -163,16 +245,57 @@ impl Linker<'_> {
                 }
             }
             End::Element(e) => {
-                let patch = self.patch(e);
-                let center = patch.centroid();
-                let radius = patch
-                    .vertices()
-                    .into_iter()
-                    .map(|v| v.distance(center))
-                    .fold(0.0, f64::max);
+                let (center, radius) = bounding_sphere(&self.patch(e));
                 Bounds { center, radius }
             }
         }
+    }
+
+    /// An end's bounding sphere, the area of its members and their
+    /// largest Lambertian reflectance, as [`transfer_bound`] takes them.
+    fn extent(&self, end: End) -> (DVec3, f64, f64, f64) {
+        let b = self.bounds(end);
+        let (area, reflectance) = match end {
+            End::Cluster(c) => {
+                let node = &self.clusters.nodes[c as usize];
+                (node.area, node.reflectance)
+            }
+            End::Element(e) => {
+                let surface = &self.ctx.scene.surfaces[e.surface as usize];
+                let rho = surface.brdf.lambertian().map_or(0.0, |r| r.max_channel());
+                (self.patch(e).area(), rho)
+            }
+        };
+        (b.center, b.radius, area, reflectance)
+    }
+
+    /// Whether two ends are apart and small against their distance:
+    /// (r_x + r_y)/d at most the cluster ratio.
+    fn small_against_distance(&self, x: End, y: End) -> bool {
+        let (bx, by) = (self.bounds(x), self.bounds(y));
+        let (reach, d) = (bx.radius + by.radius, bx.center.distance(by.center));
+        self.settings.ratio > 0.0 && d > reach && reach <= self.settings.ratio * d
+    }
+
+    /// Whether the light elements `a` and `c` exchange is within the
+    /// oracle's threshold however it varies over them ([`element_bound`]
+    /// at most `threshold`): then one cluster link carries it, and the
+    /// pair is not projected (whose quadrature would cost 16 rays or more
+    /// to find a kernel the oracle accepts at once).
+    fn carries_little(&self, a: ElementRef, c: ElementRef) -> bool {
+        if self.settings.ratio <= 0.0 {
+            return false;
+        }
+        let (pa, pc) = (self.patch(a), self.patch(c));
+        let (ea, ec) = (self.extent(End::Element(a)), self.extent(End::Element(c)));
+        element_bound(&pa, &pc, ea, ec) <= self.settings.threshold
+    }
+
+    /// Whether either element's surface emits: its direct light is
+    /// projected as the paper does, whatever the distance.
+    fn emits(&self, a: ElementRef, c: ElementRef) -> bool {
+        let surfaces = &self.ctx.scene.surfaces;
+        surfaces[a.surface as usize].is_emitter() || surfaces[c.surface as usize].is_emitter()
     }
 
     /// Surfaces under an end (1 for an element).
@@ -209,21 +332,26 @@ impl Linker<'_> {
     /// Link two distinct ends, or split one of them and link its parts.
     fn pair(&self, x: End, y: End, out: &mut Linking) {
         if let (End::Element(a), End::Element(c)) = (x, y) {
-            if a.surface != c.surface && !self.ctx.exchange_nothing(&self.patch(a), &self.patch(c))
-            {
-                // In surface order, as the projection of every pair of
-                // surfaces from their roots takes them.
-                out.element_pairs.push(if a.surface < c.surface {
-                    [a, c]
-                } else {
-                    [c, a]
-                });
+            if a.surface == c.surface || self.ctx.exchange_nothing(&self.patch(a), &self.patch(c)) {
+                return;
             }
+            if !self.emits(a, c) && self.carries_little(a, c) {
+                if let Some(link) = self.cluster_link(x, y) {
+                    out.cluster_links.push(link);
+                }
+                return;
+            }
+            // In surface order, as the projection of every pair of
+            // surfaces from their roots takes them.
+            out.element_pairs.push(if a.surface < c.surface {
+                [a, c]
+            } else {
+                [c, a]
+            });
             return;
         }
         let (bx, by) = (self.bounds(x), self.bounds(y));
-        let (reach, d) = (bx.radius + by.radius, bx.center.distance(by.center));
-        if self.settings.ratio > 0.0 && d > reach && reach <= self.settings.ratio * d {
+        if self.small_against_distance(x, y) {
             if let Some(link) = self.cluster_link(x, y) {
                 out.cluster_links.push(link);
             }
@@ -289,11 +417,18 @@ impl Linker<'_> {
     }
 
     /// The link between `x` and `y`, or `None` when no line between their
-    /// facing points is clear (they exchange no light).
+    /// facing points is clear (they exchange no light). Of at most
+    /// [`CLUSTER_LINK_RAYS`] pairs of points drawn, as many facing pairs as
+    /// the link's transfer needs ([`rays_needed`]) are traced.
     fn cluster_link(&self, x: End, y: End) -> Option<ClusterLink> {
         let seed = end_seed(x).rotate_left(17) ^ end_seed(y);
+        let bound = transfer_bound(self.extent(x), self.extent(y));
+        let needed = rays_needed(bound, self.settings.threshold);
         let (mut facing, mut clear) = (0u32, 0u32);
         for j in 0..CLUSTER_LINK_RAYS {
+            if facing == needed {
+                break;
+            }
             let pick = hash2(seed, u64::from(j));
             let (sx, px) = self.member_at(x, pick.x);
             let (sy, py) = self.member_at(y, pick.y);
@@ -316,6 +451,17 @@ impl Linker<'_> {
             visibility: f64::from(clear) / f64::from(facing),
         })
     }
+}
+
+/// A sphere about a patch's centroid that holds it: (centre, radius).
+fn bounding_sphere(patch: &Patch) -> (DVec3, f64) {
+    let center = patch.centroid();
+    let radius = patch
+        .vertices()
+        .into_iter()
+        .map(|v| v.distance(center))
+        .fold(0.0, f64::max);
+    (center, radius)
 }
 
 /// A number that names an end, to seed its samples (the same for any
@@ -350,6 +496,144 @@ mod tests {
     }
 
     #[test]
+    fn the_transfer_bound_is_never_below_the_form_factors_it_bounds() {
+        // Random pairs of spheres; in one, a point with a random normal,
+        // in the other, random triangles (a cluster's members): the sum of
+        // their form factors from the point (Lambert's formula, both
+        // cosines), times the receiver's reflectance, stays below the
+        // bound, and so does the other direction's.
+        use crate::kernel::form_factor::point_to_polygon;
+        let mut closest = f64::INFINITY;
+        for i in 0..400u64 {
+            let r = |k: u64| crate::sampling::hash2(i, k);
+            let unit = |k: u64| {
+                let (u, v) = (r(k), r(k + 1));
+                let z = 2.0 * u.x - 1.0;
+                let phi = std::f64::consts::TAU * u.y;
+                let s = (1.0 - z * z).sqrt();
+                DVec3::new(s * phi.cos(), s * phi.sin(), z) * v.x.cbrt()
+            };
+            let (rx, ry) = (0.05 + r(1).x, 0.05 + r(1).y);
+            let cx = DVec3::ZERO;
+            let cy = unit(2).normalize() * (rx + ry) * (1.0 + 3.0 * r(3).x);
+            let x = cx + 0.9 * rx * unit(4);
+            let n_x = unit(6).normalize();
+            let members: Vec<[DVec3; 3]> = (0..1 + (i % 5))
+                .map(|m| [0, 2, 4].map(|k| cy + ry * unit(10 + 6 * m + k)))
+                .collect();
+            let area: f64 = members
+                .iter()
+                .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
+                .sum();
+            let (rho_x, rho_y) = (r(50).x, r(50).y);
+            let received: f64 = members
+                .iter()
+                .map(|[a, b, c]| {
+                    let n = (*b - *a).cross(*c - *a).normalize();
+                    point_to_polygon(x, n_x, &[*a, *b, *c], n)
+                })
+                .sum();
+            // Sent back: from a point on one member to a small patch of x.
+            let [a, b, c] = members[0];
+            let y = (a + b + c) / 3.0;
+            let n_y = (b - a).cross(c - a).normalize();
+            let side = 0.05 * rx;
+            let (e1, e2) = n_x.any_orthonormal_pair();
+            let patch = [x, x + side * e1, x + side * (e1 + e2), x + side * e2];
+            let ax = side * side;
+            let sent = point_to_polygon(y, n_y, &patch, n_x);
+            let bound = transfer_bound((cx, rx, ax, rho_x), (cy, ry, area, rho_y));
+            assert!(
+                rho_x * received <= bound,
+                "config {i}: {received} > {bound}"
+            );
+            assert!(rho_y * sent <= bound, "config {i}: {sent} > {bound}");
+            closest = closest.min(bound / (rho_x * received).max(rho_y * sent).max(1e-300));
+        }
+        // Not loose everywhere: within two orders somewhere.
+        assert!(closest < 100.0, "{closest}");
+    }
+
+    #[test]
+    fn the_element_bound_is_never_below_the_form_factors_it_bounds() {
+        // Random pairs of triangles, some nearly in one plane (as a fine
+        // concave mesh's neighbours are), some facing: at points of each,
+        // the form factor to the other (Lambert's formula) times the
+        // receiver's reflectance stays below the bound.
+        use crate::kernel::form_factor::point_to_polygon;
+        let (mut tight, mut small) = (f64::INFINITY, 0);
+        for i in 0..500u64 {
+            let r = |k: u64| crate::sampling::hash2(i, k);
+            let tilt = if i % 2 == 0 { 0.05 } else { 1.0 };
+            let triangle = |centre: DVec3, k: u64| -> Patch {
+                let corner = |j: u64| {
+                    let u = r(k + j);
+                    centre + DVec3::new(u.x - 0.5, tilt * (r(k + 7 + j).x - 0.5), u.y - 0.5)
+                };
+                Patch::Triangle([corner(0), corner(1), corner(2)])
+            };
+            let along = 1.0 + 4.0 * r(20).x;
+            let (a, c) = (
+                triangle(DVec3::ZERO, 30),
+                triangle(DVec3::new(along, 0.0, 0.3 * r(21).y), 40),
+            );
+            let extent = |p: &Patch, rho: f64| {
+                let (centre, radius) = bounding_sphere(p);
+                (centre, radius, p.area(), rho)
+            };
+            let (ea, ec) = (extent(&a, r(22).x), extent(&c, r(22).y));
+            let bound = element_bound(&a, &c, ea, ec);
+            if !bound.is_finite() {
+                continue;
+            }
+            let mut largest = 0.0f64;
+            for (from, to, rho) in [(&a, &c, ea.3), (&c, &a, ec.3)] {
+                for k in 0..16 {
+                    let u = r(100 + k);
+                    let (s, t) = if u.x + u.y > 1.0 {
+                        (1.0 - u.x, 1.0 - u.y)
+                    } else {
+                        (u.x, u.y)
+                    };
+                    let [v0, v1, v2] = <[DVec3; 3]>::try_from(from.vertices()).unwrap();
+                    let x = v0 + s * (v1 - v0) + t * (v2 - v0);
+                    let f = point_to_polygon(x, from.normal(), &to.vertices(), to.normal());
+                    assert!(rho * f <= bound, "config {i}: {} > {bound}", rho * f);
+                    largest = largest.max(rho * f);
+                }
+            }
+            if largest > 0.0 {
+                tight = tight.min(bound / largest);
+            }
+            if tilt < 1.0 && bound < transfer_bound(ea, ec) / 10.0 {
+                small += 1;
+            }
+        }
+        assert!(tight < 10.0, "{tight}");
+        // Nearly coplanar pairs are bounded far below the cosine-free bound.
+        assert!(small > 100, "{small}");
+    }
+
+    #[test]
+    fn rays_needed_keep_the_visibility_error_within_the_threshold() {
+        let threshold = 1e-3;
+        for k in 0..60 {
+            let bound = 1e-5 * 1.3f64.powi(k);
+            let n = rays_needed(bound, threshold);
+            assert!((1..=CLUSTER_LINK_RAYS).contains(&n));
+            if n < CLUSTER_LINK_RAYS {
+                assert!(bound / (2.0 * f64::from(n).sqrt()) <= threshold * (1.0 + 1e-12));
+            }
+            if n > 1 {
+                let fewer = f64::from(n - 1);
+                assert!(bound / (2.0 * fewer.sqrt()) > threshold, "{bound}: {n}");
+            }
+        }
+        assert_eq!(rays_needed(f64::INFINITY, threshold), CLUSTER_LINK_RAYS);
+        assert_eq!(rays_needed(1e-9, threshold), 1);
+    }
+
+    #[test]
     fn every_pair_of_surfaces_is_covered_once() {
         // A floor of 8 × 8 squares, a facing ceiling of 8 × 8 and a
         // large wall between them: pairs near each other go to the
@@ -376,6 +660,7 @@ mod tests {
         let settings = ClusterSettings {
             ratio: 0.25,
             max_level: 5,
+            threshold: 1e-3,
         };
         let linking = link_from_root(&ctx, &clusters, settings, &Silent);
         assert!(!linking.cluster_links.is_empty());

@@ -1101,6 +1101,7 @@ impl SolveSettings {
         ClusterSettings {
             ratio: self.cluster_ratio,
             max_level: self.refine.max_level,
+            threshold: self.refine.threshold,
         }
     }
 
