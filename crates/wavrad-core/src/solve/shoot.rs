@@ -529,6 +529,7 @@ mod tests {
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
             texture: None,
+            shading: None,
         }
     }
 

@@ -32,7 +32,8 @@ use wavrad_core::scene::Patch;
 
 use super::super::document::Location;
 use super::super::params::{Document, Object};
-use super::{flip, Placed};
+use super::{flip, shading_to_front, Placed};
+use wavrad_core::scene::shading::ShadingNormals;
 use crate::error::Result;
 use crate::mesh;
 
@@ -147,7 +148,11 @@ impl MeshFile {
                     let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
                     against != mirrored
                 });
-                Some(if turn { flip(&(p, uv)) } else { (p, uv) })
+                let shading = (normals.as_ref())
+                    .and_then(|normals| ShadingNormals::new(normals[i]))
+                    .and_then(|n| n.transformed(world_from_local));
+                let placed = (p, uv, shading);
+                Some(shading_to_front(if turn { flip(&placed) } else { placed }))
             })
             .collect();
         if patches.is_empty() {
