@@ -21,7 +21,9 @@
 //! (summed over the triangle's corners and transformed as normals, so a
 //! mirroring `to_world` keeps it); otherwise the side its vertices turn
 //! counter-clockwise around after `to_world` (so a mirroring transform turns
-//! the mesh inside out). Triangles of zero area (collinear or repeated
+//! the mesh inside out). The vertex normals, where kept, are also the
+//! triangle's shading normals ([`wavrad_core::scene::Surface::shading`]),
+//! interpolated over it as Mitsuba interpolates them. Triangles of zero area (collinear or repeated
 //! vertices) are skipped, and a warning counts them; a mesh with no other
 //! triangle is an error. Texture coordinates are the file's (v turned to
 //! 1 − v when `flip_tex_coords`, as Mitsuba 3 does by default for OBJ), or

@@ -20,7 +20,10 @@
 //! the exact one, up to the tessellation: the coordinates are exact at the
 //! patch's corners (the azimuth continued across the seam at 2π, and taken
 //! at the patch's middle where the corner is on the axis) and affine in
-//! between.
+//! between. The sphere's and cylinder's patches carry the exact shape's
+//! radial normals at their parameter points as shading normals
+//! ([`wavrad_core::scene::Surface::shading`]), so that a render shades them
+//! round; the disk is flat and needs none.
 
 use std::f64::consts::{PI, TAU};
 
