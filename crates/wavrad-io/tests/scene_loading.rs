@@ -772,7 +772,10 @@ fn mesh_vertex_normals_are_interpolated() {
     </scene>"#;
     let s = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap().scene;
     let smooth = &s.surfaces[0];
-    assert!(close(smooth.patch.normal(), DVec3::Z), "turned to its normals");
+    assert!(
+        close(smooth.patch.normal(), DVec3::Z),
+        "turned to its normals"
+    );
     // Normals scale by the inverse transpose: x halves.
     let expect = [
         (DVec3::ZERO, DVec3::new(-0.15, 0.0, 1.0)),
@@ -784,5 +787,8 @@ fn mesh_vertex_normals_are_interpolated() {
         assert!((n - normal.normalize()).length() < 1e-6, "{n} at {vertex}");
     }
     assert_eq!(s.surfaces[1].shading, None);
-    assert!(close(s.surfaces[1].shading_normal(glam::DVec2::ZERO), -DVec3::Z));
+    assert!(close(
+        s.surfaces[1].shading_normal(glam::DVec2::ZERO),
+        -DVec3::Z
+    ));
 }

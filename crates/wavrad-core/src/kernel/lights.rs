@@ -162,7 +162,10 @@ mod tests {
         });
         let tracer = SceneTracer::new(&scene);
         let under = DVec3::new(centre.x, centre.y, 0.0);
-        assert_eq!(irradiance(&scene, &tracer, (0, under, DVec3::Z), &[]), Rgb::ZERO);
+        assert_eq!(
+            irradiance(&scene, &tracer, (0, under, DVec3::Z), &[]),
+            Rgb::ZERO
+        );
         let beside = DVec3::new(0.9, 0.9, 0.0);
         let d = position - beside;
         let expected = d.z / d.length().powi(3);
@@ -179,8 +182,18 @@ mod tests {
         });
         let tracer = SceneTracer::new(&scene);
         let sky = grid(16);
-        let far = irradiance(&scene, &tracer, (0, DVec3::new(0.95, 0.95, 0.0), DVec3::Z), &sky);
-        let near = irradiance(&scene, &tracer, (0, DVec3::new(0.1, 0.1, 0.0), DVec3::Z), &sky);
+        let far = irradiance(
+            &scene,
+            &tracer,
+            (0, DVec3::new(0.95, 0.95, 0.0), DVec3::Z),
+            &sky,
+        );
+        let near = irradiance(
+            &scene,
+            &tracer,
+            (0, DVec3::new(0.1, 0.1, 0.0), DVec3::Z),
+            &sky,
+        );
         assert!(far[0] > near[0] && near[0] > 0.0, "{far} {near}");
         assert!(far[0] <= std::f64::consts::PI + 1e-12);
     }

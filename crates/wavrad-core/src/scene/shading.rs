@@ -117,7 +117,11 @@ mod tests {
             1.0, 0.0, 0.0, 0.0, 0.7, 1.0, 0.0, 0.0, 0.3, -0.2, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0,
         ]);
         let normals = ShadingNormals::new([DVec3::Z; 3]).unwrap();
-        let moved = normals.transformed(&shear).unwrap().at(DVec2::ZERO).unwrap();
+        let moved = normals
+            .transformed(&shear)
+            .unwrap()
+            .at(DVec2::ZERO)
+            .unwrap();
         for tangent in [DVec3::X, DVec3::Y] {
             assert!(moved.dot(shear.transform_vector3(tangent)).abs() < 1e-6);
         }

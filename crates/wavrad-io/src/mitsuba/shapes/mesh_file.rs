@@ -35,9 +35,9 @@ use wavrad_core::scene::Patch;
 use super::super::document::Location;
 use super::super::params::{Document, Object};
 use super::{flip, shading_to_front, Placed};
-use wavrad_core::scene::shading::ShadingNormals;
 use crate::error::Result;
 use crate::mesh;
+use wavrad_core::scene::shading::ShadingNormals;
 
 /// The file formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
