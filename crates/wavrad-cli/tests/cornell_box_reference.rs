@@ -225,9 +225,9 @@ fn sphere_cornell_box_matches_mitsuba_path_tracer() {
         if b * b - (to.length_squared() - radius * radius) <= 0.0 {
             continue;
         }
-        for c in 3 * k..3 * k + 3 {
-            let r = f64::from(reference[c]);
-            (sq, sum) = (sq + (f64::from(image.rgb[c]) - r).powi(2), sum + r);
+        for (&r, &v) in reference[3 * k..][..3].iter().zip(&image.rgb[3 * k..]) {
+            let r = f64::from(r);
+            (sq, sum) = (sq + (f64::from(v) - r).powi(2), sum + r);
         }
         count += 3;
     }
