@@ -29,6 +29,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
   textured-cornell-box scenes/textured-cornell-box/scene.xml -> reference.exr
                       path, 64x64, 65536 spp (checkerboard floor, bitmap wall
                       from wall.png, smooth plastic block)
+  sphere-cornell-box  scenes/sphere-cornell-box/scene.xml -> reference.exr
+                      path, 64x64, 65536 spp (the small box replaced by a
+                      white diffuse sphere: shading normals)
   figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
                       ptracer (light tracer), 64x64, 1048576 spp
                       (the receiver is lit only via the glossy reflector, a
@@ -88,6 +91,9 @@ SCENES = {
     "textured-cornell-box": (os.path.join(HERE, "textured-cornell-box", "scene.xml"),
                              os.path.join(HERE, "textured-cornell-box", "reference.exr"),
                              64, 65536, 1024, "path"),
+    "sphere-cornell-box": (os.path.join(HERE, "sphere-cornell-box", "scene.xml"),
+                           os.path.join(HERE, "sphere-cornell-box", "reference.exr"),
+                           64, 65536, 1024, "path"),
     "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),

@@ -195,6 +195,51 @@ fn textured_cornell_box_matches_mitsuba_path_tracer() {
     }
 }
 
+/// The Cornell box with a white diffuse sphere for its small box
+/// (`scenes/sphere-cornell-box/`): the tessellated sphere is shaded with its
+/// radial shading normals, as round as Mitsuba's exact one.
+#[test]
+fn sphere_cornell_box_matches_mitsuba_path_tracer() {
+    let dir = repo().join("scenes/sphere-cornell-box");
+    let scene = wavrad_io::load_scene_with(&dir.join("scene.xml"), &[("res".into(), "64".into())])
+        .unwrap()
+        .scene;
+    assert!(scene.surfaces.iter().any(|s| s.shading.is_some()));
+    let (w, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference.exr")).unwrap();
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    assert!(solution.stats.converged);
+    let image = Renderer::new(solution)
+        .render(&RenderSettings::for_scene(&scene))
+        .unwrap();
+    let (all, away) = errors(&image.rgb, &reference, w as usize);
+    // The pixels whose centre ray meets the exact sphere.
+    let camera = scene.camera.unwrap();
+    let (centre, radius) = (glam::DVec3::new(0.335, -0.69, 0.38), 0.3);
+    let n = w as usize;
+    let (mut sq, mut sum, mut count) = (0.0, 0.0, 0usize);
+    for k in 0..n * n {
+        let film = glam::DVec2::new((k % n) as f64 + 0.5, (k / n) as f64 + 0.5) / n as f64;
+        let ray = camera.ray(film, 1.0);
+        let to = ray.origin - centre;
+        let b = to.dot(ray.direction);
+        if b * b - (to.length_squared() - radius * radius) <= 0.0 {
+            continue;
+        }
+        for (&r, &v) in reference[3 * k..][..3].iter().zip(&image.rgb[3 * k..]) {
+            let r = f64::from(r);
+            (sq, sum) = (sq + (f64::from(v) - r).powi(2), sum + r);
+        }
+        count += 3;
+    }
+    let sphere = (sq / count as f64).sqrt() / (sum / count as f64);
+    eprintln!(
+        "sphere box: relRMSE {all:.4}, away from the light {away:.4}, on the sphere ({} px) {sphere:.4}",
+        count / 3
+    );
+    assert!(away < 0.008, "relRMSE away from the light {away}");
+    assert!(sphere < 0.03, "relRMSE on the sphere {sphere}");
+}
+
 /// The paper's Figure 3 scenes (`scenes/figure3/`): the receiver gets light
 /// only by way of the reflector, so the image's total is the reflector's
 /// transport, diffuse and glossy (Ward 1992 rolled aluminium), against

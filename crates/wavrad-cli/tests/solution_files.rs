@@ -107,12 +107,14 @@ fn damaged_and_stale_solution_files_are_refused() {
     );
     let mut newer = bytes.clone();
     newer[8] += 1;
-    refused(&damaged("newer.wavrad", &newer), "format version 3");
+    let version = wavrad_io::solution_file::FORMAT_VERSION;
+    let newer_version = format!("format version {}", version + 1);
+    refused(&damaged("newer.wavrad", &newer), &newer_version);
     let mut older = bytes.clone();
     older[8] -= 1;
     refused(
         &damaged("older.wavrad", &older),
-        "format version 1, written by wavrad",
+        &format!("format version {}, written by wavrad", version - 1),
     );
     refused(&damaged("older.wavrad", &older), "solve the scene again");
     refused(

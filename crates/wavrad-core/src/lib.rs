@@ -21,7 +21,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None, shading: None })
 //!     .collect();
 //! let solution = solve(&Scene::from_surfaces(surfaces), &SolveSettings::default(), &Silent).unwrap();
 //! // The furnace: radiance is Le / (1 − ρ) = 2 everywhere.

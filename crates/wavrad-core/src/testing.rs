@@ -13,6 +13,7 @@ pub fn grey(patch: Patch) -> Surface {
         brdf: Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
         texture: None,
+        shading: None,
     }
 }
 

@@ -35,6 +35,7 @@ fn furnace(rho: f64, le: f64, settings: &SolveSettings, triangles: bool) -> (f64
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(le),
             texture: None,
+            shading: None,
         })
         .collect();
     let solution = solve(&Scene::from_surfaces(surfaces), settings, &Silent).unwrap();
@@ -105,6 +106,7 @@ fn closed_box_of_many_small_surfaces_furnace_with_clusters() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
             emission: Rgb::splat(1.0),
             texture: None,
+            shading: None,
         })
         .collect();
     let scene = Scene::from_surfaces(surfaces);
@@ -145,6 +147,7 @@ fn the_importance_oracle_without_a_sensor_is_a_clear_error() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
             emission: Rgb::splat(1.0),
             texture: None,
+            shading: None,
         })
         .collect();
     let settings = SolveSettings::for_oracle(Oracle::Importance);
@@ -172,6 +175,7 @@ fn a_box_resting_on_the_floor_leaves_the_furnace_exact() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
             emission: Rgb::splat(1.0),
             texture: None,
+            shading: None,
         })
         .collect();
     let scene = Scene::from_surfaces(surfaces);

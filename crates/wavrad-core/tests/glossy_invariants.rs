@@ -39,6 +39,7 @@ fn surface(patch: Patch, brdf: Brdf, emission: Rgb) -> Surface {
         brdf,
         emission,
         texture: None,
+        shading: None,
     }
 }
 

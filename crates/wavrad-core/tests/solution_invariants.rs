@@ -39,6 +39,7 @@ fn open_scene_energy_balance_single_bounce() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.6, 0.3, 0.1])),
             emission: Rgb::ZERO,
             texture: None,
+            shading: None,
         },
         Surface {
             name: "emitter".into(),
@@ -46,6 +47,7 @@ fn open_scene_energy_balance_single_bounce() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::ZERO),
             emission: Rgb([5.0, 5.0, 5.0]),
             texture: None,
+            shading: None,
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -78,6 +80,7 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
             emission: Rgb::ZERO,
             texture: None,
+            shading: None,
         },
         Surface {
             name: "emitter".into(),
@@ -85,6 +88,7 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
             emission: Rgb::splat(5.0),
             texture: None,
+            shading: None,
         },
     ]);
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
@@ -233,6 +237,7 @@ fn glossy_box_under_a_camera() -> Scene {
                 brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb([0.7, 0.5, 0.3])),
                 emission: Rgb::ZERO,
                 texture: None,
+                shading: None,
             })
             .collect();
     surfaces[1].emission = Rgb::splat(3.0);
@@ -251,6 +256,7 @@ fn glossy_box_under_a_camera() -> Scene {
         brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
         texture: None,
+        shading: None,
     });
     let mut scene = Scene::from_surfaces(surfaces);
     scene.camera = Some(Camera {
@@ -335,6 +341,7 @@ fn too_many_surfaces_for_shooting_is_a_clear_error() {
         brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
         emission: Rgb::ZERO,
         texture: None,
+        shading: None,
     };
     let limit = wavrad_core::solve::shoot::MAX_SHOOTING_SURFACES;
     let scene = Scene::from_surfaces(vec![tiny; limit + 1]);

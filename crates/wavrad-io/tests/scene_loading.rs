@@ -676,3 +676,119 @@ fn glossy_bsdfs_and_their_defaults() {
         .any(|x| matches!(x.brdf, Brdf::RoughConductor(_))));
     assert!(s.surfaces.iter().any(|x| matches!(x.brdf, Brdf::Ward(_))));
 }
+
+/// The shading normal of every patch of `s` at its parameter points and
+/// centre, with the point: what a render shades with there.
+fn shading_points(s: &Scene) -> Vec<(DVec3, DVec3)> {
+    use glam::DVec2;
+    let params = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.3, 0.3)].map(DVec2::from);
+    s.surfaces
+        .iter()
+        .flat_map(|x| params.map(|p| (x.patch.point_at(p), x.shading_normal(p))))
+        .collect()
+}
+
+/// A sphere's shading normal is the radial direction wherever a patch is
+/// shaded (within the tessellation's displacement of the points), outwards,
+/// inwards after `flip_normals` or a mirroring `to_world` (which turn
+/// Mitsuba's sphere inside out), and reversed on a twosided back; a disk
+/// has none (flat).
+#[test]
+fn sphere_shading_normals_are_radial_and_follow_its_front() {
+    let c = DVec3::new(0.0, 1.0, 2.0);
+    let radial = |p: DVec3| (p - c).normalize();
+    let s = scene(
+        r#"<shape type="sphere"><point name="center" x="0" y="1" z="2"/>
+            <float name="radius" value="0.5"/></shape>"#,
+    );
+    assert!(s.surfaces.iter().all(|x| x.shading.is_some()));
+    for (p, n) in shading_points(&s) {
+        // Exact at the corners; between them, the chord's direction.
+        assert!(n.dot(radial(p)) > 0.995, "{n} at {p}");
+    }
+    for (p, n) in shading_points(&s).into_iter().step_by(4) {
+        assert!((n - radial(p)).length() < 1e-6, "corner {p}: {n}");
+    }
+    let inwards = scene(
+        r#"<shape type="sphere">
+            <transform name="to_world"><scale value="0.5"/><translate x="0" y="1" z="2"/></transform>
+            <boolean name="flip_normals" value="true"/>
+        </shape>
+        <shape type="sphere">
+            <transform name="to_world"><scale x="-0.5" y="0.5" z="0.5"/><translate x="0" y="1" z="2"/></transform>
+        </shape>"#,
+    );
+    for (p, n) in shading_points(&inwards) {
+        assert!(n.dot(radial(p)) < -0.995, "{n} at {p}");
+    }
+    let twosided = scene(
+        r#"<shape type="sphere"><point name="center" x="0" y="1" z="2"/>
+            <float name="radius" value="0.5"/>
+            <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+        <shape type="disk"/>"#,
+    );
+    let (sides, disk) = twosided.surfaces.split_at(2 * 528);
+    for (k, (p, n)) in shading_points(&Scene::from_surfaces(sides.to_vec()))
+        .into_iter()
+        .enumerate()
+    {
+        let front = if (k / 4) % 2 == 0 { 1.0 } else { -1.0 };
+        assert!(front * n.dot(radial(p)) > 0.995, "{n} at {p}");
+    }
+    assert!(disk.iter().all(|x| x.shading.is_none()));
+}
+
+/// A cylinder's shading normal is radial, with no component along its axis.
+#[test]
+fn cylinder_shading_normals_are_radial() {
+    let s = scene(
+        r#"<shape type="cylinder"><point name="p0" x="1" y="0" z="0"/>
+            <point name="p1" x="1" y="3" z="0"/><float name="radius" value="0.25"/></shape>"#,
+    );
+    for (p, n) in shading_points(&s) {
+        let radial = DVec3::new(p.x - 1.0, 0.0, p.z).normalize();
+        assert!(n.dot(radial) > 0.995 && n.y.abs() < 1e-6, "{n} at {p}");
+    }
+}
+
+/// A mesh's vertex normals are its shading normals: the interpolated normal
+/// is the file's at each vertex (transformed as normals), unless
+/// `face_normals` is set; a triangle turned round to face its normals keeps
+/// each vertex's.
+#[test]
+fn mesh_vertex_normals_are_interpolated() {
+    let dir = tempfile::tempdir().unwrap();
+    // One triangle wound clockwise from +z, its normals leaning out of it.
+    write(
+        dir.path(),
+        "bent.obj",
+        b"v 0 0 0\nv 0 1 0\nv 1 0 0\nvn -0.3 0 1\nvn 0 0.4 1\nvn 0.5 0 1\nf 1//1 2//2 3//3\n",
+    );
+    let xml = r#"<scene version="3.0.0">
+        <shape type="obj"><string name="filename" value="bent.obj"/>
+            <transform name="to_world"><scale x="2"/></transform></shape>
+        <shape type="obj"><string name="filename" value="bent.obj"/>
+            <boolean name="face_normals" value="true"/></shape>
+    </scene>"#;
+    let s = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap().scene;
+    let smooth = &s.surfaces[0];
+    assert!(
+        close(smooth.patch.normal(), DVec3::Z),
+        "turned to its normals"
+    );
+    // Normals scale by the inverse transpose: x halves.
+    let expect = [
+        (DVec3::ZERO, DVec3::new(-0.15, 0.0, 1.0)),
+        (DVec3::Y, DVec3::new(0.0, 0.4, 1.0)),
+        (DVec3::X * 2.0, DVec3::new(0.25, 0.0, 1.0)),
+    ];
+    for (vertex, normal) in expect {
+        let n = smooth.shading_normal(smooth.patch.param_of(vertex));
+        assert!((n - normal.normalize()).length() < 1e-6, "{n} at {vertex}");
+    }
+    assert_eq!(s.surfaces[1].shading, None);
+    assert!(close(
+        s.surfaces[1].shading_normal(glam::DVec2::ZERO),
+        -DVec3::Z
+    ));
+}

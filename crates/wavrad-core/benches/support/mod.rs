@@ -218,6 +218,7 @@ pub fn cornell_box_with_sphere(subdivisions: u32) -> Scene {
             brdf: wavrad_core::scene::brdf::Brdf::diffuse(wavrad_core::scene::Rgb::splat(0.5)),
             emission: wavrad_core::scene::Rgb::ZERO,
             texture: None,
+            shading: None,
         });
     }
     scene

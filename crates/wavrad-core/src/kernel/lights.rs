@@ -22,9 +22,25 @@ pub fn visible_incidents(
     tracer: &SceneTracer,
     (surface, x): (u32, DVec3),
     sky: &[DVec2],
-    mut f: impl FnMut(&Light, Incident),
+    f: impl FnMut(&Light, Incident),
 ) {
     let normal = scene.surfaces[surface as usize].patch.normal();
+    visible_incidents_shaded(scene, tracer, (surface, x, normal), sky, f);
+}
+
+/// [`visible_incidents`] at a point whose shading normal is `normal`
+/// ([`crate::scene::Surface::shading_normal`]): irradiance and the sky's
+/// directions are taken about it, and light from below the surface's own
+/// plane is left out (Mitsuba's convention for shading normals: nothing
+/// reaches a surface from behind it).
+pub fn visible_incidents_shaded(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    (surface, x, normal): (u32, DVec3, DVec3),
+    sky: &[DVec2],
+    mut f: impl FnMut(&Light, Incident),
+) {
+    let front = scene.surfaces[surface as usize].patch.normal();
     for light in scene.lights.iter().filter(|l| !l.is_dark()) {
         let (samples, share) = match light.is_delta() {
             true => (&[DVec2::ZERO][..], 1.0),
@@ -34,6 +50,9 @@ pub fn visible_incidents(
             let Some(incident) = light.incident(x, normal, u) else {
                 continue;
             };
+            if front.dot(incident.direction) <= 0.0 {
+                continue;
+            }
             if sees(tracer, surface, x, &incident) {
                 f(
                     light,
@@ -47,11 +66,16 @@ pub fn visible_incidents(
     }
 }
 
-/// The irradiance at point `x` of `surface` from `scene`'s lights
-/// ([`visible_incidents`]).
-pub fn irradiance(scene: &Scene, tracer: &SceneTracer, at: (u32, DVec3), sky: &[DVec2]) -> Rgb {
+/// The irradiance at point `x` of `surface`, whose shading normal there is
+/// `normal`, from `scene`'s lights ([`visible_incidents_shaded`]).
+pub fn irradiance(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    at: (u32, DVec3, DVec3),
+    sky: &[DVec2],
+) -> Rgb {
     let mut e = Rgb::ZERO;
-    visible_incidents(scene, tracer, at, sky, |_, incident| {
+    visible_incidents_shaded(scene, tracer, at, sky, |_, incident| {
         e += incident.irradiance
     });
     e
@@ -138,11 +162,14 @@ mod tests {
         });
         let tracer = SceneTracer::new(&scene);
         let under = DVec3::new(centre.x, centre.y, 0.0);
-        assert_eq!(irradiance(&scene, &tracer, (0, under), &[]), Rgb::ZERO);
+        assert_eq!(
+            irradiance(&scene, &tracer, (0, under, DVec3::Z), &[]),
+            Rgb::ZERO
+        );
         let beside = DVec3::new(0.9, 0.9, 0.0);
         let d = position - beside;
         let expected = d.z / d.length().powi(3);
-        let e = irradiance(&scene, &tracer, (0, beside), &[]);
+        let e = irradiance(&scene, &tracer, (0, beside, DVec3::Z), &[]);
         assert!((e[0] - expected).abs() < 1e-12, "{e} vs {expected}");
     }
 
@@ -155,8 +182,18 @@ mod tests {
         });
         let tracer = SceneTracer::new(&scene);
         let sky = grid(16);
-        let far = irradiance(&scene, &tracer, (0, DVec3::new(0.95, 0.95, 0.0)), &sky);
-        let near = irradiance(&scene, &tracer, (0, DVec3::new(0.1, 0.1, 0.0)), &sky);
+        let far = irradiance(
+            &scene,
+            &tracer,
+            (0, DVec3::new(0.95, 0.95, 0.0), DVec3::Z),
+            &sky,
+        );
+        let near = irradiance(
+            &scene,
+            &tracer,
+            (0, DVec3::new(0.1, 0.1, 0.0), DVec3::Z),
+            &sky,
+        );
         assert!(far[0] > near[0] && near[0] > 0.0, "{far} {near}");
         assert!(far[0] <= std::f64::consts::PI + 1e-12);
     }

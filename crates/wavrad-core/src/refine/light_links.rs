@@ -61,8 +61,10 @@ pub fn link_lights(ctx: &KernelContext, max_level: u32, progress: &dyn Progress)
     let points = ctx.quadrature.points.max(1);
     let mean = |surface: u32, patch: &Patch| -> Rgb {
         let mut sum = Rgb::ZERO;
+        // The solve is on the patches: their own normal, not the shading one.
+        let normal = patch.normal();
         for sample in patch.gauss_points(points) {
-            let e = irradiance(scene, ctx.tracer, (surface, sample.position), &sky);
+            let e = irradiance(scene, ctx.tracer, (surface, sample.position, normal), &sky);
             sum += e * sample.weight;
         }
         sum / patch.area()
@@ -168,7 +170,7 @@ mod tests {
             .sum();
         let n = 200;
         let reference: f64 = crate::testing::unit_square_midpoints(n)
-            .map(|x| irradiance(&scene, &tracer, (0, x), &[])[0])
+            .map(|x| irradiance(&scene, &tracer, (0, x, DVec3::Z), &[])[0])
             .sum::<f64>()
             / (n * n) as f64;
         assert!(

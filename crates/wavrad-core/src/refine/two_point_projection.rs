@@ -612,6 +612,7 @@ mod tests {
             brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.8)),
             emission: Rgb::ZERO,
             texture: None,
+            shading: None,
         };
         let scene = Scene::from_surfaces(vec![square(0.0, false), square(0.3, true)]);
         let tracer = SceneTracer::new(&scene);
@@ -710,6 +711,7 @@ mod tests {
             brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
             emission: Rgb::splat(emission),
             texture: None,
+            shading: None,
         };
         Scene::from_surfaces(vec![square(0.0, true, 0.0), square(0.5, false, 4.0)])
     }

@@ -107,9 +107,9 @@ impl GatherCache {
                     ((t % side) as f64 + 0.5) / side as f64,
                     ((t / side) as f64 + 0.5) / side as f64,
                 );
-                let (position, normal) = (surface.patch.point_at(uv), surface.patch.normal());
+                let position = surface.patch.point_at(uv);
                 let ctx = solution.kernel_context();
-                if is_buried(&ctx, s as u32, position, normal) {
+                if is_buried(&ctx, s as u32, position, surface.patch.normal()) {
                     return None;
                 }
                 let gathers = settings
@@ -124,7 +124,7 @@ impl GatherCache {
                 let point = GatherPoint {
                     surface: s as u32,
                     position,
-                    normal,
+                    normal: surface.shading_normal(uv),
                     samples: Samples::pixel((s as u64) << 40 ^ t as u64, 0),
                 };
                 let budget = GatherBudget { rays, shadow_grid };

@@ -12,15 +12,21 @@
 //! ρ is the albedo of the surface's Lambertian lobe: a diffuse surface's, or
 //! ρ_d of a glossy one whose BRDF has such a lobe besides others (Ward's),
 //! whose other lobes [`glossy_radiance`] gathers through the BRDF.
+//!
+//! Cosines and the BRDF's frame are the point's shading normal's
+//! ([`GatherPoint::normal`]; a curved surface's, [`crate::scene::Surface::shading_normal`]),
+//! as Mitsuba's shading frame; light from below the surface's own plane is
+//! left out, and no ray starts into the surface, so that shading normals
+//! never let light leak through it.
 
 use crate::geometry::tracing::SceneTracer;
-use crate::kernel::form_factor::point_to_polygon;
+use crate::kernel::form_factor::{front_part, point_to_polygon};
 use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
-use crate::scene::{Rgb, Scene};
+use crate::scene::{Patch, Rgb, Scene};
 use glam::{DVec2, DVec3};
 
 /// A visible point where light is gathered.
@@ -30,10 +36,37 @@ pub struct GatherPoint {
     pub surface: u32,
     /// The point.
     pub position: DVec3,
-    /// Front normal of the surface.
+    /// Shading normal of the surface at the point ([`crate::scene::Surface::shading_normal`];
+    /// the front normal of a flat one).
     pub normal: DVec3,
     /// Where its estimates draw their sample points.
     pub samples: Samples,
+}
+
+impl GatherPoint {
+    /// The point `position` of `surface` in `scene`, with its shading
+    /// normal, drawing `samples`.
+    pub fn on(scene: &Scene, surface: u32, position: DVec3, samples: Samples) -> GatherPoint {
+        let s = &scene.surfaces[surface as usize];
+        GatherPoint {
+            surface,
+            position,
+            normal: s.shading_normal(s.patch.param_of(position)),
+            samples,
+        }
+    }
+
+    /// True when light can arrive at the point from direction `wi`: above
+    /// its shading normal's plane and the surface's own (Mitsuba's rule
+    /// for shading normals, so that none leaks through the surface).
+    fn receives(&self, scene: &Scene, wi: DVec3) -> bool {
+        self.normal.dot(wi) > 0.0 && self.front(scene).dot(wi) > 0.0
+    }
+
+    /// The front normal of the point's surface.
+    fn front(&self, scene: &Scene) -> DVec3 {
+        scene.surfaces[self.surface as usize].patch.normal()
+    }
 }
 
 /// Rays towards the sky per shadow ray of a final gather: the sky fills the
@@ -72,11 +105,12 @@ pub fn direct_radiance(
         .filter_map(|k| emitters.sample(samples.point(Stream::Shadow, n, k), surface))
         .collect();
     drawn.sort_unstable_by_key(|&(e, ..)| e);
+    let front = point.front(scene);
     let mut out = Rgb::ZERO;
     for rays in drawn.chunk_by(|a, b| a.0 == b.0) {
         let (e, _, chosen) = rays[0];
         let light = &scene.surfaces[e as usize];
-        let ff = point_to_polygon(x, normal, &light.patch.vertices(), light.patch.normal());
+        let ff = shaded_factor(x, (normal, front), &light.patch);
         if ff <= 0.0 {
             continue;
         }
@@ -87,7 +121,7 @@ pub fn direct_radiance(
         let (mut seen, mut total) = (0u32, 0u32);
         for &(_, uv, _) in rays {
             let y = light.patch.point_at(light.patch.square_to_param(uv));
-            if normal.dot(y - x) <= 0.0 {
+            if !point.receives(scene, y - x) {
                 continue;
             }
             total += 1;
@@ -106,10 +140,26 @@ pub fn direct_radiance(
         let sky: Vec<DVec2> = (0..rays)
             .map(|k| samples.point(Stream::Shadow, rays, k))
             .collect();
-        let e = lights::irradiance(scene, tracer, (surface, x), &sky);
+        let e = lights::irradiance(scene, tracer, (surface, x, normal), &sky);
         out += rho * e * std::f64::consts::FRAC_1_PI;
     }
     out
+}
+
+/// Lambert's point-to-polygon factor ([`point_to_polygon`]) of `patch` at
+/// `x` for a surface whose shading normal there is `normal` and whose own
+/// normal is `front`: the cosine the shading normal's, over the part of
+/// `patch` above both planes.
+fn shaded_factor(x: DVec3, (normal, front): (DVec3, DVec3), patch: &Patch) -> f64 {
+    let vertices = patch.vertices();
+    if normal == front {
+        return point_to_polygon(x, normal, &vertices, patch.normal());
+    }
+    let above = front_part(&vertices, x, front);
+    if above.len() < 3 {
+        return 0.0;
+    }
+    point_to_polygon(x, normal, &above, patch.normal())
 }
 
 /// Where a final gather looks for concentrated light besides its cosine
@@ -208,7 +258,7 @@ pub fn indirect_radiance(
         let Some((wi, y, _)) = m.sample(patch, x, uv) else {
             continue;
         };
-        if normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip) {
+        if point.receives(scene, wi) && !tracer.occluder.occluded_except(x, y, skip) {
             add(m.surface, wi, y);
         }
     }
@@ -217,6 +267,9 @@ pub fn indirect_radiance(
         // Cosine-weighted (Malley).
         let local = crate::scene::brdf::cosine_hemisphere(samples.point(Stream::Cosine, rays, k));
         let dir = local.x * t + local.y * b + local.z * normal;
+        if !point.receives(scene, dir) {
+            continue; // below the surface: no light, and no ray into it
+        }
         let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
             continue;
         };
@@ -238,7 +291,7 @@ pub fn indirect_radiance(
 
 /// Solid-angle density of picking a point of `patch` uniformly by area,
 /// seen along `wi` at squared distance `r2`.
-fn area_pdf(patch: &crate::scene::Patch, wi: DVec3, r2: f64) -> f64 {
+fn area_pdf(patch: &Patch, wi: DVec3, r2: f64) -> f64 {
     let cos_y = -patch.normal().dot(wi);
     if cos_y <= 0.0 {
         return f64::INFINITY;
@@ -265,7 +318,7 @@ fn area_sample(
         let h = tracer.surface_of(prim);
         h == q || h == point.surface
     };
-    (p.is_finite() && point.normal.dot(wi) > 0.0 && !tracer.occluder.occluded_except(x, y, skip))
+    (p.is_finite() && point.receives(scene, wi) && !tracer.occluder.occluded_except(x, y, skip))
         .then_some((wi, y, p))
 }
 
@@ -295,8 +348,7 @@ pub fn glossy_radiance(
         samples: sample_points,
         ..
     } = *point;
-    let s = &scene.surfaces[surface as usize];
-    let frame = s.frame();
+    let frame = scene.surfaces[surface as usize].frame_at(point.normal);
     let wo_local = frame.to_local(wo);
     if wo_local.z <= 0.0 {
         return Rgb::ZERO;
@@ -321,7 +373,8 @@ pub fn glossy_radiance(
         out += f * w * scene.surfaces[e as usize].emission;
     }
     // The delta lights, exactly.
-    lights::visible_incidents(scene, tracer, (surface, x), &[], |_, incident| {
+    let at = (surface, x, point.normal);
+    lights::visible_incidents_shaded(scene, tracer, at, &[], |_, incident| {
         out += brdf.eval(wo_local, frame.to_local(incident.direction)) * incident.irradiance;
     });
     // BRDF sampling: emitters (weighted against light sampling) and the rest
@@ -333,6 +386,9 @@ pub fn glossy_radiance(
             continue;
         };
         let wi = frame.to_world(sample.direction);
+        if !point.receives(scene, wi) {
+            continue; // below the surface: no light, and no ray into it
+        }
         let Some(hit) = tracer.trace(x, wi, 1e-7, f64::INFINITY) else {
             out += sample.weight * scene.sky_radiance(wi) / n;
             continue;
@@ -408,6 +464,7 @@ mod tests {
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
                 emission: Rgb::ZERO,
                 texture: None,
+                shading: None,
             })
             .collect();
         let scene = Scene::from_surfaces(walls);
@@ -626,6 +683,7 @@ mod tests {
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)),
                 emission: Rgb::ZERO,
                 texture: None,
+                shading: None,
             },
             Surface {
                 name: "light".into(),
@@ -633,6 +691,7 @@ mod tests {
                 brdf: crate::scene::brdf::Brdf::diffuse(Rgb::ZERO),
                 emission: Rgb::splat(1.0),
                 texture: None,
+                shading: None,
             },
         ]);
         let tracer = SceneTracer::new(&scene);

@@ -377,10 +377,12 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let (w, h) = (film.width as f64, film.height as f64);
         let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
         let hit = (solution.tracer).trace(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
-        let patch = &solution.scene.surfaces[hit.surface as usize].patch;
+        let surface = &solution.scene.surfaces[hit.surface as usize];
+        let patch = &surface.patch;
         if patch.normal().dot(ray.direction) >= 0.0 {
             return None;
         }
+        let uv = patch.clamp_param(patch.param_of(hit.position));
         // The pixel's estimates of one kind stratify their samples jointly:
         // each takes its own block of the pixel's sequences.
         let pixel = (y.floor() * w + x.floor()) as u64;
@@ -388,10 +390,10 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             point: GatherPoint {
                 surface: hit.surface,
                 position: hit.position,
-                normal: patch.normal(),
+                normal: surface.shading_normal(uv),
                 samples: Samples::pixel(pixel, k as u32),
             },
-            uv: patch.clamp_param(patch.param_of(hit.position)),
+            uv,
             wo: -ray.direction,
             rays: (k, n),
         })

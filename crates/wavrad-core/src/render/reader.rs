@@ -238,12 +238,7 @@ impl SolutionReader {
         if !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             return self.outgoing_radiance(solution, from, to, seed);
         }
-        let at = GatherPoint {
-            surface: q,
-            position: y,
-            normal: source.patch.normal(),
-            samples: Samples::Hashed(seed),
-        };
+        let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
         let reflected = gather::glossy_radiance(
             &solution.scene,
             &solution.tracer,
@@ -287,12 +282,7 @@ impl SolutionReader {
             return element(&solution.radiance[i]);
         };
         let solved = element(beyond_first);
-        let at = GatherPoint {
-            surface: q,
-            position: y,
-            normal: surface.patch.normal(),
-            samples: Samples::Hashed(seed),
-        };
+        let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
         let first =
             gather::direct_radiance(&solution.scene, &solution.tracer, &self.emitters, &at, 1);
         solved.map(|x| x.max(0.0)) + first

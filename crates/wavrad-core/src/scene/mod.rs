@@ -12,9 +12,11 @@ mod color;
 pub mod envmap;
 mod filter;
 pub mod light;
+pub mod shading;
 pub mod texture;
 
 use crate::scene::brdf::{Brdf, Frame};
+use crate::scene::shading::ShadingNormals;
 use crate::scene::texture::{Texture, TextureMapping};
 use glam::{DMat4, DVec2, DVec3};
 
@@ -55,6 +57,10 @@ pub struct Surface {
     /// A texture on the albedo of the BRDF's Lambertian lobe, which then
     /// holds the texture's average over the surface.
     pub texture: Option<TextureMapping>,
+    /// Normals for shading a render, where the surface stands for a curved
+    /// one (a tessellated sphere, a mesh with vertex normals); the patch's
+    /// own normal without ([`Surface::shading_normal`]).
+    pub shading: Option<ShadingNormals>,
 }
 
 /// Film: image size and pixel filter (Mitsuba's `hdrfilm`).
@@ -437,6 +443,25 @@ impl Surface {
     /// first parameter direction (Mitsuba's dp/du).
     pub fn frame(&self) -> Frame {
         Frame::new(self.patch.normal(), self.patch.tangent())
+    }
+
+    /// The unit shading normal at patch parameter `param`: the
+    /// interpolated [`Surface::shading`] normal, or the patch's normal
+    /// without one (or where the interpolated one does not point to the
+    /// front side).
+    pub fn shading_normal(&self, param: DVec2) -> DVec3 {
+        let front = self.patch.normal();
+        (self.shading.and_then(|n| n.at(param)))
+            .filter(|n| n.dot(front) > 0.0)
+            .unwrap_or(front)
+    }
+
+    /// The shading frame of the BRDF at the point whose shading normal is
+    /// `normal` ([`Surface::shading_normal`]): that normal and, as tangent,
+    /// the first parameter direction made orthogonal to it (Mitsuba's
+    /// `si.sh_frame`).
+    pub fn frame_at(&self, normal: DVec3) -> Frame {
+        Frame::new(normal, self.patch.tangent())
     }
 }
 

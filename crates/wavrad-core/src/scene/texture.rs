@@ -263,7 +263,17 @@ impl TextureMapping {
 /// ([`TextureMapping::uv`]) moved to those of [`Patch::flipped`], which
 /// reparametrises it, so that every point keeps its coordinates.
 pub fn flipped_uv(uv: [Vec2; 3], patch: &Patch) -> [Vec2; 3] {
-    let [a, b, c] = uv;
+    flipped_corners(uv, patch)
+}
+
+/// Values at the parameters (0,0), (1,0), (0,1) of `patch` of a quantity
+/// affine over it, moved to those of [`Patch::flipped`], so that every point
+/// keeps its value.
+pub(crate) fn flipped_corners<T>(values: [T; 3], patch: &Patch) -> [T; 3]
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T>,
+{
+    let [a, b, c] = values;
     match patch {
         Patch::Parallelogram { .. } => [b, a, b + c - a],
         Patch::Triangle(_) => [a, c, b],

@@ -1238,6 +1238,7 @@ mod tests {
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
             texture: None,
+            shading: None,
         };
         Scene::from_surfaces(vec![
             surface("lower", square(0.0, true), 1.0),

@@ -38,7 +38,7 @@
 //! let faces = wavrad_core::testing::inward_box(DVec3::ZERO, DVec3::ONE);
 //! let surfaces = faces
 //!     .into_iter()
-//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None })
+//!     .map(|patch| Surface { name: "wall".into(), patch, brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), emission: Rgb::splat(1.0), texture: None, shading: None })
 //!     .collect();
 //! let mut settings = SolveSettings::default();
 //! settings.refine.max_level = 3;
@@ -529,6 +529,7 @@ mod tests {
             brdf: Brdf::diffuse(Rgb::splat(rho)),
             emission: Rgb::splat(emission),
             texture: None,
+            shading: None,
         }
     }
 

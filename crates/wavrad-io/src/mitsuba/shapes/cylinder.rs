@@ -27,7 +27,7 @@ use glam::{DMat4, DVec3, DVec4, Vec2};
 use wavrad_core::scene::Patch;
 
 use super::tessellation::{around, u_of, with_uv, SEGMENTS};
-use super::Placed;
+use super::Local;
 
 /// The unit cylinder as [`SEGMENTS`] rectangles facing outwards, at the
 /// radius that makes the total area 2π.
@@ -44,7 +44,7 @@ pub(super) fn unit_cylinder() -> Vec<Patch> {
 }
 
 /// [`unit_cylinder`] with Mitsuba's texture coordinates: (φ/2π, z).
-pub(super) fn textured_unit_cylinder() -> Vec<Placed> {
+pub(super) fn textured_unit_cylinder() -> Vec<Local> {
     with_uv(unit_cylinder(), |p, phi| Vec2::new(u_of(phi), p.z as f32))
 }
 

@@ -20,7 +20,7 @@ use glam::{DVec3, Vec2};
 use wavrad_core::scene::Patch;
 
 use super::tessellation::{around, u_of, with_uv, SEGMENTS};
-use super::Placed;
+use super::Local;
 
 /// The radius of the tessellated disk's rim: that which makes its area π.
 fn rim() -> f64 {
@@ -39,7 +39,7 @@ pub(super) fn unit_disk() -> Vec<Patch> {
 
 /// [`unit_disk`] with Mitsuba's texture coordinates: (r, φ/2π), the rim at
 /// r = 1.
-pub(super) fn textured_unit_disk() -> Vec<Placed> {
+pub(super) fn textured_unit_disk() -> Vec<Local> {
     let rim = rim();
     with_uv(unit_disk(), |p, phi| {
         Vec2::new((p.truncate().length() / rim) as f32, u_of(phi))

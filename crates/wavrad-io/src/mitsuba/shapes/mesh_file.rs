@@ -21,7 +21,9 @@
 //! (summed over the triangle's corners and transformed as normals, so a
 //! mirroring `to_world` keeps it); otherwise the side its vertices turn
 //! counter-clockwise around after `to_world` (so a mirroring transform turns
-//! the mesh inside out). Triangles of zero area (collinear or repeated
+//! the mesh inside out). The vertex normals, where kept, are also the
+//! triangle's shading normals ([`wavrad_core::scene::Surface::shading`]),
+//! interpolated over it as Mitsuba interpolates them. Triangles of zero area (collinear or repeated
 //! vertices) are skipped, and a warning counts them; a mesh with no other
 //! triangle is an error. Texture coordinates are the file's (v turned to
 //! 1 − v when `flip_tex_coords`, as Mitsuba 3 does by default for OBJ), or
@@ -32,9 +34,10 @@ use wavrad_core::scene::Patch;
 
 use super::super::document::Location;
 use super::super::params::{Document, Object};
-use super::{flip, Placed};
+use super::{flip, shading_to_front, Placed};
 use crate::error::Result;
 use crate::mesh;
+use wavrad_core::scene::shading::ShadingNormals;
 
 /// The file formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -147,7 +150,11 @@ impl MeshFile {
                     let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
                     against != mirrored
                 });
-                Some(if turn { flip(&(p, uv)) } else { (p, uv) })
+                let shading = (normals.as_ref())
+                    .and_then(|normals| ShadingNormals::new(normals[i]))
+                    .and_then(|n| n.transformed(world_from_local));
+                let placed = (p, uv, shading);
+                Some(shading_to_front(if turn { flip(&placed) } else { placed }))
             })
             .collect();
         if patches.is_empty() {

@@ -39,6 +39,7 @@ mod tessellation;
 
 use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::brdf::Brdf;
+use wavrad_core::scene::shading::ShadingNormals;
 use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
 use wavrad_core::scene::{Patch, Rgb, Surface};
 
@@ -63,14 +64,25 @@ enum Geometry {
     Mesh(MeshFile),
 }
 
-/// A patch and Mitsuba's texture coordinates at its parameters (0,0),
-/// (1,0) and (0,1), where wavrad has them for the shape.
-type Placed = (Patch, [Vec2; 3]);
+/// A patch of a shape in its own space and Mitsuba's texture coordinates at
+/// its parameters (0,0), (1,0) and (0,1).
+type Local = (Patch, [Vec2; 3]);
+
+/// A patch in world space, Mitsuba's texture coordinates at its parameters
+/// (0,0), (1,0) and (0,1), and its shading normals there where the shape is
+/// curved (a sphere, a cylinder, a mesh with vertex normals).
+type Placed = (Patch, [Vec2; 3], Option<ShadingNormals>);
 
 /// The patch seen from the other side, every point keeping its texture
-/// coordinates.
-fn flip(&(patch, uv): &Placed) -> Placed {
-    (patch.flipped(), flipped_uv(uv, &patch))
+/// coordinates and its shading normal reversed.
+fn flip(&(patch, uv, shading): &Placed) -> Placed {
+    let shading = shading.map(|n| n.flipped(&patch));
+    (patch.flipped(), flipped_uv(uv, &patch), shading)
+}
+
+/// `placed` with its shading normals turned to the patch's front side.
+fn shading_to_front((patch, uv, shading): Placed) -> Placed {
+    (patch, uv, shading.map(|n| n.facing(patch.normal())))
 }
 
 /// Which side of a shape is the front after a mirroring `to_world`.
@@ -84,6 +96,18 @@ enum Front {
 }
 
 impl Geometry {
+    /// The shading normal of the shape in its own space at `p` (a point of
+    /// its tessellation), `None` for a flat shape: the unit sphere's and
+    /// cylinder's radial directions, which [`tessellation`]'s vertex
+    /// placement keeps.
+    fn local_normal(&self, p: DVec3) -> Option<DVec3> {
+        match self {
+            Geometry::Sphere { .. } => Some(p),
+            Geometry::Cylinder { .. } => Some(DVec3::new(p.x, p.y, 0.0)),
+            _ => None,
+        }
+    }
+
     /// Read the plugin's own parameters from `obj`.
     fn parse(obj: &mut Object) -> Result<Geometry> {
         Ok(match obj.plugin {
@@ -184,15 +208,21 @@ impl Geometry {
         let mirrored = world_from_local.determinant() < 0.0;
         local
             .iter()
-            .map(|&(p, uv)| {
-                let p = p.transformed(&world_from_local);
+            .map(|&(local, uv)| {
+                let p = local.transformed(&world_from_local);
                 if !p.vertices().iter().all(|v| v.is_finite()) {
                     return Err(too_large());
                 }
+                let normals = tessellation::parameter_points(&local).map(|q| self.local_normal(q));
+                let shading = match normals {
+                    [Some(a), Some(b), Some(c)] => ShadingNormals::new([a, b, c])
+                        .and_then(|n| n.transformed(&world_from_local)),
+                    _ => None,
+                };
                 match (p.is_degenerate(), front == Front::Normals && mirrored) {
                     (true, _) => Err(zero_area()),
-                    (false, true) => Ok(flip(&(p, uv))),
-                    (false, false) => Ok((p, uv)),
+                    (false, true) => Ok(shading_to_front(flip(&(p, uv, shading)))),
+                    (false, false) => Ok(shading_to_front((p, uv, shading))),
                 }
             })
             .collect()
@@ -340,13 +370,14 @@ pub(crate) fn build_instance<'a>(
 
 /// A surface of `side` on `placed`. A textured side's albedo is its
 /// texture's average over the patch, and the surface keeps the mapping.
-fn textured(side: &Side, (patch, uv): Placed, doc: &Document) -> Surface {
+fn textured(side: &Side, (patch, uv, shading): Placed, doc: &Document) -> Surface {
     let mut surface = Surface {
         name: String::new(),
         patch,
         brdf: side.brdf.clone(),
         emission: Rgb::ZERO,
         texture: None,
+        shading,
     };
     if let Some(index) = side.texture {
         let mapping = TextureMapping { texture: index, uv };

@@ -31,7 +31,7 @@ use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::Patch;
 
 use super::tessellation::{around, polar_v, u_of, with_uv, SEGMENTS};
-use super::Placed;
+use super::Local;
 
 /// Arcs from pole to pole.
 const RINGS: usize = SEGMENTS / 2;
@@ -77,7 +77,7 @@ pub(super) fn unit_sphere() -> Vec<Patch> {
 
 /// [`unit_sphere`] with Mitsuba's texture coordinates: (φ/2π, θ/π), θ the
 /// polar angle from +z.
-pub(super) fn textured_unit_sphere() -> Vec<Placed> {
+pub(super) fn textured_unit_sphere() -> Vec<Local> {
     with_uv(unit_sphere(), |p, phi| Vec2::new(u_of(phi), polar_v(p)))
 }
 

@@ -20,14 +20,17 @@
 //! the exact one, up to the tessellation: the coordinates are exact at the
 //! patch's corners (the azimuth continued across the seam at 2π, and taken
 //! at the patch's middle where the corner is on the axis) and affine in
-//! between.
+//! between. The sphere's and cylinder's patches carry the exact shape's
+//! radial normals at their parameter points as shading normals
+//! ([`wavrad_core::scene::Surface::shading`]), so that a render shades them
+//! round; the disk is flat and needs none.
 
 use std::f64::consts::{PI, TAU};
 
 use glam::{DVec3, Vec2};
 use wavrad_core::scene::Patch;
 
-use super::Placed;
+use super::Local;
 
 /// Arcs per full circle around a shape's axis.
 pub(super) const SEGMENTS: usize = 24;
@@ -40,7 +43,7 @@ pub(super) fn around(j: usize) -> DVec3 {
 }
 
 /// The points of `patch` at its parameters (0,0), (1,0) and (0,1).
-fn parameter_points(patch: &Patch) -> [DVec3; 3] {
+pub(super) fn parameter_points(patch: &Patch) -> [DVec3; 3] {
     match *patch {
         Patch::Parallelogram {
             origin,
@@ -56,7 +59,7 @@ fn parameter_points(patch: &Patch) -> [DVec3; 3] {
 /// radians, continued from the patch's middle (so that a patch across the
 /// seam at 0 = 2π has coordinates on both sides of 1, as its texture lookups
 /// need) and the middle's where p is on the axis.
-pub(super) fn with_uv(patches: Vec<Patch>, uv: impl Fn(DVec3, f64) -> Vec2) -> Vec<Placed> {
+pub(super) fn with_uv(patches: Vec<Patch>, uv: impl Fn(DVec3, f64) -> Vec2) -> Vec<Local> {
     let azimuth = |p: DVec3| p.y.atan2(p.x).rem_euclid(TAU);
     patches
         .into_iter()
