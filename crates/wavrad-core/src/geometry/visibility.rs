@@ -276,7 +276,7 @@ impl Occluder {
     /// else the answer is `false`; so is it when more than
     /// [`SHAFT_TRIANGLES`] triangles' boxes meet it. Apart means beyond
     /// both polygons along the axis, by more than the boxes' padding from
-    /// one of them and at least touching the other ([`beyond_both`]): a
+    /// one of them and at least touching the other (`beyond_both`): a
     /// mesh's triangle that shares an edge or a corner with `a` touches
     /// the shaft only there, and a segment leaving that corner towards the
     /// other polygon leaves the triangle's side at once.
