@@ -676,51 +676,14 @@ mod tests {
         assert_eq!(resumed.radiance, whole.radiance);
     }
 
-    #[test]
-    fn a_checkpoint_naming_what_the_scene_lacks_is_refused_not_followed() {
+    /// Resuming the glossy box's solve, interrupted after `after`
+    /// questions, with its checkpoint spoiled by each of `spoils`, is an
+    /// error naming `problem`.
+    fn refused_when_spoiled(after: usize, spoils: &[fn(&mut Checkpoint)], problem: &str) {
         let scene = glossy_box();
         let settings = coarse();
-        let spoil: [fn(&mut Checkpoint); 3] = [
-            |c| c.linking.element_pairs[0][1].surface = 999,
-            |c| c.linking.element_pairs[0][0].id.path = 1 << 40,
-            |c| {
-                let block = c.finished.iter_mut().find(|b| !b.two_point.is_empty());
-                match block {
-                    Some(b) => b.two_point[0].throughput = f64::NAN,
-                    None => c.finished[0].three_point[0].coefficient.0[1] = f64::INFINITY,
-                }
-            },
-        ];
-        for (k, spoil) in spoil.into_iter().enumerate() {
-            let mut bad = solve(&scene, &settings, &interrupt_after(4000)).unwrap();
-            spoil(bad.checkpoint.as_mut().unwrap());
-            match resume(&scene, &settings, bad.unfinished().unwrap(), None, &Silent) {
-                Err(e) => assert!(e.to_string().contains("does not have"), "case {k}: {e}"),
-                Ok(_) => panic!("case {k}: resumed"),
-            }
-        }
-    }
-
-    #[test]
-    fn a_checkpoint_whose_runs_are_not_ranges_of_its_items_in_order_is_refused() {
-        let scene = glossy_box();
-        let settings = coarse();
-        let cut = solve(&scene, &settings, &interrupt_after(400)).unwrap();
-        let items = cut.checkpoint.as_ref().unwrap().items;
-        // A reversed range (found by the fuzzer: it reached past the items),
-        // one past the end, and two out of order.
-        let spoil: [&dyn Fn(&mut Checkpoint); 3] = [
-            &|c| c.finished[0].items = items + 12..items - 1,
-            &|c| c.finished[0].items.end = items + 1,
-            &|c| {
-                let first = c.finished[0].items.clone();
-                c.finished.push(BlockLinks {
-                    items: first,
-                    ..c.finished[0].clone()
-                });
-            },
-        ];
-        for (k, spoil) in spoil.iter().enumerate() {
+        let cut = solve(&scene, &settings, &interrupt_after(after)).unwrap();
+        for (k, spoil) in spoils.iter().enumerate() {
             let mut bad = cut.checkpoint.clone().unwrap();
             spoil(&mut bad);
             let from = Unfinished {
@@ -729,10 +692,47 @@ mod tests {
                 checkpoint: &bad,
             };
             match resume(&scene, &settings, from, None, &Silent) {
-                Err(e) => assert!(e.to_string().contains("not in order"), "case {k}: {e}"),
+                Err(e) => assert!(e.to_string().contains(problem), "case {k}: {e}"),
                 Ok(_) => panic!("case {k}: resumed"),
             }
         }
+    }
+
+    #[test]
+    fn a_checkpoint_naming_what_the_scene_lacks_is_refused_not_followed() {
+        refused_when_spoiled(
+            4000,
+            &[
+                |c| c.linking.element_pairs[0][1].surface = 999,
+                |c| c.linking.element_pairs[0][0].id.path = 1 << 40,
+                |c| {
+                    let block = c.finished.iter_mut().find(|b| !b.two_point.is_empty());
+                    match block {
+                        Some(b) => b.two_point[0].throughput = f64::NAN,
+                        None => c.finished[0].three_point[0].coefficient.0[1] = f64::INFINITY,
+                    }
+                },
+            ],
+            "does not have",
+        );
+    }
+
+    #[test]
+    fn a_checkpoint_whose_runs_are_not_ranges_of_its_items_in_order_is_refused() {
+        // A reversed range (found by the fuzzer: it reached past the items),
+        // one past the end, and two that overlap.
+        refused_when_spoiled(
+            400,
+            &[
+                |c| c.finished[0].items = c.items + 12..c.items - 1,
+                |c| c.finished[0].items.end = c.items + 1,
+                |c| {
+                    let first = c.finished[0].clone();
+                    c.finished.push(first);
+                },
+            ],
+            "not in order",
+        );
     }
 
     #[test]
