@@ -32,6 +32,9 @@ pub enum Stream {
     /// A final gather's directions through the mirror images (an image,
     /// and a point on it).
     Mirror,
+    /// A final gather's samples of its links' source elements (an
+    /// element, and a point on it).
+    Linked,
     /// A final gather's cosine-distributed rays.
     Cosine,
     /// A glossy point's light samples (an emitter, and a point on it).
@@ -48,6 +51,7 @@ impl Stream {
             Stream::Shadow => 0x1b87_3593,
             Stream::Bright => 0x3c6e_f372,
             Stream::Mirror => 0x6a09_e667,
+            Stream::Linked => 0xbb67_ae85,
             Stream::Cosine => 0x5bd1_e995,
             Stream::Light => 0x2545_f491,
             Stream::Brdf => 0x9e37_79b9,

@@ -32,6 +32,14 @@ pub struct Drawn {
 }
 
 impl DiscreteDistribution {
+    /// No members.
+    pub const EMPTY: DiscreteDistribution = DiscreteDistribution { cdf: Vec::new() };
+
+    /// Whether no member can be drawn.
+    pub fn is_empty(&self) -> bool {
+        self.cdf.is_empty()
+    }
+
     /// Members with the given non-negative, finite weights; one of zero
     /// weight is never drawn, and with no positive weight none is.
     pub fn new(weights: impl IntoIterator<Item = f64>) -> DiscreteDistribution {

@@ -23,6 +23,7 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::{front_part, point_to_polygon};
 use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
+use crate::render::link_guide::LinkedSources;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Samples, Stream};
 use crate::scene::brdf::{Brdf, BrdfModel};
@@ -169,7 +170,8 @@ fn shaded_factor(x: DVec3, (normal, front): (DVec3, DVec3), patch: &Patch) -> f6
 /// rays), each drawn from one surface picked by their distribution, and as
 /// many through the `mirrors` together (the specular reflection points of
 /// an emitter on a planar glossy surface); so a gather's cost does not grow
-/// with their number.
+/// with their number. And `linked_count` points on the source elements
+/// of the point's links, drawn by the light each brings.
 #[derive(Debug, Clone, Copy)]
 pub struct GatherSources<'a> {
     /// Surfaces sampled by area.
@@ -178,6 +180,10 @@ pub struct GatherSources<'a> {
     pub mirrors: &'a MirrorImages,
     /// Samples of the bright surfaces, and of the mirror images.
     pub count: u32,
+    /// The source elements of the links into the point's elements.
+    pub linked: &'a LinkedSources,
+    /// Samples of them.
+    pub linked_count: u32,
 }
 
 /// What [`indirect_radiance`] finds at a point.
@@ -215,18 +221,24 @@ pub fn indirect_radiance(
         bright,
         mirrors,
         count,
+        linked,
+        linked_count,
     } = sources;
     let rho = lambertian_albedo(scene, surface, x);
     let (t, b) = orthonormal_basis(normal);
     let (n_cos, n_area) = (f64::from(rays), f64::from(count));
+    let n_linked = f64::from(linked_count);
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
     // whose ray first meets surface q at y: each looks at q alone.
     let density = |q: u32, wi: DVec3, y: DVec3| {
         let mut d = n_cos * normal.dot(wi) * std::f64::consts::FRAC_1_PI;
+        let patch = &scene.surfaces[q as usize].patch;
         let chosen = bright.probability(q, surface);
         if chosen > 0.0 {
-            let patch = &scene.surfaces[q as usize].patch;
             d += n_area * chosen * area_pdf(patch, wi, (y - x).length_squared());
+        }
+        if linked_count > 0 {
+            d += n_linked * linked.pdf((q, patch), x, y);
         }
         d + n_area * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
     };
@@ -245,20 +257,25 @@ pub fn indirect_radiance(
             add(q, wi, y);
         }
     }
+    for k in 0..linked_count {
+        let u = samples.point(Stream::Linked, linked_count, k);
+        let Some((q, y)) = linked.sample(scene, u) else {
+            break;
+        };
+        if q != surface && sees(scene, tracer, point, q, y) {
+            add(q, (y - x).normalize(), y);
+        }
+    }
     for k in 0..count {
         let u = samples.point(Stream::Mirror, count, k);
         let Some((m, uv, _)) = mirrors.sample(u, surface) else {
             break;
         };
         let patch = &scene.surfaces[m.surface as usize].patch;
-        let skip = |prim: u32| {
-            let h = tracer.surface_of(prim);
-            h == m.surface || h == surface
-        };
         let Some((wi, y, _)) = m.sample(patch, x, uv) else {
             continue;
         };
-        if point.receives(scene, wi) && !tracer.occluder.occluded_except(x, y, skip) {
+        if sees(scene, tracer, point, m.surface, y) {
             add(m.surface, wi, y);
         }
     }
@@ -314,12 +331,18 @@ fn area_sample(
     let y = patch.point_at(patch.square_to_param(uv));
     let wi = (y - x).normalize();
     let p = area_pdf(patch, wi, (y - x).length_squared());
+    (p.is_finite() && sees(scene, tracer, point, q, y)).then_some((wi, y, p))
+}
+
+/// Whether `point` sees the point `y` of surface `q` in front of itself
+/// (the shadow ray ignores both surfaces).
+fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVec3) -> bool {
+    let x = point.position;
     let skip = |prim: u32| {
         let h = tracer.surface_of(prim);
         h == q || h == point.surface
     };
-    (p.is_finite() && point.receives(scene, wi) && !tracer.occluder.occluded_except(x, y, skip))
-        .then_some((wi, y, p))
+    point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
 }
 
 /// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
@@ -481,6 +504,8 @@ mod tests {
             bright: &SurfaceDistribution::default(),
             mirrors: &MirrorImages::default(),
             count: 1,
+            linked: &LinkedSources::default(),
+            linked_count: 0,
         };
         let l = indirect_radiance(&scene, &tracer, &point, 64, sources, |_, _| Rgb::splat(2.0));
         assert!((l.radiance[0] - 1.0).abs() < 1e-12, "{}", l.radiance[0]);
@@ -536,6 +561,8 @@ mod tests {
                 bright: &bright,
                 mirrors,
                 count: 9,
+                linked: &LinkedSources::default(),
+                linked_count: 0,
             };
             let runs = 1000;
             let (mut sum, mut sq) = (0.0, 0.0);

@@ -13,6 +13,7 @@ pub mod estimator;
 pub mod eye;
 pub mod film;
 pub mod gather;
+pub mod link_guide;
 pub mod mirror;
 mod reader;
 pub mod reconstruct;
@@ -70,6 +71,11 @@ pub const CAUSTIC_GATHERS: u32 = 16;
 /// ones) get about as many area samples in all as the gathering ray has
 /// indirect rays, and at least this many each while they are few.
 pub const GATHER_GRID: u32 = 2;
+
+/// A final gather also samples the source elements of its point's links
+/// ([`link_guide`]), as many as it has cosine rays, where glossy sources
+/// bring at least this share of the light the links bring.
+pub const GLOSSY_SHARE_LINKED: f64 = 0.3;
 
 /// Indirect gather rays per gathering camera ray of an interior pixel; in a
 /// pixel with more gathering rays, as many indirect rays in total (at least

@@ -3,9 +3,10 @@
 
 use super::discrete::SurfaceDistribution;
 use super::gather::{self, GatherPoint};
+use super::link_guide::LinkGuide;
 use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, TreeLookup};
-use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID};
+use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID, GLOSSY_SHARE_LINKED};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -52,6 +53,7 @@ pub(super) struct SolutionReader {
     pub(super) bright: SurfaceDistribution,
     mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
+    links: LinkGuide,
 }
 
 /// What a final gather finds at a point, in two parts: light that varies as
@@ -159,6 +161,7 @@ impl SolutionReader {
             bright,
             mirrors,
             caustic,
+            links: LinkGuide::new(solution),
         }
     }
 
@@ -171,7 +174,9 @@ impl SolutionReader {
     /// glossy surface, a glossy evaluation), or where that is fewer, a
     /// [`GATHER_GRID`]² grid's worth for each of a few bright surfaces, up
     /// to [`GATHER_RAYS`] (what cosine rays miss is concentrated: a gather
-    /// with few cosine rays still needs a few samples of each such surface).
+    /// with few cosine rays still needs a few samples of each such surface);
+    /// and where glossy sources bring much of its light, as many samples of
+    /// its links' source elements as it has cosine rays ([`LinkGuide`]).
     pub(super) fn final_gather(
         &self,
         solution: &Solution,
@@ -192,10 +197,24 @@ impl SolutionReader {
         let grid = f64::from(rays).sqrt().round() as u32;
         let bright = self.bright.surfaces().len() as u32;
         let few = (GATHER_GRID * GATHER_GRID).saturating_mul(bright);
+        let surface = &scene.surfaces[point.surface as usize];
+        let uv = surface
+            .patch
+            .clamp_param(surface.patch.param_of(point.position));
+        let i = point.surface as usize;
+        let linked = self.links.at(
+            point.surface,
+            self.lookup[i].locate(&solution.trees[i], uv).0,
+        );
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
             count: (grid * grid).max(few.min(GATHER_RAYS)),
+            linked,
+            linked_count: match linked.glossy_share() >= GLOSSY_SHARE_LINKED {
+                true => grid * grid,
+                false => 0,
+            },
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
