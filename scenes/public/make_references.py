@@ -122,7 +122,7 @@ def main():
     for name in args.scene or with_reference:
         make_reference(mi, np, name, table["scenes"][name], args.spp, args.pass_spp)
         with open(TABLE, "w") as f:
-            json.dump(table, f, indent=2)
+            json.dump(table, f, indent=2, ensure_ascii=False)
             f.write("\n")
 
 
