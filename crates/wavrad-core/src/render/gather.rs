@@ -262,8 +262,10 @@ pub fn indirect_radiance(
         let Some((q, y)) = linked.sample(scene, u) else {
             break;
         };
-        if q != surface && sees(scene, tracer, point, q, y) {
-            add(q, (y - x).normalize(), y);
+        let wi = (y - x).normalize();
+        let front = scene.surfaces[q as usize].patch.normal().dot(wi) < 0.0;
+        if q != surface && front && sees(scene, tracer, point, q, y) {
+            add(q, wi, y);
         }
     }
     for k in 0..count {
