@@ -317,7 +317,7 @@ impl ExactShape {
 /// without cancellation; `None` for each when there are none.
 fn quadratic_roots(a: f64, b: f64, c: f64) -> [Option<f64>; 2] {
     let discriminant = b * b - a * c;
-    if a == 0.0 || !(discriminant >= 0.0) {
+    if a == 0.0 || discriminant.is_nan() || discriminant < 0.0 {
         return [None, None];
     }
     let q = -(b + discriminant.sqrt().copysign(b));

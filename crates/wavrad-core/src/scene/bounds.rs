@@ -78,7 +78,7 @@ fn check_shape(shape: &AnalyticShape, surfaces: usize) -> std::result::Result<()
     if !m.is_finite() || det == 0.0 || !det.is_finite() || !m.inverse().is_finite() {
         return Err("has a singular or infinite transform".into());
     }
-    if !(far <= MAX_COORDINATE) {
+    if far > MAX_COORDINATE {
         return Err(format!(
             "reaches {far:e}: wavrad accepts coordinates up to {MAX_COORDINATE:e} in magnitude"
         ));
