@@ -124,3 +124,80 @@ fn a_ray_grazing_the_sphere_sees_it_where_the_tessellation_is_inside_and_only_th
         other => panic!("{other:?}"),
     }
 }
+
+/// The unit disk at z = 0 (a fan of 24 triangles whose rim vertices lie
+/// 0.57 % outside the circle and chords' middles 0.29 % inside) and an open
+/// cylinder of radius 1 around z from z = 2 to 3 (24 rectangles, their
+/// edges 0.29 % outside the circle and their middles 0.57 % inside),
+/// one-sided, above a floor: rays
+/// just inside the exact rim midway between two vertices see the shapes
+/// (the disk read on the fan triangle of that sector, though the point is
+/// past its chord), rays just outside it through a vertex pass them.
+#[test]
+fn the_disk_and_cylinder_are_seen_to_their_exact_rims() {
+    let s = scene(
+        r#"<shape type="disk" id="disk"/>
+        <shape type="cylinder" id="tube">
+            <point name="p0" x="0" y="0" z="2"/>
+            <point name="p1" x="0" y="0" z="3"/>
+        </shape>
+        <shape type="rectangle" id="floor">
+            <transform name="to_world"><scale value="10"/><translate z="-1"/></transform>
+        </shape>"#,
+    );
+    let floor = s.surfaces.iter().position(|x| x.name == "floor").unwrap() as u32;
+    let tracer = SceneTracer::new(&s);
+    let far = f64::INFINITY;
+    let at = |degrees: f64, r: f64, z: f64| {
+        let (sin, cos) = degrees.to_radians().sin_cos();
+        DVec3::new(r * cos, r * sin, z)
+    };
+    let seen = |origin: DVec3, dir: DVec3| tracer.trace_seen(origin, dir, 0.0, far);
+
+    // Straight down onto the disk's rim.
+    let down = -DVec3::Z;
+    let inside = at(7.5, 0.998, 1.0);
+    assert_eq!(tracer.trace(inside, down, 0.0, far).unwrap().surface, floor);
+    let Some(SeenHit::Exact { hit, covering, .. }) = seen(inside, down) else {
+        panic!("the exact disk is missed")
+    };
+    assert!((hit.position - at(7.5, 0.998, 0.0)).length() < 1e-12);
+    assert!((hit.normal - DVec3::Z).length() < 1e-12);
+    let (under, q) = covering.unwrap();
+    assert_eq!(s.surfaces[under as usize].name, "disk");
+    let sector = q.y.atan2(q.x).to_degrees();
+    assert!(
+        (0.0..15.0).contains(&sector),
+        "the fan triangle of 0°–15°: {sector}°"
+    );
+    assert!(q.z.abs() < 1e-12 && (q.truncate().length() - 0.997).abs() < 0.001);
+    let outside = at(0.0, 1.004, 1.0);
+    assert_eq!(
+        s.surfaces[tracer.trace(outside, down, 0.0, far).unwrap().surface as usize].name,
+        "disk"
+    );
+    assert!(matches!(seen(outside, down), Some(SeenHit::Surface(h)) if h.surface == floor));
+
+    // Across the cylinder, grazing its wall at mid-height.
+    let across = |degrees: f64, r: f64| {
+        let along = at(degrees + 90.0, 1.0, 0.0);
+        (at(degrees, r, 2.5) - 3.0 * along, along)
+    };
+    let (origin, dir) = across(7.5, 0.997);
+    assert!(tracer.trace(origin, dir, 0.0, far).is_none());
+    let Some(SeenHit::Exact { hit, covering, .. }) = seen(origin, dir) else {
+        panic!("the exact cylinder is missed")
+    };
+    let radial = hit.position - DVec3::new(0.0, 0.0, 2.5);
+    assert!((radial.length() - 1.0).abs() < 1e-12);
+    assert!((hit.normal - radial).length() < 1e-9, "exact normal");
+    let (under, q) = covering.unwrap();
+    assert_eq!(s.surfaces[under as usize].name, "tube");
+    assert!(
+        (q.z - 2.5).abs() < 1e-12
+            && (q.truncate().normalize().extend(0.0) - hit.normal).length() < 1e-9
+    );
+    let (origin, dir) = across(0.0, 1.002);
+    assert!(tracer.trace(origin, dir, 0.0, far).is_some());
+    assert_eq!(seen(origin, dir), None, "past the cylinder, nothing");
+}
