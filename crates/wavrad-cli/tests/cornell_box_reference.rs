@@ -196,8 +196,9 @@ fn textured_cornell_box_matches_mitsuba_path_tracer() {
 }
 
 /// The Cornell box with a white diffuse sphere for its small box
-/// (`scenes/sphere-cornell-box/`): the tessellated sphere is shaded with its
-/// radial shading normals, as round as Mitsuba's exact one.
+/// (`scenes/sphere-cornell-box/`): the solve's tessellated sphere is seen
+/// by camera rays as the exact sphere (its outline and normals) and read
+/// on the triangle under each point, as round as Mitsuba's.
 #[test]
 fn sphere_cornell_box_matches_mitsuba_path_tracer() {
     let dir = repo().join("scenes/sphere-cornell-box");
@@ -237,7 +238,7 @@ fn sphere_cornell_box_matches_mitsuba_path_tracer() {
         count / 3
     );
     assert!(away < 0.008, "relRMSE away from the light {away}");
-    assert!(sphere < 0.03, "relRMSE on the sphere {sphere}");
+    assert!(sphere < 0.021, "relRMSE on the sphere {sphere}");
 }
 
 /// The paper's Figure 3 scenes (`scenes/figure3/`): the receiver gets light

@@ -14,6 +14,7 @@
 //!   parts that light reaches separately ([`SceneTracer::is_crossed`]); an
 //!   element of the floor astride that line averages the light of both.
 
+use crate::geometry::analytic::{ExactShapes, SeenHit};
 use crate::geometry::visibility::{Hit, Occluder};
 use crate::scene::{Patch, Scene};
 use glam::DVec3;
@@ -27,6 +28,8 @@ pub struct SceneTracer {
     prim_surface: Vec<u32>,
     /// Where other surfaces meet each surface, for the few that any does.
     contacts: BTreeMap<u32, Contacts>,
+    /// The curved shapes as they are, for camera rays.
+    exact: ExactShapes,
 }
 
 /// Where other surfaces meet one surface.
@@ -83,6 +86,7 @@ impl SceneTracer {
             occluder,
             prim_surface,
             contacts,
+            exact: ExactShapes::new(scene),
         }
     }
 
@@ -117,6 +121,18 @@ impl SceneTracer {
     /// Surface that primitive `prim` belongs to.
     pub fn surface_of(&self, prim: u32) -> u32 {
         self.prim_surface[prim as usize]
+    }
+
+    /// What a camera ray `origin + t·dir` (dir unit length), t ∈ (tmin,
+    /// tmax), sees first: the curved shapes as they are, not their
+    /// tessellation ([`crate::geometry::analytic`]), and every other surface
+    /// as [`SceneTracer::trace`] finds it.
+    pub fn trace_seen(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<SeenHit> {
+        if self.exact.is_empty() {
+            return self.trace(origin, dir, tmin, tmax).map(SeenHit::Surface);
+        }
+        let surface_of = |prim: u32| self.surface_of(prim);
+        (self.exact).trace(&self.occluder, surface_of, (origin, dir), (tmin, tmax))
     }
 
     /// Closest surface along `origin + t·dir` (dir unit length), t ∈ (tmin,

@@ -381,6 +381,19 @@ impl Occluder {
     /// coincident faces facing the same way, as
     /// [`crate::geometry::tracing::SceneTracer::is_covered`] decides).
     pub fn intersect(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
+        self.intersect_except(origin, dir, tmin, tmax, |_| false)
+    }
+
+    /// Same as [`intersect`](Self::intersect) but ignoring the primitives
+    /// for which `skip(prim)` is true.
+    pub fn intersect_except(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        tmin: f64,
+        tmax: f64,
+        skip: impl Fn(u32) -> bool,
+    ) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
         if tmin.partial_cmp(&tmax) != Some(std::cmp::Ordering::Less) {
             return None;
@@ -392,6 +405,9 @@ impl Occluder {
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |_, slot| {
             let tri = &self.tris[slot];
+            if skip(tri.id) {
+                return f32::INFINITY;
+            }
             let Some((t, u, v)) = tri.intersect(origin, dir) else {
                 return f32::INFINITY;
             };
@@ -855,6 +871,15 @@ mod tests {
         assert!(!occ.occluded_except(a, b, |_| true));
         // (0.5,-0.5) is in triangle 0 and triangle 2 only.
         assert!(!occ.occluded_except(a, b, |p| p == 0 || p == 2));
+        // Closest hits skip them too: past the nearer quad, the farther.
+        let (dir, far) = (b - a, f64::INFINITY);
+        assert_eq!(
+            occ.intersect(a, dir, 0.0, far).map(|h| h.primitive),
+            Some(0)
+        );
+        let past = occ.intersect_except(a, dir, 0.0, far, |p| p < 2);
+        assert_eq!(past.map(|h| h.primitive), Some(2));
+        assert_eq!(occ.intersect_except(a, dir, 0.0, far, |p| p % 2 == 0), None);
     }
 
     #[test]

@@ -19,6 +19,7 @@ mod reader;
 pub mod reconstruct;
 pub mod settings;
 
+use crate::geometry::analytic::SeenHit;
 use crate::progress::{Progress, Silent};
 use crate::sampling::Samples;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -372,6 +373,10 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// Where the camera ray `k` of the `n` of its pixel, through film
     /// position `(x, y)` (in pixels), meets the front of a surface (a
     /// one-sided surface is black from behind, as Mitsuba's diffuse is).
+    /// Where it meets a curved shape ([`crate::geometry::tracing::SceneTracer::trace_seen`]), the
+    /// point is that of the tessellation's surface under the exact point,
+    /// where the solution is read and from which gathers and shadow rays
+    /// start, and the shading normal is the exact shape's.
     fn camera_hit(
         &self,
         camera: &Camera,
@@ -382,21 +387,33 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let solution = self.solution();
         let (w, h) = (film.width as f64, film.height as f64);
         let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
-        let hit = (solution.tracer).trace(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
-        let surface = &solution.scene.surfaces[hit.surface as usize];
+        let seen = (solution.tracer).trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
+        let surfaces = &solution.scene.surfaces;
+        let (s, position, exact_normal) = match seen {
+            SeenHit::Surface(hit) => {
+                let front = surfaces[hit.surface as usize].patch.normal();
+                if front.dot(ray.direction) >= 0.0 {
+                    return None;
+                }
+                (hit.surface, hit.position, None)
+            }
+            // The covering surface's front is the side seen.
+            SeenHit::Exact { hit, covering, .. } => {
+                let (s, position) = covering?;
+                (s, position, Some(hit.normal))
+            }
+        };
+        let surface = &surfaces[s as usize];
         let patch = &surface.patch;
-        if patch.normal().dot(ray.direction) >= 0.0 {
-            return None;
-        }
-        let uv = patch.clamp_param(patch.param_of(hit.position));
+        let uv = patch.clamp_param(patch.param_of(position));
         // The pixel's estimates of one kind stratify their samples jointly:
         // each takes its own block of the pixel's sequences.
         let pixel = (y.floor() * w + x.floor()) as u64;
         Some(CameraHit {
             point: GatherPoint {
-                surface: hit.surface,
-                position: hit.position,
-                normal: surface.shading_normal(uv),
+                surface: s,
+                position,
+                normal: exact_normal.unwrap_or_else(|| surface.shading_normal(uv)),
                 samples: Samples::pixel(pixel, k as u32),
             },
             uv,
@@ -415,7 +432,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         }
         let (w, h) = (film.width as f64, film.height as f64);
         let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
-        match (self.solution().tracer).trace(ray.origin, ray.direction, ray.t_min, ray.t_max) {
+        match (self.solution().tracer).trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max) {
             Some(_) => Rgb::ZERO,
             None => scene.sky_radiance(ray.direction),
         }
@@ -476,8 +493,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                     );
                     let ray = camera.ray(at, aspect);
                     (solution.tracer)
-                        .trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
-                        .map(|hit| hit.surface)
+                        .trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max)
+                        .map(|hit| hit.surface())
                 });
                 let hits: Vec<Option<u32>> = hits.collect();
                 let one = hits.iter().all(|&s| s == hits[0]);

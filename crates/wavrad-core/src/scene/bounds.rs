@@ -3,8 +3,10 @@
 //! inside the work (a ray structure over coordinates near `f32`'s range, a
 //! film of billions of pixels), checked before any work starts.
 
+use super::analytic::AnalyticShape;
 use super::Scene;
 use crate::{Error, Result};
+use glam::DMat3;
 
 /// Largest coordinate magnitude of a vertex, in scene units: the ray
 /// structure's boxes are `f32`, whose squares (surface areas) must stay
@@ -19,7 +21,9 @@ pub const MAX_FILM_PIXELS: u64 = 1 << 28;
 
 impl Scene {
     /// Check the scene against [`MAX_COORDINATE`], [`MAX_FILM_SIDE`] and
-    /// [`MAX_FILM_PIXELS`]; the error names the surface or the film.
+    /// [`MAX_FILM_PIXELS`], and that each curved shape is tessellated by
+    /// surfaces of the scene and placed by an invertible transform; the
+    /// error names the surface, the shape or the film.
     pub fn check_bounds(&self) -> Result<()> {
         for (index, surface) in self.surfaces.iter().enumerate() {
             if let Some(v) = surface
@@ -38,6 +42,10 @@ impl Scene {
                 )));
             }
         }
+        for (index, shape) in self.shapes.iter().enumerate() {
+            check_shape(shape, self.surfaces.len())
+                .map_err(|e| Error::OutOfBounds(format!("curved shape {index} {e}")))?;
+        }
         let (w, h) = (self.film.width, self.film.height);
         if w == 0 || h == 0 || w > MAX_FILM_SIDE || h > MAX_FILM_SIDE {
             return Err(Error::OutOfBounds(format!(
@@ -51,6 +59,31 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// Why `shape` cannot be traced in a scene of `surfaces` surfaces, if it
+/// cannot.
+fn check_shape(shape: &AnalyticShape, surfaces: usize) -> std::result::Result<(), String> {
+    let range = &shape.surfaces;
+    if range.start > range.end || range.end as usize > surfaces {
+        return Err(format!(
+            "is tessellated by surfaces {}..{} of {surfaces}",
+            range.start, range.end
+        ));
+    }
+    let m = shape.world_from_shape;
+    let det = DMat3::from_mat4(m).determinant();
+    let (lo, hi) = shape.bounds();
+    let far = lo.abs().max(hi.abs()).max_element();
+    if !m.is_finite() || det == 0.0 || !det.is_finite() || !m.inverse().is_finite() {
+        return Err("has a singular or infinite transform".into());
+    }
+    if far > MAX_COORDINATE {
+        return Err(format!(
+            "reaches {far:e}: wavrad accepts coordinates up to {MAX_COORDINATE:e} in magnitude"
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -83,6 +116,31 @@ mod tests {
             let message = big.check_bounds().unwrap_err().to_string();
             assert!(message.contains("the film is"), "{message}");
         }
+        let shape = |surfaces, world_from_shape| AnalyticShape {
+            kind: super::super::analytic::ShapeKind::Sphere,
+            world_from_shape,
+            surfaces,
+        };
+        for (bad, what) in [
+            (shape(0..99, glam::DMat4::IDENTITY), "surfaces 0..99"),
+            (shape(0..1, glam::DMat4::ZERO), "singular"),
+            (
+                shape(0..1, glam::DMat4::from_scale(DVec3::splat(1e13))),
+                "reaches",
+            ),
+        ] {
+            let mut curved = scene.clone();
+            curved.shapes.push(bad);
+            let message = curved.check_bounds().unwrap_err().to_string();
+            assert!(
+                message.contains("curved shape 0") && message.contains(what),
+                "{message}"
+            );
+        }
+        let mut curved = scene.clone();
+        curved.shapes.push(shape(0..1, glam::DMat4::IDENTITY));
+        curved.check_bounds().unwrap();
+
         let mut largest = scene;
         (largest.film.width, largest.film.height) = (16384, 16384);
         largest.check_bounds().unwrap();

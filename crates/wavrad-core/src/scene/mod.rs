@@ -6,6 +6,7 @@
 //! normal points to, as Mitsuba's `diffuse` BSDF and `area` emitter do. A
 //! `twosided` material becomes two surfaces, one per side.
 
+pub mod analytic;
 pub mod bounds;
 pub mod brdf;
 mod color;
@@ -15,6 +16,7 @@ pub mod light;
 pub mod shading;
 pub mod texture;
 
+use crate::scene::analytic::AnalyticShape;
 use crate::scene::brdf::{Brdf, Frame};
 use crate::scene::shading::ShadingNormals;
 use crate::scene::texture::{Texture, TextureMapping};
@@ -157,6 +159,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The textures surfaces refer to ([`Surface::texture`]).
     pub textures: Vec<Texture>,
+    /// The curved shapes some surfaces tessellate, exact for camera rays
+    /// ([`analytic`]).
+    pub shapes: Vec<AnalyticShape>,
 }
 
 impl Patch {
@@ -317,6 +322,7 @@ impl Scene {
             other_sensors: Vec::new(),
             lights: Vec::new(),
             textures: Vec::new(),
+            shapes: Vec::new(),
         }
     }
 
@@ -371,6 +377,9 @@ impl Scene {
                 now.textures.len(),
                 self.textures.len()
             ));
+        }
+        if self.shapes != now.shapes {
+            return Some("other curved shapes".into());
         }
         if self.camera != now.camera || self.other_sensors != now.other_sensors {
             return Some("another sensor".into());

@@ -188,6 +188,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
     let scene = Object::parse(root, doc)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
+    let mut curved = Vec::new();
     let mut sensors = Vec::new();
     let mut top_level_samples = None;
     let mut shape_index = 0;
@@ -206,14 +207,15 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             "shape" if n.plugin() == "shapegroup" => {}
             "shape" if n.plugin() == "instance" => {
                 let first_surface = surfaces.len();
-                shapes::build_instance(*n, doc, shape_index, &mut surfaces)?;
+                shapes::build_instance(*n, doc, shape_index, (&mut surfaces, &mut curved))?;
                 check_coordinates(&surfaces[first_surface..], n)?;
                 shape_index += 1;
             }
             "shape" => {
                 let first_surface = surfaces.len();
                 let identity = glam::DMat4::IDENTITY;
-                let emitter = shapes::build_shape(*n, doc, shape_index, &identity, &mut surfaces)?;
+                let built = (&mut surfaces, &mut curved);
+                let emitter = shapes::build_shape(*n, doc, shape_index, &identity, built)?;
                 check_coordinates(&surfaces[first_surface..], n)?;
                 if let Some(e) = emitter {
                     if let Some(first) = attached.insert(e.element, e.at) {
@@ -286,6 +288,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         other_sensors: sensors.collect(),
         lights,
         textures: doc.take_textures(),
+        shapes: curved,
     })
 }
 

@@ -38,6 +38,7 @@ mod sphere;
 mod tessellation;
 
 use glam::{DMat4, DVec3, Vec2};
+use wavrad_core::scene::analytic::{AnalyticShape, ShapeKind};
 use wavrad_core::scene::brdf::Brdf;
 use wavrad_core::scene::shading::ShadingNormals;
 use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
@@ -105,6 +106,27 @@ impl Geometry {
             Geometry::Sphere { .. } => Some(p),
             Geometry::Cylinder { .. } => Some(DVec3::new(p.x, p.y, 0.0)),
             _ => None,
+        }
+    }
+
+    /// The exact shape the camera sees where the solve sees the
+    /// tessellation: the unit shape and its map onto the shape placed by
+    /// `world_from_local` (as [`Geometry::patches`] places the
+    /// tessellation); `None` for flat shapes and meshes.
+    fn exact(&self, world_from_local: &DMat4) -> Option<(ShapeKind, DMat4)> {
+        match self {
+            Geometry::Disk => Some((ShapeKind::Disk, *world_from_local)),
+            Geometry::Cylinder { p0, p1, radius } => Some((
+                ShapeKind::Cylinder,
+                *world_from_local * cylinder::local_from_cylinder(*p0, *p1, *radius)?,
+            )),
+            Geometry::Sphere { center, radius } => {
+                let world_from_unit =
+                    sphere::Placement::world_from_unit(world_from_local, *center, *radius);
+                let placement = sphere::Placement::new(&world_from_unit)?;
+                Some((ShapeKind::Sphere, placement.world_from_sphere))
+            }
+            Geometry::Rectangle | Geometry::Cube | Geometry::Mesh(_) => None,
         }
     }
 
@@ -230,15 +252,16 @@ impl Geometry {
 }
 
 /// Append the surfaces of shape `shape` to `out`, all named by the shape's
-/// `id` (else its `name`, else `plugin#index`), and return its area
-/// emitter, nested or referenced, if it has one. `world_from_parent`
-/// places it (an instance's `to_world`; the identity at the top level).
+/// `id` (else its `name`, else `plugin#index`), and, for a curved shape,
+/// its exact description to `shapes`; return its area emitter, nested or
+/// referenced, if it has one. `world_from_parent` places it (an
+/// instance's `to_world`; the identity at the top level).
 pub(crate) fn build_shape<'a>(
     shape: Nested<'a>,
     doc: &'a Document<'a>,
     index: usize,
     world_from_parent: &DMat4,
-    out: &mut Vec<Surface>,
+    (out, shapes): (&mut Vec<Surface>, &mut Vec<AnalyticShape>),
 ) -> Result<Option<Nested<'a>>> {
     let mut obj = Object::parse(shape.element, doc)?;
     let plugin = obj.plugin;
@@ -299,6 +322,7 @@ pub(crate) fn build_shape<'a>(
         .attr("id")
         .or(shape.element.attr("name"))
         .map_or_else(|| format!("{plugin}#{index}"), str::to_string);
+    let first = out.len();
     for placed in patches {
         let mut surface = textured(&front, placed, doc);
         surface.name.clone_from(&name);
@@ -310,19 +334,29 @@ pub(crate) fn build_shape<'a>(
             out.push(surface);
         }
     }
+    let range = u32::try_from(first).ok().zip(u32::try_from(out.len()).ok());
+    if let (Some((kind, world_from_shape)), Some((start, end))) =
+        (geometry.exact(&world_from_local), range)
+    {
+        shapes.push(AnalyticShape {
+            kind,
+            world_from_shape,
+            surfaces: start..end,
+        });
+    }
     Ok(emitter)
 }
 
-/// Append the surfaces of the shape group an `instance` names to `out`,
-/// placed by the instance's `to_world` after each shape's own (numbered
-/// from `index` on, for their names), as Mitsuba's `instance` and
-/// `shapegroup` do. As in Mitsuba, a group's shapes cannot emit and a
-/// group holds no instances or groups.
+/// Append the surfaces of the shape group an `instance` names to `out`
+/// (and its curved shapes to `shapes`), placed by the instance's
+/// `to_world` after each shape's own (numbered from `index` on, for their
+/// names), as Mitsuba's `instance` and `shapegroup` do. As in Mitsuba, a
+/// group's shapes cannot emit and a group holds no instances or groups.
 pub(crate) fn build_instance<'a>(
     instance: Nested<'a>,
     doc: &'a Document<'a>,
     index: usize,
-    out: &mut Vec<Surface>,
+    (out, shapes): (&mut Vec<Surface>, &mut Vec<AnalyticShape>),
 ) -> Result<()> {
     let mut obj = Object::parse(instance.element, doc)?;
     let world_from_instance = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -357,7 +391,8 @@ pub(crate) fn build_instance<'a>(
                 shape.plugin()
             )));
         }
-        if let Some(emitter) = build_shape(*shape, doc, index + k, &world_from_instance, out)? {
+        let built = (&mut *out, &mut *shapes);
+        if let Some(emitter) = build_shape(*shape, doc, index + k, &world_from_instance, built)? {
             return Err(emitter.at.error(format!(
                 "an area emitter on a shape of the shape group at {}: instanced shapes \
                  cannot emit (nor in Mitsuba)",

@@ -23,7 +23,11 @@
 //! between. The sphere's and cylinder's patches carry the exact shape's
 //! radial normals at their parameter points as shading normals
 //! ([`wavrad_core::scene::Surface::shading`]), so that a render shades them
-//! round; the disk is flat and needs none.
+//! round; the disk is flat and needs none. Camera rays see the exact shape
+//! instead: each curved shape is also kept as it is, with the range of its
+//! surfaces ([`wavrad_core::scene::analytic`]), and a render shows its
+//! outline and normals, the solution and texture read on the patch under
+//! each point.
 
 use std::f64::consts::{PI, TAU};
 
