@@ -174,6 +174,13 @@ def test_render_settings_are_taken_by_name(kernel: wavrad.Solution) -> None:
         kernel.render("gather", 4, gather_spp=0)
 
 
+def test_a_seed_changes_the_noise_and_nothing_else(kernel: wavrad.Solution) -> None:
+    a, b = (kernel.render("gather", 4, gather_spp=1, seed=s) for s in (0, 9))
+    assert (a == kernel.render("gather", 4, gather_spp=1)).all()
+    assert not (a == b).all()
+    assert abs(a.mean() - b.mean()) < 0.05 * a.mean()
+
+
 def test_unknown_setting_is_a_type_error(scene: wavrad.Scene) -> None:
     with pytest.raises(TypeError, match="colour"):
         wavrad.solve(scene, colour=1)  # type: ignore[call-arg]

@@ -105,6 +105,7 @@ class Solution:
         eye: bool = True,
         gather_cache: bool = False,
         gather_spp: int | None = None,
+        seed: int = 0,
         progress: _Progress = None,
     ) -> _Image:
         """Render the scene's sensor, or any other view of the solution, as an
@@ -146,6 +147,9 @@ class Solution:
         later one, instead of gathering per camera ray: for many views of
         one solution. ``gather_spp``: for ``"gather"``, how many of an
         interior pixel's camera rays also final-gather (default ``spp`` / 32).
+        ``seed``: scrambles every pixel's samples, as Mitsuba's sampler
+        ``seed`` does (0 to 2³²−1): renders with different seeds have
+        independent noise.
         ``progress``: as :func:`solve`'s; the render reports its rows as
         the phase ``"rendering"`` (``done`` of ``total`` rows; before it,
         the eye's links when a view gathers into it). Ctrl-C, or an

@@ -159,6 +159,13 @@ impl Samples {
     }
 }
 
+/// The key of a pixel's (or texel's) sample sequences, `key`, scrambled by
+/// a render's `seed` ([`crate::render::RenderSettings::seed`]; seed 0
+/// leaves it as it is): keys below 2³² stay distinct for every seed.
+pub fn seeded(key: u64, seed: u32) -> u64 {
+    key ^ u64::from(seed) << 32
+}
+
 /// Point `index` (below 2^16; higher indices wrap) of the first two
 /// dimensions of the Sobol sequence, Owen-scrambled by a hash of
 /// `scramble` (`sobol_burley`'s building blocks: its seeded `sample` also

@@ -102,7 +102,7 @@ impl Solution {
     /// look_at `origin`/`target`/`up`, `fov` in degrees along the sensor's
     /// `fov_axis`); returns an (height, width, 3) float32 array of linear
     /// RGB radiance. The render settings (`mode`, `spp`, and by keyword
-    /// `gather_spp`, `eye`, `gather_cache`) are those of
+    /// `gather_spp`, `eye`, `gather_cache`, `seed`) are those of
     /// [`RenderSettings::SETTINGS`]. Ctrl-C stops the render and raises
     /// `KeyboardInterrupt`.
     #[pyo3(signature = (mode=None, spp=None, *, sensor=0, origin=None, target=None, up=None, fov=None, progress=None, **settings))]

@@ -30,7 +30,7 @@ use super::gather::GatherPoint;
 use super::reader::{FinalGather, GatherBudget, SolutionReader};
 use super::{RenderSettings, GATHER_GRID, GATHER_RAYS};
 use crate::kernel::exposure::is_buried;
-use crate::sampling::Samples;
+use crate::sampling::{seeded, Samples};
 use crate::scene::{Patch, Rgb};
 use crate::solve::Solution;
 use glam::DVec2;
@@ -125,7 +125,7 @@ impl GatherCache {
                     surface: s as u32,
                     position,
                     normal: surface.shading_normal(uv),
-                    samples: Samples::pixel((s as u64) << 40 ^ t as u64, 0),
+                    samples: Samples::pixel(seeded((s as u64) << 40 ^ t as u64, settings.seed), 0),
                 };
                 let budget = GatherBudget { rays, shadow_grid };
                 Some(reader.final_gather_parts(solution, &point, budget))

@@ -4,7 +4,7 @@
 //! pixel for pixel.
 
 use crate::progress::Progress;
-use crate::sampling::pixel_offsets;
+use crate::sampling::{pixel_offsets, seeded};
 use crate::scene::{Film, PixelFilter, Rgb};
 use rayon::prelude::*;
 
@@ -62,7 +62,7 @@ impl FilterTable {
 const WINDOW_BYTES: usize = 1 << 25;
 
 /// Render an image: pixel (x, y) gets `samples(x, y)` samples (rounded up
-/// to a square, [`pixel_offsets`]) and `radiance(x, y, k, n)` gives the
+/// to a square, [`pixel_offsets`], placed as `seed` scrambles them) and `radiance(x, y, k, n)` gives the
 /// radiance of the film position (x, y) in pixels for the `k`-th of the `n`
 /// samples of its pixel. Samples are filtered with the film's filter, each
 /// pixel's samples weighing as much in total as any other pixel's whatever
@@ -85,14 +85,15 @@ pub fn develop(
     film: &Film,
     samples: impl Fn(usize, usize) -> u32 + Sync,
     radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
+    seed: u32,
     progress: &dyn Progress,
 ) -> Option<Image> {
-    develop_in_window(film, samples, radiance, WINDOW_BYTES, progress)
+    develop_in_window(film, (samples, seed), radiance, WINDOW_BYTES, progress)
 }
 
 fn develop_in_window(
     film: &Film,
-    samples: impl Fn(usize, usize) -> u32 + Sync,
+    (samples, seed): (impl Fn(usize, usize) -> u32 + Sync, u32),
     radiance: impl Fn(f64, f64, usize, usize) -> Rgb + Sync,
     window_bytes: usize,
     progress: &dyn Progress,
@@ -119,7 +120,7 @@ fn develop_in_window(
                     return sums;
                 }
                 let (mut wx, mut wy) = (vec![0.0; span], vec![0.0; span]);
-                let offsets = pixel_offsets(pixel, samples(x, y));
+                let offsets = pixel_offsets(seeded(pixel, seed), samples(x, y));
                 let n = offsets.len();
                 for (k, o) in offsets.into_iter().enumerate() {
                     let l =
@@ -247,8 +248,11 @@ mod tests {
             let span = 2 * reach + 1;
             // Bands of 3 rows.
             let window = 8 * 300 * span * span * 4 * (3 + 2 * reach);
-            let img = develop_in_window(&film, |_, _| 64, f, window, &Silent).unwrap();
-            assert_eq!(Some(&img), develop(&film, |_, _| 64, f, &Silent).as_ref());
+            let img = develop_in_window(&film, (|_, _| 64, 0), f, window, &Silent).unwrap();
+            assert_eq!(
+                Some(&img),
+                develop(&film, |_, _| 64, f, 0, &Silent).as_ref()
+            );
             // Pixel (150, 20) recomputed directly from its neighbourhood.
             let (px, py) = (150usize, 20usize);
             let (mut sum, mut weight) = (0.0, 0.0);
@@ -303,7 +307,7 @@ mod tests {
             total: Default::default(),
         };
         let whole = rows(u64::MAX);
-        assert!(develop(&film, |_, _| 4, radiance, &whole).is_some());
+        assert!(develop(&film, |_, _| 4, radiance, 0, &whole).is_some());
         assert_eq!(whole.done.load(Ordering::SeqCst), 7);
         assert_eq!(whole.total.load(Ordering::SeqCst), 7);
         // Stopped after 3 rows: no image, and no row sampled after.
@@ -313,7 +317,7 @@ mod tests {
             radiance(x, y, k, n)
         };
         let cut = rows(3);
-        assert!(develop(&film, |_, _| 4, counted, &cut).is_none());
+        assert!(develop(&film, |_, _| 4, counted, 0, &cut).is_none());
         assert_eq!(cut.done.load(Ordering::SeqCst), 3);
         assert_eq!(sampled.load(Ordering::SeqCst), 3 * 9 * 4);
     }
@@ -331,6 +335,7 @@ mod tests {
                 &film,
                 |x, _| 1 + x as u32,
                 |_, _, _, _| Rgb([1.0, 2.0, 3.0]),
+                0,
                 &Silent,
             )
             .unwrap();

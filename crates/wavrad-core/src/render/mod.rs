@@ -21,7 +21,7 @@ pub mod settings;
 
 use crate::geometry::analytic::SeenHit;
 use crate::progress::{Progress, Silent};
-use crate::sampling::Samples;
+use crate::sampling::{seeded, Samples};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Film, RenderHints, Rgb, Scene};
 use crate::solve::Solution;
@@ -111,6 +111,9 @@ pub struct RenderSettings {
     /// correction jumps, and its coverage needs as many rays as the
     /// solution's.
     pub gather_samples_per_pixel: u32,
+    /// Scrambles every pixel's sample sequences (Mitsuba's sampler
+    /// `seed`): renders with different seeds have independent noise.
+    pub seed: u32,
 }
 
 impl Default for RenderSettings {
@@ -119,6 +122,7 @@ impl Default for RenderSettings {
             estimator: Estimator::default(),
             samples_per_pixel: 256,
             gather_samples_per_pixel: 256 / GATHER_SHARE,
+            seed: 0,
         }
     }
 }
@@ -272,11 +276,13 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         // get fewer camera rays; those near an emitter's outline, more.
         let probes = &self.probe(camera, film);
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
-        let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n)) {
+        let seed = settings.seed;
+        let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n), seed) {
             Some(hit) => estimator.radiance(self, &hit, settings),
             None => self.background(camera, film, (x, y)),
         };
-        let mut image = develop(film, samples, radiance, progress).ok_or(Error::Interrupted)?;
+        let mut image =
+            develop(film, samples, radiance, seed, progress).ok_or(Error::Interrupted)?;
         let count = image
             .rgb
             .chunks(3)
@@ -376,13 +382,15 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// Where it meets a curved shape ([`crate::geometry::tracing::SceneTracer::trace_seen`]), the
     /// point is that of the tessellation's surface under the exact point,
     /// where the solution is read and from which gathers and shadow rays
-    /// start, and the shading normal is the exact shape's.
+    /// start, and the shading normal is the exact shape's. `seed` scrambles
+    /// the pixel's samples ([`RenderSettings::seed`]).
     fn camera_hit(
         &self,
         camera: &Camera,
         film: &Film,
         (x, y): (f64, f64),
         (k, n): (usize, usize),
+        seed: u32,
     ) -> Option<CameraHit> {
         let solution = self.solution();
         let (w, h) = (film.width as f64, film.height as f64);
@@ -414,7 +422,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 surface: s,
                 position,
                 normal: exact_normal.unwrap_or_else(|| surface.shading_normal(uv)),
-                samples: Samples::pixel(pixel, k as u32),
+                samples: Samples::pixel(seeded(pixel, seed), k as u32),
             },
             uv,
             wo: -ray.direction,
@@ -586,13 +594,12 @@ mod tests {
         );
     }
 
-    #[test]
-    fn an_image_with_pixels_that_are_not_finite_is_an_error() {
-        // A lit floor seen from above, solved, then its radiance spoilt.
+    /// A lit floor seen from above on a `side`² film, solved.
+    fn lit_floor_from_above(side: u32) -> Solution {
         let mut scene = crate::testing::light_over_a_corner(0.5);
         scene.film = Film {
-            width: 4,
-            height: 4,
+            width: side,
+            height: side,
             filter: crate::scene::PixelFilter::Box,
         };
         scene.camera = Some(Camera {
@@ -609,8 +616,13 @@ mod tests {
             near_clip: 1e-3,
             far_clip: 100.0,
         });
-        let mut solution =
-            crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap();
+        crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap()
+    }
+
+    #[test]
+    fn an_image_with_pixels_that_are_not_finite_is_an_error() {
+        // A lit floor seen from above, solved, then its radiance spoilt.
+        let mut solution = lit_floor_from_above(4);
         let smooth = RenderSettings {
             estimator: Estimator::Solution {
                 reconstruction: Reconstruction::Smooth,
@@ -628,6 +640,31 @@ mod tests {
                 total: 16
             })
         );
+    }
+
+    #[test]
+    fn renders_with_different_seeds_differ_only_by_their_noise() {
+        let solution = lit_floor_from_above(8);
+        let renderer = Renderer::new(&solution);
+        for cached in [false, true] {
+            let render = |seed| {
+                let settings = RenderSettings {
+                    estimator: Estimator::FinalGather { cached },
+                    seed,
+                    ..RenderSettings::default().with_samples_per_pixel(4)
+                };
+                renderer.render(&settings).unwrap().rgb
+            };
+            let (a, again, b) = (render(0), render(0), render(7));
+            assert_eq!(a, again, "cached {cached}");
+            assert_ne!(a, b, "cached {cached}");
+            let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+            let (ma, mb) = (mean(&a), mean(&b));
+            assert!(
+                (ma - mb).abs() < 0.05 * ma,
+                "cached {cached}: {ma} against {mb}"
+            );
+        }
     }
 
     #[test]

@@ -69,6 +69,18 @@ impl Described for RenderSettings {
                    (view-independent; texels half an element wide) and read the texels, instead \
                    of gathering per camera ray: for many views of one solution.",
         },
+        Setting {
+            name: "seed",
+            group: Group::Render,
+            domain: Domain::Count {
+                min: 0,
+                max: u32::MAX,
+            },
+            default: "0",
+            help: "Scrambles every pixel's samples, as Mitsuba's sampler `seed` does: renders \
+                   with different seeds have independent noise (half the mean square of their \
+                   difference is each one's variance).",
+        },
     ];
 
     fn get(&self, name: &str) -> Option<Value> {
@@ -79,6 +91,7 @@ impl Described for RenderSettings {
             "gather_spp" => Value::Count(self.gather_samples_per_pixel),
             "eye" => Value::Flag(eye),
             "gather_cache" => Value::Flag(gather_cache),
+            "seed" => Value::Count(self.seed),
             _ => return None,
         })
     }
@@ -91,6 +104,7 @@ impl Described for RenderSettings {
             ("gather_cache", Value::Flag(on)) => gather_cache = on,
             ("spp", Value::Count(n)) => *self = self.with_samples_per_pixel(n),
             ("gather_spp", Value::Count(n)) => self.gather_samples_per_pixel = n,
+            ("seed", Value::Count(n)) => self.seed = n,
             _ => unreachable!("{name} = {value:?} was checked against SETTINGS"),
         }
         self.estimator = mode.estimator(eye, gather_cache)?;
