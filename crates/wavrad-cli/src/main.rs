@@ -791,8 +791,16 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
     if let Some(stop) = s.stopped {
         eprintln!(
             "wavrad: warning: {stop} cut the solve short: {} surface pairs, triples or links were \
-             left unrefined{}; the image is coarser than a full solve's",
+             left unrefined{}{}; the image is coarser than a full solve's",
             s.unrefined_items,
+            match s.left_out_items {
+                0 => String::new(),
+                n => format!(
+                    ", {n} of {} surface triples of glossy surfaces left out (no three-point \
+                     links)",
+                    s.three_point_items
+                ),
+            },
             if s.converged {
                 String::new()
             } else {
@@ -831,6 +839,16 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
 /// Warnings about a solve that ended without a hard failure.
 fn report_warnings(solution: &Solution) {
     let s = &solution.stats;
+    if s.unplanned_triples > 0 {
+        eprintln!(
+            "wavrad: warning: the scene has {} surface triples (r, p, q) of glossy surfaces p, \
+             more than a plan holds: {} were left out, with no three-point links, so the light \
+             glossy surfaces reflect between those surfaces (beyond their Lambertian lobe) is \
+             missing from the solution",
+            s.three_point_items as u64 + s.unplanned_triples,
+            s.unplanned_triples
+        );
+    }
     if !s.converged && s.stopped.is_none() {
         eprintln!(
             "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \

@@ -24,6 +24,11 @@ pub trait Progress: Sync {
     /// `items` (surface pairs or triples, links) were linked whole or left
     /// as they were, instead of refined, because the work was asked to stop.
     fn cut_short(&self, _items: u64) {}
+    /// `items` (surface triples) were left out, without any links, because
+    /// the work was asked to stop before they started: a three-point item
+    /// linked whole still costs a quadrature, and a glossy mesh can plan
+    /// hundreds of millions of them.
+    fn left_out(&self, _items: u64) {}
 }
 
 /// Progress that reports nothing.
@@ -42,6 +47,9 @@ impl Progress for StopOnly<'_> {
     }
     fn cut_short(&self, items: u64) {
         self.0.cut_short(items)
+    }
+    fn left_out(&self, items: u64) {
+        self.0.left_out(items)
     }
 }
 
@@ -73,9 +81,10 @@ const MEMORY_CHECK_INTERVAL: Duration = Duration::from_millis(50);
 /// The limits a solve respects: a wall-clock time limit from its start, a
 /// limit on the process's resident memory, and the driver's interrupt.
 /// Once one is reached the budget stays spent: refinement links the items
-/// left without splitting them (counted in [`Budget::coarse_items`]) and
-/// Gauss–Seidel stops after its current sweep, so the solution is finished
-/// from what was done.
+/// left without splitting them (counted in [`Budget::coarse_items`]), the
+/// three-point items not yet started are left out (counted in
+/// [`Budget::left_out_items`]) and Gauss–Seidel stops after its current
+/// sweep, so the solution is finished from what was done.
 #[derive(Debug)]
 pub struct Budget {
     started: Instant,
@@ -85,6 +94,7 @@ pub struct Budget {
     next_memory_check: AtomicU64,
     spent: OnceLock<Stop>,
     coarse: AtomicUsize,
+    left_out: AtomicUsize,
 }
 
 impl Budget {
@@ -98,6 +108,7 @@ impl Budget {
             next_memory_check: AtomicU64::new(0),
             spent: OnceLock::new(),
             coarse: AtomicUsize::new(0),
+            left_out: AtomicUsize::new(0),
         }
     }
 
@@ -144,6 +155,17 @@ impl Budget {
         self.coarse.load(Ordering::Relaxed)
     }
 
+    /// Count `n` more items left out without links.
+    pub fn add_left_out(&self, n: usize) {
+        self.left_out.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Items (surface triples) left out, without any links, because the
+    /// budget was spent before they started ([`Progress::left_out`]).
+    pub fn left_out_items(&self) -> usize {
+        self.left_out.load(Ordering::Relaxed)
+    }
+
     /// True at most once per [`MEMORY_CHECK_INTERVAL`] (reading the
     /// resident memory costs a system call).
     fn memory_due(&self, elapsed: Duration) -> bool {
@@ -187,6 +209,10 @@ impl Progress for Budgeted<'_> {
     fn cut_short(&self, items: u64) {
         self.budget.add_coarse(items as usize);
         self.progress.cut_short(items)
+    }
+    fn left_out(&self, items: u64) {
+        self.budget.add_left_out(items as usize);
+        self.progress.left_out(items)
     }
 }
 

@@ -27,7 +27,7 @@ use crate::refine::light_links::{link_lights, LightLink};
 use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
+    project_triples, surface_triples, SurfaceTriples, ThreePointLink, ThreePointSettings,
 };
 use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
@@ -221,6 +221,9 @@ pub struct Plan {
     /// The surface pairs of `linking`'s element pairs.
     pairs: Vec<(u32, u32)>,
     triples: Vec<(u32, u32, u32)>,
+    /// The scene's triples past [`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES),
+    /// left out of `triples`.
+    unplanned_triples: u64,
     times: PhaseTimes,
 }
 
@@ -363,12 +366,11 @@ impl Projector {
             element_pairs,
             progress,
         );
-        let three_point = refine_three_point_links(
+        let three_point = project_triples(
             &ctx,
             self.settings.three_point_refine(),
             self.estimate.as_ref(),
             triples,
-            |q| self.scene.surfaces[q as usize].patch,
             progress,
         );
         runs_of(
@@ -412,13 +414,17 @@ impl Plan {
         times: PhaseTimes,
     ) -> Plan {
         let pairs = linking.surface_pairs();
-        let triples = surface_triples(&projector.scene, &pairs);
+        let SurfaceTriples {
+            planned: triples,
+            left_out: unplanned_triples,
+        } = surface_triples(&projector.scene, &pairs);
         Plan {
             projector,
             clusters,
             linking,
             pairs,
             triples,
+            unplanned_triples,
             times,
         }
     }
@@ -437,6 +443,12 @@ impl Plan {
     /// element pairs.
     pub fn triples(&self) -> &[(u32, u32, u32)] {
         &self.triples
+    }
+
+    /// The scene's surface triples left out of the plan, with no links
+    /// ([`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES)).
+    pub fn unplanned_triples(&self) -> u64 {
+        self.unplanned_triples
     }
 
     /// The links between clusters, made by the linking (not projected).
@@ -665,6 +677,9 @@ impl Plan {
             limited_leaves: system.interactions.limited_leaves,
             stopped: self.projector.budget.stopped(),
             unrefined_items: self.projector.budget.coarse_items(),
+            three_point_items: triples.len(),
+            unplanned_triples: self.unplanned_triples,
+            left_out_items: self.projector.budget.left_out_items(),
             resumed_items: resumed,
             projected_items: self.items().end - resumed,
             exchanging_pairs: pairs.len(),
