@@ -420,3 +420,50 @@ impl Projection for ThreePointSettings {
         refiner.links
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::glossy_tiled_box;
+
+    /// Every pair of `scene`'s surfaces (p < r).
+    fn all_pairs(scene: &Scene) -> Vec<(u32, u32)> {
+        let n = scene.surfaces.len() as u32;
+        (0..n).flat_map(|p| (p + 1..n).map(move |r| (p, r))).collect()
+    }
+
+    #[test]
+    fn a_plan_past_its_most_triples_keeps_the_emitters_first_and_spreads_the_rest() {
+        let scene = glossy_tiled_box(1);
+        let pairs = all_pairs(&scene);
+        let all = surface_triples_at_most(&scene, &pairs, usize::MAX);
+        assert_eq!(all.left_out, 0);
+        // Each of the 4 glossy tiles with the 6 other surfaces it meets
+        // (the other tiles are not in `pairs`' sense apart: all pairs are
+        // given, so with the 3 other tiles, 9), as sources and receivers.
+        assert_eq!(all.planned.len(), 4 * 9 * 9);
+        assert_eq!(surface_triples(&scene, &pairs), all);
+        let light = scene.surfaces.len() as u32 - 1;
+        let lit = all.planned.iter().filter(|t| t.0 == light).count();
+        assert_eq!(lit, 4 * 9);
+
+        let is_subsequence = |part: &[(u32, u32, u32)]| {
+            let mut whole = all.planned.iter();
+            part.iter().all(|t| whole.any(|w| w == t))
+        };
+        for most in [lit / 2, lit, lit + 8, all.planned.len() - 1] {
+            let cut = surface_triples_at_most(&scene, &pairs, most);
+            assert_eq!(cut.planned.len(), most);
+            assert_eq!(cut.left_out, (all.planned.len() - most) as u64);
+            assert!(is_subsequence(&cut.planned), "kept in plan order");
+            let kept_lit = cut.planned.iter().filter(|t| t.0 == light).count();
+            assert_eq!(kept_lit, lit.min(most), "emitters first");
+            // Each glossy tile keeps its share of what is kept.
+            for p in 0..4 {
+                let of_p = |t: &&(u32, u32, u32)| t.1 == p;
+                let n = cut.planned.iter().filter(of_p).count();
+                assert!(n * 4 >= most - 4 && n * 4 <= most + 4, "{p}: {n} of {most}");
+            }
+        }
+    }
+}

@@ -1303,6 +1303,95 @@ mod tests {
         }
     }
 
+    /// Counts the questions whether to stop, and says yes from the
+    /// `after`-th on; remembers how many had been asked when the
+    /// three-point phase started.
+    struct StopAfter {
+        after: usize,
+        asked: std::sync::atomic::AtomicUsize,
+        before_three_point: std::sync::atomic::AtomicUsize,
+    }
+
+    impl StopAfter {
+        fn new(after: usize) -> StopAfter {
+            StopAfter {
+                after,
+                asked: Default::default(),
+                before_three_point: Default::default(),
+            }
+        }
+    }
+
+    impl Progress for StopAfter {
+        fn start(&self, phase: &str, _total: u64) {
+            use std::sync::atomic::Ordering::SeqCst;
+            if phase == crate::refine::three_point_projection::PHASE {
+                let asked = self.asked.load(SeqCst);
+                self.before_three_point.store(asked, SeqCst);
+            }
+        }
+        fn interrupted(&self) -> bool {
+            self.asked.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= self.after
+        }
+    }
+
+    #[test]
+    fn a_spent_budget_leaves_out_the_surface_triples_not_started() {
+        let scene = crate::testing::glossy_tiled_box(1);
+        let mut settings = SolveSettings {
+            three_point_max_level: 1,
+            ..SolveSettings::default()
+        };
+        settings.refine.max_level = 3;
+        let full = solve(&scene, &settings, &StopAfter::new(usize::MAX)).unwrap();
+        let triples = full.stats.three_point_items;
+        assert!(triples > 100, "{triples}");
+        assert_eq!((full.stats.left_out_items, full.stats.unplanned_triples), (0, 0));
+        assert!(full.stats.three_point_interactions > triples);
+
+        // Spent before the projection: no triple is projected, not even
+        // whole, and the diffuse light is still solved.
+        let limited = SolveSettings {
+            time_limit: 1e-9,
+            ..settings
+        };
+        let cut = solve(&scene, &limited, &Silent).unwrap();
+        assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
+        assert_eq!(cut.stats.left_out_items, triples);
+        assert_eq!(cut.stats.three_point_interactions, 0);
+        assert!(cut.radiance.iter().all(|r| r[0].max_channel().is_finite()));
+        assert!(cut.radiance[1][0].max_channel() > 0.0);
+
+        // Stopped within the three-point phase: the triples started are at
+        // most the questions answered "go on" (the work done after a stop
+        // does not grow with the triples left), the rest left out.
+        let questions = full_questions_before_three_point(&scene, &settings);
+        for extra in [0, 10, 100] {
+            let progress = StopAfter::new(questions + extra);
+            let cut = solve(&scene, &settings, &progress).unwrap();
+            assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::Interrupted));
+            let started = triples - cut.stats.left_out_items;
+            assert!(started <= extra, "{started} triples started after {extra}");
+            assert!(cut.stats.left_out_items > 0);
+            assert!(cut.stats.three_point_interactions < full.stats.three_point_interactions);
+            // What was left out is projected when the solve is resumed.
+            let resumed =
+                resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
+            assert_eq!(resumed.radiance, full.radiance);
+            assert_eq!(resumed.directional, full.directional);
+        }
+    }
+
+    /// Questions whether to stop that `solve` asks before its three-point
+    /// phase starts.
+    fn full_questions_before_three_point(scene: &Scene, settings: &SolveSettings) -> usize {
+        let progress = StopAfter::new(usize::MAX);
+        solve(scene, settings, &progress).unwrap();
+        progress
+            .before_three_point
+            .load(std::sync::atomic::Ordering::SeqCst)
+    }
+
     #[test]
     fn overlapping_links_are_limited_so_that_gauss_seidel_converges() {
         let scene = facing_squares(0.7);
