@@ -378,6 +378,14 @@ impl Progress for Reporter {
     fn interrupted(&self) -> bool {
         self.was_interrupted()
     }
+
+    fn warn(&self, message: &str) {
+        let phase = self.phase.lock().expect("progress lock");
+        match phase.as_ref().and_then(|p| p.bar.as_ref()) {
+            Some(bar) => bar.println(format!("wavrad: warning: {message}")),
+            None => eprintln!("wavrad: warning: {message}"),
+        }
+    }
 }
 
 /// The reporter's progress for a render: the bars, but not the interrupt,
@@ -839,16 +847,6 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
 /// Warnings about a solve that ended without a hard failure.
 fn report_warnings(solution: &Solution) {
     let s = &solution.stats;
-    if s.unplanned_triples > 0 {
-        eprintln!(
-            "wavrad: warning: the scene has {} surface triples (r, p, q) of glossy surfaces p, \
-             more than a plan holds: {} were left out, with no three-point links, so the light \
-             glossy surfaces reflect between those surfaces (beyond their Lambertian lobe) is \
-             missing from the solution",
-            s.three_point_items as u64 + s.unplanned_triples,
-            s.unplanned_triples
-        );
-    }
     if !s.converged && s.stopped.is_none() {
         eprintln!(
             "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \

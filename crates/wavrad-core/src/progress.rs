@@ -29,6 +29,9 @@ pub trait Progress: Sync {
     /// linked whole still costs a quadrature, and a glossy mesh can plan
     /// hundreds of millions of them.
     fn left_out(&self, _items: u64) {}
+    /// Something the user should know before the work goes on (the CLI
+    /// prints it as a warning): a plan too large to project in full.
+    fn warn(&self, _message: &str) {}
 }
 
 /// Progress that reports nothing.
@@ -50,6 +53,9 @@ impl Progress for StopOnly<'_> {
     }
     fn left_out(&self, items: u64) {
         self.0.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.0.warn(message)
     }
 }
 
@@ -213,6 +219,9 @@ impl Progress for Budgeted<'_> {
     fn left_out(&self, items: u64) {
         self.budget.add_left_out(items as usize);
         self.progress.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.progress.warn(message)
     }
 }
 

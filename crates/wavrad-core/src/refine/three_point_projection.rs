@@ -280,9 +280,7 @@ fn surface_triples_at_most(scene: &Scene, pairs: &[(u32, u32)], most: usize) -> 
         n.dedup();
     });
     let glossy: Vec<usize> = (0..scene.surfaces.len())
-        .filter(|&p| {
-            (scene.surfaces[p].brdf.flags()).contains(BrdfFlags::GLOSSY_REFLECTION)
-        })
+        .filter(|&p| (scene.surfaces[p].brdf.flags()).contains(BrdfFlags::GLOSSY_REFLECTION))
         .collect();
     let emits = |r: u32| scene.surfaces[r as usize].emission.max_channel() > 0.0;
     let all = || {
@@ -429,7 +427,9 @@ mod tests {
     /// Every pair of `scene`'s surfaces (p < r).
     fn all_pairs(scene: &Scene) -> Vec<(u32, u32)> {
         let n = scene.surfaces.len() as u32;
-        (0..n).flat_map(|p| (p + 1..n).map(move |r| (p, r))).collect()
+        (0..n)
+            .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
+            .collect()
     }
 
     #[test]

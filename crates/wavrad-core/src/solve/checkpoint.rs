@@ -41,8 +41,8 @@ use crate::progress::Progress;
 use crate::refine::cluster_links::{End, Linking};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
-use crate::refine::{ItemLinks, Projected};
 use crate::refine::{three_point_projection, two_point_projection};
+use crate::refine::{ItemLinks, Projected};
 use crate::scene::Scene;
 use crate::setting::{Described, Value};
 use crate::solve::stats::PhaseTimes;
@@ -551,6 +551,9 @@ impl Progress for Chunked<'_> {
     }
     fn left_out(&self, items: u64) {
         self.progress.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.progress.warn(message)
     }
 }
 

@@ -278,7 +278,18 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let clusters = ClusterTree::build(scene);
     let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
     times.kernels_s += clock.elapsed().as_secs_f64();
-    Ok(Plan::new(projector, clusters, linking, times))
+    let plan = Plan::new(projector, clusters, linking, times);
+    if plan.unplanned_triples > 0 {
+        progress.warn(&format!(
+            "the scene has {} surface triples (r, p, q) of glossy surfaces p, more than a plan \
+             holds: {} are left out, with no three-point links, so the light glossy surfaces \
+             reflect between those surfaces (beyond their Lambertian lobe) is missing from the \
+             solution",
+            plan.triples.len() as u64 + plan.unplanned_triples,
+            plan.unplanned_triples
+        ));
+    }
+    Ok(plan)
 }
 
 impl Projector {
@@ -1346,7 +1357,10 @@ mod tests {
         let full = solve(&scene, &settings, &StopAfter::new(usize::MAX)).unwrap();
         let triples = full.stats.three_point_items;
         assert!(triples > 100, "{triples}");
-        assert_eq!((full.stats.left_out_items, full.stats.unplanned_triples), (0, 0));
+        assert_eq!(
+            (full.stats.left_out_items, full.stats.unplanned_triples),
+            (0, 0)
+        );
         assert!(full.stats.three_point_interactions > triples);
 
         // Spent before the projection: no triple is projected, not even
