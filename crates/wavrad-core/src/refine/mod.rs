@@ -89,6 +89,7 @@ pub(crate) fn project_each<T: Sync, L: Send>(
                 progress.cut_short(1);
             }
             let links = project(item, refine);
+            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
             progress.advance(1);
             ItemLinks {
                 links,
@@ -149,6 +150,7 @@ pub(crate) fn project_while_unspent<T: Sync, L: Send>(
                 };
             }
             let links = project(item);
+            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
             progress.advance(1);
             ItemLinks {
                 links,

@@ -555,6 +555,9 @@ impl Progress for Chunked<'_> {
     fn warn(&self, message: &str) {
         self.progress.warn(message)
     }
+    fn holding(&self, bytes: u64) {
+        self.progress.holding(bytes)
+    }
 }
 
 impl Chunked<'_> {

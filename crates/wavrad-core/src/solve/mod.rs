@@ -91,7 +91,9 @@ pub struct SolveSettings {
     /// splitting and Gauss–Seidel stops sweeping ([`Budget`]); 0: no limit.
     pub time_limit: f64,
     /// Resident memory, in GiB, at which refinement stops splitting and
-    /// Gauss–Seidel stops sweeping ([`Budget`]); 0: [`DEFAULT_MEMORY_SHARE`]
+    /// Gauss–Seidel stops sweeping ([`Budget`]; during the projection,
+    /// the memory with the copies of its links that the end of the solve
+    /// will hold); 0: [`DEFAULT_MEMORY_SHARE`]
     /// of the machine's physical memory.
     pub max_memory: f64,
 }
