@@ -198,7 +198,11 @@ class Solution:
         and whose reflection was scaled down; ``stopped`` and
         ``unrefined_items`` (what cut the solve short and what it left
         unrefined), ``resumed_items`` and ``projected_items`` (projection
-        items kept from the solve resumed, and refined by this one)."""
+        items kept from the solve resumed, and refined by this one);
+        ``three_point_items`` (surface triples of glossy surfaces planned),
+        ``unplanned_triples`` (the scene's triples past a plan's most, left
+        out) and ``left_out_items`` (planned triples a limit left out before
+        they started), the last two without three-point links."""
     @property
     def checkpoint(self) -> tuple[int, int] | None:
         """For a solve cut short (``stats["stopped"]``), which

@@ -378,6 +378,14 @@ impl Progress for Reporter {
     fn interrupted(&self) -> bool {
         self.was_interrupted()
     }
+
+    fn warn(&self, message: &str) {
+        let phase = self.phase.lock().expect("progress lock");
+        match phase.as_ref().and_then(|p| p.bar.as_ref()) {
+            Some(bar) => bar.println(format!("wavrad: warning: {message}")),
+            None => eprintln!("wavrad: warning: {message}"),
+        }
+    }
 }
 
 /// The reporter's progress for a render: the bars, but not the interrupt,
@@ -791,8 +799,16 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
     if let Some(stop) = s.stopped {
         eprintln!(
             "wavrad: warning: {stop} cut the solve short: {} surface pairs, triples or links were \
-             left unrefined{}; the image is coarser than a full solve's",
+             left unrefined{}{}; the image is coarser than a full solve's",
             s.unrefined_items,
+            match s.left_out_items {
+                0 => String::new(),
+                n => format!(
+                    ", {n} of {} surface triples of glossy surfaces left out (no three-point \
+                     links)",
+                    s.three_point_items
+                ),
+            },
             if s.converged {
                 String::new()
             } else {

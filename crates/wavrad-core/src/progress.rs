@@ -24,6 +24,16 @@ pub trait Progress: Sync {
     /// `items` (surface pairs or triples, links) were linked whole or left
     /// as they were, instead of refined, because the work was asked to stop.
     fn cut_short(&self, _items: u64) {}
+    /// `items` (surface triples) were left out, without any links, because
+    /// the work was asked to stop before they started: a three-point item
+    /// linked whole still costs a quadrature, and a glossy mesh can plan
+    /// hundreds of millions of them.
+    fn left_out(&self, _items: u64) {}
+    /// Links of `bytes` were made and are held until the solve's end.
+    fn holding(&self, _bytes: u64) {}
+    /// Something the user should know before the work goes on (the CLI
+    /// prints it as a warning): a plan too large to project in full.
+    fn warn(&self, _message: &str) {}
 }
 
 /// Progress that reports nothing.
@@ -42,6 +52,15 @@ impl Progress for StopOnly<'_> {
     }
     fn cut_short(&self, items: u64) {
         self.0.cut_short(items)
+    }
+    fn left_out(&self, items: u64) {
+        self.0.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.0.warn(message)
+    }
+    fn holding(&self, bytes: u64) {
+        self.0.holding(bytes)
     }
 }
 
@@ -67,15 +86,23 @@ impl std::fmt::Display for Stop {
     }
 }
 
+/// Copies of the links a projection made that the end of a solve holds
+/// besides them (their concatenation, their arrangement for gathering, a
+/// checkpoint's), so that the memory limit is reached when the process's
+/// memory plus this many times the links held ([`Progress::holding`])
+/// reaches it: the refinement stops where what follows it still fits.
+const LINK_COPIES: u64 = 2;
+
 /// How often, at most, the resident memory is read.
 const MEMORY_CHECK_INTERVAL: Duration = Duration::from_millis(50);
 
 /// The limits a solve respects: a wall-clock time limit from its start, a
 /// limit on the process's resident memory, and the driver's interrupt.
 /// Once one is reached the budget stays spent: refinement links the items
-/// left without splitting them (counted in [`Budget::coarse_items`]) and
-/// Gauss–Seidel stops after its current sweep, so the solution is finished
-/// from what was done.
+/// left without splitting them (counted in [`Budget::coarse_items`]), the
+/// three-point items not yet started are left out (counted in
+/// [`Budget::left_out_items`]) and Gauss–Seidel stops after its current
+/// sweep, so the solution is finished from what was done.
 #[derive(Debug)]
 pub struct Budget {
     started: Instant,
@@ -85,6 +112,8 @@ pub struct Budget {
     next_memory_check: AtomicU64,
     spent: OnceLock<Stop>,
     coarse: AtomicUsize,
+    left_out: AtomicUsize,
+    held: AtomicU64,
 }
 
 impl Budget {
@@ -98,6 +127,8 @@ impl Budget {
             next_memory_check: AtomicU64::new(0),
             spent: OnceLock::new(),
             coarse: AtomicUsize::new(0),
+            left_out: AtomicUsize::new(0),
+            held: AtomicU64::new(0),
         }
     }
 
@@ -118,9 +149,10 @@ impl Budget {
         } else if self.time_limit.is_some_and(|limit| elapsed >= limit) {
             Some(Stop::TimeLimit)
         } else if self.max_memory.is_some() && self.memory_due(elapsed) {
+            let held = LINK_COPIES.saturating_mul(self.held.load(Ordering::Relaxed));
             let over = resident_memory_bytes()
                 .zip(self.max_memory)
-                .is_some_and(|(used, max)| used >= max);
+                .is_some_and(|(used, max)| used.saturating_add(held) >= max);
             over.then_some(Stop::MemoryLimit)
         } else {
             None
@@ -142,6 +174,22 @@ impl Budget {
     /// were, instead of refined, because the budget was spent.
     pub fn coarse_items(&self) -> usize {
         self.coarse.load(Ordering::Relaxed)
+    }
+
+    /// Count `bytes` more of links held until the solve's end.
+    pub fn add_held(&self, bytes: u64) {
+        self.held.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    /// Count `n` more items left out without links.
+    pub fn add_left_out(&self, n: usize) {
+        self.left_out.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Items (surface triples) left out, without any links, because the
+    /// budget was spent before they started ([`Progress::left_out`]).
+    pub fn left_out_items(&self) -> usize {
+        self.left_out.load(Ordering::Relaxed)
     }
 
     /// True at most once per [`MEMORY_CHECK_INTERVAL`] (reading the
@@ -187,6 +235,17 @@ impl Progress for Budgeted<'_> {
     fn cut_short(&self, items: u64) {
         self.budget.add_coarse(items as usize);
         self.progress.cut_short(items)
+    }
+    fn left_out(&self, items: u64) {
+        self.budget.add_left_out(items as usize);
+        self.progress.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.progress.warn(message)
+    }
+    fn holding(&self, bytes: u64) {
+        self.budget.add_held(bytes);
+        self.progress.holding(bytes)
     }
 }
 
@@ -248,5 +307,21 @@ mod tests {
         assert_eq!(tight.spent(&Silent), Some(Stop::MemoryLimit));
         let ample = Budget::new(None, Some(u64::MAX));
         assert_eq!(ample.spent(&Silent), None);
+    }
+
+    #[test]
+    fn the_memory_limit_counts_the_copies_of_the_links_held() {
+        let Some(now) = resident_memory_bytes() else {
+            return; // not Linux
+        };
+        const GIB: u64 = 1 << 30;
+        let budget = |held: u64| {
+            let b = Budget::new(None, Some(now + GIB));
+            b.add_held(held);
+            b.spent(&Silent)
+        };
+        assert_eq!(budget(GIB / 8), None);
+        // Half a GiB of links, held twice more by the end of the solve.
+        assert_eq!(budget(GIB / 2 + GIB / 8), Some(Stop::MemoryLimit));
     }
 }

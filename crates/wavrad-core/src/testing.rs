@@ -95,6 +95,32 @@ pub fn inward_box(min: DVec3, max: DVec3) -> Vec<Patch> {
     Patch::inward_box(min, max).to_vec()
 }
 
+/// The unit box (inward faces, grey) with its floor (z = 0) cut into
+/// 4^`levels` tiles of rolled aluminium (the first surfaces) and a 0.2
+/// square light of radiance 5 facing down just under its ceiling (the
+/// last): many glossy surfaces, each with its surface triples.
+pub fn glossy_tiled_box(levels: u32) -> Scene {
+    let faces = inward_box(DVec3::ZERO, DVec3::ONE);
+    let mut tiles = vec![faces[0]];
+    for _ in 0..levels {
+        tiles = tiles.iter().flat_map(|t| t.subdivide()).collect();
+    }
+    let glossy = tiles.into_iter().map(|patch| Surface {
+        brdf: rolled_aluminium(),
+        ..grey(patch)
+    });
+    let light = Surface {
+        emission: Rgb::splat(5.0),
+        ..grey(Patch::Parallelogram {
+            origin: DVec3::new(0.4, 0.4, 0.99),
+            edge_s: DVec3::Y * 0.2,
+            edge_t: DVec3::X * 0.2,
+        })
+    };
+    let walls = faces[1..].iter().map(|&f| grey(f));
+    Scene::from_surfaces(glossy.chain(walls).chain([light]).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

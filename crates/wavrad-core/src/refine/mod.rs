@@ -89,6 +89,7 @@ pub(crate) fn project_each<T: Sync, L: Send>(
                 progress.cut_short(1);
             }
             let links = project(item, refine);
+            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
             progress.advance(1);
             ItemLinks {
                 links,
@@ -98,6 +99,75 @@ pub(crate) fn project_each<T: Sync, L: Send>(
         .collect();
     progress.finish();
     out
+}
+
+/// What [`project_while_unspent`] made of a list of items: the links of
+/// its first `items.len()` items, in order, and how many items after them
+/// were left out without being looked at.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Projected<L> {
+    /// The links of the first items, one entry per item.
+    pub items: Vec<ItemLinks<L>>,
+    /// Items after those, left out: no links, no quadrature.
+    pub left_out: usize,
+}
+
+/// Items of the first parallel pass of [`project_while_unspent`]; each
+/// pass takes twice as many as the last, up to [`MAX_PASS`].
+const FIRST_PASS: usize = 1024;
+/// Most items of one parallel pass of [`project_while_unspent`]: the
+/// budget is looked at between passes, and the items waiting in a pass
+/// only cost a test each once it is spent.
+const MAX_PASS: usize = 1 << 16;
+
+/// What `project` makes of each of `items`, in parallel passes and in
+/// order, one progress step each under the phase `label`, until the work is
+/// asked to stop ([`Progress::interrupted`]): from then on the items not
+/// yet started are left out ([`Progress::left_out`]) with no links and no
+/// quadrature, those of the pass under way one by one and every later one
+/// at once, so a stop ends the phase within one item's work however many
+/// items remain, and the memory held grows only with the items projected.
+/// The result does not depend on the number of threads (each item is
+/// projected on its own), only, once stopped, on when the stop came.
+pub(crate) fn project_while_unspent<T: Sync, L: Send>(
+    label: &str,
+    items: &[T],
+    progress: &dyn Progress,
+    project: impl Fn(&T) -> Vec<L> + Sync,
+) -> Projected<L> {
+    progress.start(label, items.len() as u64);
+    let mut done: Vec<ItemLinks<L>> = Vec::new();
+    let (mut rest, mut pass) = (items, FIRST_PASS);
+    while !rest.is_empty() && !progress.interrupted() {
+        let (now, later) = rest.split_at(pass.min(rest.len()));
+        done.par_extend(now.par_iter().map(|item| {
+            if progress.interrupted() {
+                progress.left_out(1);
+                progress.advance(1);
+                return ItemLinks {
+                    links: Vec::new(),
+                    finished: false,
+                };
+            }
+            let links = project(item);
+            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
+            progress.advance(1);
+            ItemLinks {
+                links,
+                finished: !progress.interrupted(),
+            }
+        }));
+        rest = later;
+        pass = (2 * pass).min(MAX_PASS);
+    }
+    if !rest.is_empty() {
+        progress.left_out(rest.len() as u64);
+    }
+    progress.finish();
+    Projected {
+        items: done,
+        left_out: rest.len(),
+    }
 }
 
 /// The links of every item in order, concatenated.

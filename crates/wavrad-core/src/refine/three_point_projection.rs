@@ -17,7 +17,7 @@ use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{project_each, ItemLinks, Part, Projection};
+use crate::refine::{project_each, project_while_unspent, ItemLinks, Part, Projected, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
@@ -239,11 +239,37 @@ impl<'a> TripleRefiner<'a> {
     }
 }
 
+/// Most surface triples a plan projects ([`surface_triples`]). A glossy
+/// surface's triples are the square of the surfaces it exchanges light
+/// with element to element, so a glossy mesh of thousands of triangles
+/// plans hundreds of millions, more than any memory holds the links of;
+/// past this many the plan keeps a share and leaves the rest out (with no
+/// links), whatever the limits of the solve, so that a plan and its
+/// resumption agree on their items.
+pub const MAX_TRIPLES: usize = 1 << 24;
+
+/// The surface triples of a plan ([`surface_triples`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceTriples {
+    /// The triples (r, p, q) projected, in order.
+    pub planned: Vec<(u32, u32, u32)>,
+    /// Triples of the scene past [`MAX_TRIPLES`], left out of the plan.
+    pub left_out: u64,
+}
+
 /// The surface triples (r, p, q) of three-point links: a glossy p with two
 /// surfaces r ≠ p (the source) and q ≠ p (the receiver) that each make one
 /// of `pairs` with it (the surface pairs that can exchange light, p < r),
-/// in order.
-pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32, u32)> {
+/// in order. Past [`MAX_TRIPLES`], those whose source emits come first (the
+/// light glossy surfaces reflect straight from the emitters); the rest,
+/// and where even those are too many they too, are kept evenly spread over
+/// the glossy surfaces and their pairs, and the others left out.
+pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> SurfaceTriples {
+    surface_triples_at_most(scene, pairs, MAX_TRIPLES)
+}
+
+/// [`surface_triples`] keeping at most `most`.
+fn surface_triples_at_most(scene: &Scene, pairs: &[(u32, u32)], most: usize) -> SurfaceTriples {
     let mut near = vec![Vec::new(); scene.surfaces.len()];
     for &(p, r) in pairs {
         near[p as usize].push(r);
@@ -253,31 +279,86 @@ pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> Vec<(u32, u32, u3
         n.sort_unstable();
         n.dedup();
     });
-    let glossy = |p: usize| {
-        scene.surfaces[p]
-            .brdf
-            .flags()
-            .contains(BrdfFlags::GLOSSY_REFLECTION)
-    };
-    (0..scene.surfaces.len())
-        .filter(|&p| glossy(p))
-        .flat_map(|p| {
+    let glossy: Vec<usize> = (0..scene.surfaces.len())
+        .filter(|&p| (scene.surfaces[p].brdf.flags()).contains(BrdfFlags::GLOSSY_REFLECTION))
+        .collect();
+    let emits = |r: u32| scene.surfaces[r as usize].emission.max_channel() > 0.0;
+    let all = || {
+        glossy.iter().flat_map(|&p| {
             let near = &near[p];
             near.iter()
                 .flat_map(move |&r| near.iter().map(move |&q| (r, p as u32, q)))
         })
-        .collect()
+    };
+    // How many there are, and how many of them come from an emitter.
+    let (mut total, mut lit) = (0u64, 0u64);
+    for &p in &glossy {
+        let n = near[p].len() as u64;
+        total += n * n;
+        lit += near[p].iter().filter(|&&r| emits(r)).count() as u64 * n;
+    }
+    let most = most as u64;
+    if total <= most {
+        return SurfaceTriples {
+            planned: all().collect(),
+            left_out: 0,
+        };
+    }
+    // Keep `keep[tier]` of each tier, evenly spread over it.
+    let keep = [lit.min(most), most.saturating_sub(lit)];
+    let size = [lit, total - lit];
+    let mut seen = [0u64; 2];
+    let planned = all()
+        .filter(|&(r, _, _)| {
+            let tier = usize::from(!emits(r));
+            let i = seen[tier];
+            seen[tier] += 1;
+            // The i-th of the tier is kept when it starts a new share.
+            (i + 1) * keep[tier] / size[tier] > i * keep[tier] / size[tier]
+        })
+        .collect::<Vec<_>>();
+    SurfaceTriples {
+        left_out: total - planned.len() as u64,
+        planned,
+    }
 }
 
 /// The progress phase of the three-point projection.
 pub const PHASE: &str = "3-point kernels";
+
+/// The three-point links of the triple `(r, p, q)`, refined from the whole
+/// surfaces with `settings` (compute_kernel of §4.2 for glossy surfaces);
+/// `receiver(q)` gives the geometry of receiver `q`. Refinement stops where
+/// it is when `progress` asks it to.
+fn project_triple(
+    ctx: &KernelContext,
+    settings: ThreePointSettings,
+    estimate: Option<&LightEstimate>,
+    (r, p, q): (u32, u32, u32),
+    receiver: &impl Fn(u32) -> Patch,
+    progress: &dyn Progress,
+) -> Vec<ThreePointLink> {
+    let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q), progress);
+    let (c, a, b) = (
+        Part::of(ctx.scene, ElementRef::root(r)),
+        Part::of(ctx.scene, ElementRef::root(p)),
+        Part {
+            element: ElementRef::root(q),
+            patch: receiver(q),
+        },
+    );
+    let k = refiner.coefficient(&c, &a, &b);
+    refiner.refine(c, a, b, k);
+    refiner.links
+}
 
 /// The three-point links of the triples `(r, p, q)` (compute_kernel of §4.2
 /// for glossy surfaces), triple by triple, with whether each was refined in
 /// full; refined in parallel over triples, and the result does not depend
 /// on the number of threads. `receiver(q)` gives the geometry of receiver
 /// `q`, which may be a hypothetical surface outside the scene. With an
-/// `estimate` the weighted oracles decide, else the paper's.
+/// `estimate` the weighted oracles decide, else the paper's. Once the work
+/// is asked to stop, the triples left are linked whole.
 pub fn refine_three_point_links(
     ctx: &KernelContext,
     settings: ThreePointSettings,
@@ -286,7 +367,6 @@ pub fn refine_three_point_links(
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
 ) -> Vec<ItemLinks<ThreePointLink>> {
-    // Once the work is asked to stop, the triples left are linked whole.
     let unrefined = ThreePointSettings {
         refine: RefineSettings {
             max_level: 0,
@@ -294,20 +374,27 @@ pub fn refine_three_point_links(
         },
         receiver_max_level: 0,
     };
-    project_each(PHASE, triples, progress, |&(r, p, q), refine| {
+    project_each(PHASE, triples, progress, |&triple, refine| {
         let settings = if refine { settings } else { unrefined };
-        let mut refiner = TripleRefiner::new(ctx, settings, estimate, (r, p, q), progress);
-        let (c, a, b) = (
-            Part::of(ctx.scene, ElementRef::root(r)),
-            Part::of(ctx.scene, ElementRef::root(p)),
-            Part {
-                element: ElementRef::root(q),
-                patch: receiver(q),
-            },
-        );
-        let k = refiner.coefficient(&c, &a, &b);
-        refiner.refine(c, a, b, k);
-        refiner.links
+        project_triple(ctx, settings, estimate, triple, &receiver, progress)
+    })
+}
+
+/// The three-point links of a solve's `triples` (r, p, q) of the scene's
+/// surfaces, as [`refine_three_point_links`] makes them, except that once
+/// the work is asked to stop the triples not yet started are left out,
+/// without links ([`project_while_unspent`]): linking them whole would
+/// cost a quadrature each, and a plan can hold [`MAX_TRIPLES`] of them.
+pub fn project_triples(
+    ctx: &KernelContext,
+    settings: ThreePointSettings,
+    estimate: Option<&LightEstimate>,
+    triples: &[(u32, u32, u32)],
+    progress: &dyn Progress,
+) -> Projected<ThreePointLink> {
+    let receiver = |q: u32| ctx.scene.surfaces[q as usize].patch;
+    project_while_unspent(PHASE, triples, progress, |&triple| {
+        project_triple(ctx, settings, estimate, triple, &receiver, progress)
     })
 }
 
@@ -329,5 +416,54 @@ impl Projection for ThreePointSettings {
         }
         refiner.refine(c, a, b, l.coefficient);
         refiner.links
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::glossy_tiled_box;
+
+    /// Every pair of `scene`'s surfaces (p < r).
+    fn all_pairs(scene: &Scene) -> Vec<(u32, u32)> {
+        let n = scene.surfaces.len() as u32;
+        (0..n)
+            .flat_map(|p| (p + 1..n).map(move |r| (p, r)))
+            .collect()
+    }
+
+    #[test]
+    fn a_plan_past_its_most_triples_keeps_the_emitters_first_and_spreads_the_rest() {
+        let scene = glossy_tiled_box(1);
+        let pairs = all_pairs(&scene);
+        let all = surface_triples_at_most(&scene, &pairs, usize::MAX);
+        assert_eq!(all.left_out, 0);
+        // Each of the 4 glossy tiles with the 6 other surfaces it meets
+        // (the other tiles are not in `pairs`' sense apart: all pairs are
+        // given, so with the 3 other tiles, 9), as sources and receivers.
+        assert_eq!(all.planned.len(), 4 * 9 * 9);
+        assert_eq!(surface_triples(&scene, &pairs), all);
+        let light = scene.surfaces.len() as u32 - 1;
+        let lit = all.planned.iter().filter(|t| t.0 == light).count();
+        assert_eq!(lit, 4 * 9);
+
+        let is_subsequence = |part: &[(u32, u32, u32)]| {
+            let mut whole = all.planned.iter();
+            part.iter().all(|t| whole.any(|w| w == t))
+        };
+        for most in [lit / 2, lit, lit + 8, all.planned.len() - 1] {
+            let cut = surface_triples_at_most(&scene, &pairs, most);
+            assert_eq!(cut.planned.len(), most);
+            assert_eq!(cut.left_out, (all.planned.len() - most) as u64);
+            assert!(is_subsequence(&cut.planned), "kept in plan order");
+            let kept_lit = cut.planned.iter().filter(|t| t.0 == light).count();
+            assert_eq!(kept_lit, lit.min(most), "emitters first");
+            // Each glossy tile keeps its share of what is kept.
+            for p in 0..4 {
+                let of_p = |t: &&(u32, u32, u32)| t.1 == p;
+                let n = cut.planned.iter().filter(of_p).count();
+                assert!(n * 4 >= most - 4 && n * 4 <= most + 4, "{p}: {n} of {most}");
+            }
+        }
     }
 }

@@ -41,8 +41,8 @@ use crate::progress::Progress;
 use crate::refine::cluster_links::{End, Linking};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
-use crate::refine::ItemLinks;
 use crate::refine::{three_point_projection, two_point_projection};
+use crate::refine::{ItemLinks, Projected};
 use crate::scene::Scene;
 use crate::setting::{Described, Value};
 use crate::solve::stats::PhaseTimes;
@@ -269,25 +269,29 @@ impl RunSpan {
 }
 
 /// The items numbered `numbers` (increasing), whose links are `two_point`
-/// then `three_point` item by item, in runs of consecutive numbers alike
+/// then `three_point` item by item (the items `three_point` left out last,
+/// unfinished and without links), in runs of consecutive numbers alike
 /// finished or not; the first run takes the projection's `kernels_s`.
 pub(super) fn runs_of(
     numbers: &[usize],
     two_point: Vec<ItemLinks<Link>>,
-    three_point: Vec<ItemLinks<ThreePointLink>>,
+    three_point: Projected<ThreePointLink>,
     kernels_s: f64,
 ) -> Vec<Run> {
-    debug_assert_eq!(numbers.len(), two_point.len() + three_point.len());
+    debug_assert_eq!(
+        numbers.len(),
+        two_point.len() + three_point.items.len() + three_point.left_out
+    );
     let mut runs: Vec<Run> = Vec::new();
     let mut two_point = two_point.into_iter();
-    let mut three_point = three_point.into_iter();
+    let mut three_point = three_point.items.into_iter();
     for &n in numbers {
         let (finished, two, three) = match two_point.next() {
             Some(item) => (item.finished, item.links, Vec::new()),
-            None => {
-                let item = three_point.next().expect("one item per number");
-                (item.finished, Vec::new(), item.links)
-            }
+            None => match three_point.next() {
+                Some(item) => (item.finished, Vec::new(), item.links),
+                None => (false, Vec::new(), Vec::new()),
+            },
         };
         match runs.last_mut() {
             Some(run) if run.finished == finished && run.links.items.end == n => {
@@ -544,6 +548,15 @@ impl Progress for Chunked<'_> {
     }
     fn cut_short(&self, items: u64) {
         self.progress.cut_short(items)
+    }
+    fn left_out(&self, items: u64) {
+        self.progress.left_out(items)
+    }
+    fn warn(&self, message: &str) {
+        self.progress.warn(message)
+    }
+    fn holding(&self, bytes: u64) {
+        self.progress.holding(bytes)
     }
 }
 

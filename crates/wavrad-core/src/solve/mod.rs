@@ -27,7 +27,7 @@ use crate::refine::light_links::{link_lights, LightLink};
 use crate::refine::oracle::{Oracle, WEIGHTED_THRESHOLD};
 use crate::refine::refine_further;
 use crate::refine::three_point_projection::{
-    refine_three_point_links, surface_triples, ThreePointLink, ThreePointSettings,
+    project_triples, surface_triples, SurfaceTriples, ThreePointLink, ThreePointSettings,
 };
 use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
@@ -91,7 +91,9 @@ pub struct SolveSettings {
     /// splitting and Gauss–Seidel stops sweeping ([`Budget`]); 0: no limit.
     pub time_limit: f64,
     /// Resident memory, in GiB, at which refinement stops splitting and
-    /// Gauss–Seidel stops sweeping ([`Budget`]); 0: [`DEFAULT_MEMORY_SHARE`]
+    /// Gauss–Seidel stops sweeping ([`Budget`]; during the projection,
+    /// the memory with the copies of its links that the end of the solve
+    /// will hold); 0: [`DEFAULT_MEMORY_SHARE`]
     /// of the machine's physical memory.
     pub max_memory: f64,
 }
@@ -221,6 +223,9 @@ pub struct Plan {
     /// The surface pairs of `linking`'s element pairs.
     pairs: Vec<(u32, u32)>,
     triples: Vec<(u32, u32, u32)>,
+    /// The scene's triples past [`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES),
+    /// left out of `triples`.
+    unplanned_triples: u64,
     times: PhaseTimes,
 }
 
@@ -275,7 +280,18 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let clusters = ClusterTree::build(scene);
     let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
     times.kernels_s += clock.elapsed().as_secs_f64();
-    Ok(Plan::new(projector, clusters, linking, times))
+    let plan = Plan::new(projector, clusters, linking, times);
+    if plan.unplanned_triples > 0 {
+        progress.warn(&format!(
+            "the scene has {} surface triples (r, p, q) of glossy surfaces p, more than a plan \
+             holds: {} are left out, with no three-point links, so the light glossy surfaces \
+             reflect between those surfaces (beyond their Lambertian lobe) is missing from the \
+             solution",
+            plan.triples.len() as u64 + plan.unplanned_triples,
+            plan.unplanned_triples
+        ));
+    }
+    Ok(plan)
 }
 
 impl Projector {
@@ -363,12 +379,11 @@ impl Projector {
             element_pairs,
             progress,
         );
-        let three_point = refine_three_point_links(
+        let three_point = project_triples(
             &ctx,
             self.settings.three_point_refine(),
             self.estimate.as_ref(),
             triples,
-            |q| self.scene.surfaces[q as usize].patch,
             progress,
         );
         runs_of(
@@ -412,13 +427,17 @@ impl Plan {
         times: PhaseTimes,
     ) -> Plan {
         let pairs = linking.surface_pairs();
-        let triples = surface_triples(&projector.scene, &pairs);
+        let SurfaceTriples {
+            planned: triples,
+            left_out: unplanned_triples,
+        } = surface_triples(&projector.scene, &pairs);
         Plan {
             projector,
             clusters,
             linking,
             pairs,
             triples,
+            unplanned_triples,
             times,
         }
     }
@@ -437,6 +456,12 @@ impl Plan {
     /// element pairs.
     pub fn triples(&self) -> &[(u32, u32, u32)] {
         &self.triples
+    }
+
+    /// The scene's surface triples left out of the plan, with no links
+    /// ([`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES)).
+    pub fn unplanned_triples(&self) -> u64 {
+        self.unplanned_triples
     }
 
     /// The links between clusters, made by the linking (not projected).
@@ -665,6 +690,9 @@ impl Plan {
             limited_leaves: system.interactions.limited_leaves,
             stopped: self.projector.budget.stopped(),
             unrefined_items: self.projector.budget.coarse_items(),
+            three_point_items: triples.len(),
+            unplanned_triples: self.unplanned_triples,
+            left_out_items: self.projector.budget.left_out_items(),
             resumed_items: resumed,
             projected_items: self.items().end - resumed,
             exchanging_pairs: pairs.len(),
@@ -1286,6 +1314,98 @@ mod tests {
                 "{c} against {f}"
             );
         }
+    }
+
+    /// Counts the questions whether to stop, and says yes from the
+    /// `after`-th on; remembers how many had been asked when the
+    /// three-point phase started.
+    struct StopAfter {
+        after: usize,
+        asked: std::sync::atomic::AtomicUsize,
+        before_three_point: std::sync::atomic::AtomicUsize,
+    }
+
+    impl StopAfter {
+        fn new(after: usize) -> StopAfter {
+            StopAfter {
+                after,
+                asked: Default::default(),
+                before_three_point: Default::default(),
+            }
+        }
+    }
+
+    impl Progress for StopAfter {
+        fn start(&self, phase: &str, _total: u64) {
+            use std::sync::atomic::Ordering::SeqCst;
+            if phase == crate::refine::three_point_projection::PHASE {
+                let asked = self.asked.load(SeqCst);
+                self.before_three_point.store(asked, SeqCst);
+            }
+        }
+        fn interrupted(&self) -> bool {
+            self.asked.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= self.after
+        }
+    }
+
+    #[test]
+    fn a_spent_budget_leaves_out_the_surface_triples_not_started() {
+        let scene = crate::testing::glossy_tiled_box(1);
+        let mut settings = SolveSettings {
+            three_point_max_level: 1,
+            ..SolveSettings::default()
+        };
+        settings.refine.max_level = 3;
+        let full = solve(&scene, &settings, &StopAfter::new(usize::MAX)).unwrap();
+        let triples = full.stats.three_point_items;
+        assert!(triples > 100, "{triples}");
+        assert_eq!(
+            (full.stats.left_out_items, full.stats.unplanned_triples),
+            (0, 0)
+        );
+        assert!(full.stats.three_point_interactions > triples);
+
+        // Spent before the projection: no triple is projected, not even
+        // whole, and the diffuse light is still solved.
+        let limited = SolveSettings {
+            time_limit: 1e-9,
+            ..settings
+        };
+        let cut = solve(&scene, &limited, &Silent).unwrap();
+        assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
+        assert_eq!(cut.stats.left_out_items, triples);
+        assert_eq!(cut.stats.three_point_interactions, 0);
+        assert!(cut.radiance.iter().all(|r| r[0].max_channel().is_finite()));
+        assert!(cut.radiance[1][0].max_channel() > 0.0);
+
+        // Stopped within the three-point phase: the triples started are at
+        // most the questions answered "go on" (the work done after a stop
+        // does not grow with the triples left), the rest left out.
+        let questions = full_questions_before_three_point(&scene, &settings);
+        for extra in [0, 10, 100] {
+            let progress = StopAfter::new(questions + extra);
+            let cut = solve(&scene, &settings, &progress).unwrap();
+            assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::Interrupted));
+            let started = triples - cut.stats.left_out_items;
+            assert!(started <= extra, "{started} triples started after {extra}");
+            assert!(cut.stats.left_out_items > 0);
+            assert!(cut.stats.three_point_interactions < full.stats.three_point_interactions);
+            // What was left out is projected when the solve is resumed.
+            let resumed =
+                resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
+            assert_eq!(resumed.radiance, full.radiance);
+            assert_eq!(resumed.directional, full.directional);
+        }
+    }
+
+    /// Questions whether to stop that `solve` asks before its three-point
+    /// phase starts.
+    fn full_questions_before_three_point(scene: &Scene, settings: &SolveSettings) -> usize {
+        let progress = StopAfter::new(usize::MAX);
+        solve(scene, settings, &progress).unwrap();
+        progress
+            .before_three_point
+            .load(std::sync::atomic::Ordering::SeqCst)
     }
 
     #[test]

@@ -118,6 +118,19 @@ pub struct Stats {
     /// instead of refined further, because the solve was cut short: what
     /// it cost in accuracy.
     pub unrefined_items: usize,
+    /// Surface triples (r, p, q) of glossy surfaces the plan projects
+    /// (the paper's three-point kernels, each refined from whole surfaces).
+    pub three_point_items: usize,
+    /// Surface triples of the scene past the plan's
+    /// [`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES),
+    /// left out of it: with no three-point links, the glossy surface does
+    /// not reflect light from r to q in the solution (its Lambertian lobe
+    /// still does).
+    pub unplanned_triples: u64,
+    /// Surface triples of the plan left out, with no three-point links,
+    /// because the solve was cut short before they started (linking them
+    /// whole would cost a quadrature each).
+    pub left_out_items: usize,
     /// Projection items (surface pairs and triples) taken with their links
     /// from the checkpoint of a solve cut short ([`crate::solve::resume`]),
     /// not projected again.
@@ -178,6 +191,9 @@ impl Stats {
             times: PhaseTimes::default(),
             stopped: None,
             unrefined_items: 0,
+            three_point_items: 0,
+            unplanned_triples: 0,
+            left_out_items: 0,
             resumed_items: 0,
             projected_items: 0,
             peak_memory_bytes: peak_memory_bytes(),
