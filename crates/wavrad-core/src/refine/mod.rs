@@ -101,7 +101,7 @@ pub(crate) fn project_each<T: Sync, L: Send>(
     out
 }
 
-/// What [`project_while_unspent`] made of a list of items: the links of
+/// What `project_while_unspent` made of a list of items: the links of
 /// its first `items.len()` items, in order, and how many items after them
 /// were left out without being looked at.
 #[derive(Debug, Clone, PartialEq)]

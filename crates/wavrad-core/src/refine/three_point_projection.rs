@@ -383,7 +383,7 @@ pub fn refine_three_point_links(
 /// The three-point links of a solve's `triples` (r, p, q) of the scene's
 /// surfaces, as [`refine_three_point_links`] makes them, except that once
 /// the work is asked to stop the triples not yet started are left out,
-/// without links ([`project_while_unspent`]): linking them whole would
+/// without links (`project_while_unspent`): linking them whole would
 /// cost a quadrature each, and a plan can hold [`MAX_TRIPLES`] of them.
 pub fn project_triples(
     ctx: &KernelContext,
