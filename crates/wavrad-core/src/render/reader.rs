@@ -161,7 +161,11 @@ impl SolutionReader {
             bright,
             mirrors,
             caustic,
-            links: LinkGuide::new(solution),
+            // Only glossy sources make a gather draw from the links.
+            links: match glossy.is_empty() {
+                true => LinkGuide::default(),
+                false => LinkGuide::new(solution),
+            },
         }
     }
 
