@@ -282,9 +282,15 @@ fn final_gather<S: Borrow<Solution> + Sync>(
 }
 
 /// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
-/// at `hit`: the view-independent gather `cache`'s, or the smooth element
-/// radiance corrected by the final gathers of some of the pixel's camera
-/// rays ([`GatheringRays`]: a control variate).
+/// at `hit`: the view-independent gather `cache`'s; or the light straight
+/// from the emitters evaluated by every camera ray (one shadow ray each, the
+/// pixel's rays drawing their points on the emitters as one stratified set,
+/// so that a penumbra is sampled as finely as the pixel), and the rest of
+/// the solution ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
+/// smooth, corrected by the final gathers of some of the pixel's camera
+/// rays ([`GatheringRays`]: a control variate). While the solution's links
+/// are not arranged, the whole smooth element radiance is the control
+/// variate of whole final gathers.
 fn lambertian_gather<S: Borrow<Solution> + Sync>(
     renderer: &Renderer<S>,
     hit: &CameraHit,
@@ -294,25 +300,50 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     if let Some(l) = cache.and_then(|c| c.radiance(hit.point.surface, hit.uv)) {
         return l;
     }
+    let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
-    let reconstructed = renderer.element_radiance(Reconstruction::Smooth, s, hit.uv);
+    let emission = solution.scene.surfaces[s].emission;
+    let rest = reader.rest(s);
+    let (direct, control) = match rest {
+        Some(rest) => (
+            emission
+                + gather::direct_radiance(
+                    &solution.scene,
+                    &solution.tracer,
+                    &reader.emitters,
+                    &hit.point,
+                    1,
+                ),
+            renderer.element_values(Reconstruction::Smooth, s, hit.uv, (rest, Rgb::ZERO)),
+        ),
+        None => (
+            Rgb::ZERO,
+            renderer.element_radiance(Reconstruction::Smooth, s, hit.uv),
+        ),
+    };
     let (k, n) = hit.rays;
-    let local = settings.on_receiver(renderer.reader().caustic[s]);
+    let local = settings.on_receiver(reader.caustic[s]);
     let gathering = GatheringRays::new(n, local.gathers_among(n));
     let Some(block) = gathering.rank(k) else {
-        return reconstructed;
+        return direct + control;
     };
     let point = GatherPoint {
         samples: hit.point.samples.final_gather(block),
         ..hit.point
     };
-    let budget = GatherBudget {
-        rays: gathering.rays(&local),
-        shadow_grid: GATHER_GRID,
+    let rays = gathering.rays(&local);
+    let gathered = match rest {
+        Some(_) => reader.indirect_gather(solution, &point, rays).radiance,
+        None => reader.final_gather(
+            solution,
+            &point,
+            GatherBudget {
+                rays,
+                shadow_grid: GATHER_GRID,
+            },
+        ),
     };
-    let gathered = (renderer.reader()).final_gather(renderer.solution(), &point, budget);
-    let weight = gathering.weight();
-    reconstructed + (gathered - reconstructed) * weight
+    direct + control + (gathered - control) * gathering.weight()
 }
 
 /// [`Estimator::Solution`] with [`GlossyView::Eye`] at `hit`: the element

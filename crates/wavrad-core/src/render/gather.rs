@@ -119,22 +119,22 @@ pub fn direct_radiance(
             let s = tracer.surface_of(prim);
             s == e || s == surface
         };
-        let (mut seen, mut total) = (0u32, 0u32);
-        for &(_, uv, _) in rays {
-            let y = light.patch.point_at(light.patch.square_to_param(uv));
-            if !point.receives(scene, y - x) {
-                continue;
-            }
-            total += 1;
-            if !tracer.occluder.occluded_except(x, y, skip) {
-                seen += 1;
-            }
+        let seen = (rays.iter())
+            .map(|&(_, uv, _)| light.patch.point_at(light.patch.square_to_param(uv)))
+            .filter(|&y| {
+                point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
+            })
+            .count();
+        // Of the rays drawn on the whole emitter, those to its part in front
+        // of x see it: seen / (rays · that part's share of its area) is the
+        // visible fraction of that part, unbiased even when none lands on it.
+        let ahead = front_share(x, (normal, front), &light.patch);
+        if ahead <= 0.0 {
+            continue;
         }
-        if total > 0 {
-            let v = f64::from(seen) / f64::from(total);
-            let share = rays.len() as f64 / (f64::from(n) * chosen);
-            out += rho * light.emission * (ff * v * share);
-        }
+        let visible = seen as f64 / (rays.len() as f64 * ahead);
+        let share = rays.len() as f64 / (f64::from(n) * chosen);
+        out += rho * light.emission * (ff * visible * share);
     }
     if !scene.lights.is_empty() {
         let rays = n * SKY_RAYS_PER_SHADOW_RAY;
@@ -161,6 +161,34 @@ fn shaded_factor(x: DVec3, (normal, front): (DVec3, DVec3), patch: &Patch) -> f6
         return 0.0;
     }
     point_to_polygon(x, normal, &above, patch.normal())
+}
+
+/// The share of `patch`'s area in front of the planes through `x` of its
+/// shading `normal` and its surface's `front` normal: the part of an
+/// emitter a point there can receive light from (positive wherever
+/// [`shaded_factor`] is).
+fn front_share(x: DVec3, (normal, front): (DVec3, DVec3), patch: &Patch) -> f64 {
+    let vertices = patch.vertices();
+    let ahead = |v: &DVec3| normal.dot(*v - x) > 0.0 && front.dot(*v - x) > 0.0;
+    if vertices.iter().all(ahead) {
+        return 1.0;
+    }
+    let mut part = front_part(&vertices, x, front);
+    if normal != front && part.len() >= 3 {
+        part = front_part(&part, x, normal);
+    }
+    (polygon_area(&part) / polygon_area(&vertices)).min(1.0)
+}
+
+/// Area of the planar polygon `vertices` (zero with fewer than three).
+fn polygon_area(vertices: &[DVec3]) -> f64 {
+    let Some(&first) = vertices.first() else {
+        return 0.0;
+    };
+    let twice = (vertices.windows(2).skip(1))
+        .map(|w| (w[0] - first).cross(w[1] - first))
+        .fold(DVec3::ZERO, |a, b| a + b);
+    0.5 * twice.length()
 }
 
 /// Where a final gather looks for concentrated light besides its cosine
@@ -735,6 +763,64 @@ mod tests {
     /// The unit floor (surface 0) under three lights of different power: the
     /// light overhead (radiance 1), a brighter one off to the side, and an
     /// upright one beyond the floor's edge facing it.
+    #[test]
+    fn light_partly_below_the_point_is_seen_through_its_front_part_alone() {
+        // An upright unit light of radiance 1 whose lower half reaches
+        // below the floor, facing a point of it: the point receives from
+        // the upper half (Lambert's closed form clips the rest). A shadow
+        // ray drawn on the lower half is no evidence of occlusion: one ray
+        // per estimate must still average to the closed form, and a 2 × 2
+        // grid, two of whose rays reach the upper half, gives it exactly.
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(1.0, 0.5, -0.5),
+            edge_s: DVec3::NEG_Y,
+            edge_t: DVec3::Z,
+        };
+        let scene = Scene::from_surfaces(vec![
+            crate::testing::grey(Patch::Parallelogram {
+                origin: DVec3::new(-5.0, -5.0, 0.0),
+                edge_s: DVec3::X * 10.0,
+                edge_t: DVec3::Y * 10.0,
+            }),
+            Surface {
+                emission: Rgb::splat(1.0),
+                ..crate::testing::grey(light)
+            },
+        ]);
+        assert!(light.normal().x < 0.0, "the light faces the point");
+        let tracer = SceneTracer::new(&scene);
+        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let rho = lambertian_albedo(&scene, 0, DVec3::ZERO)[0];
+        let expect =
+            rho * point_to_polygon(DVec3::ZERO, DVec3::Z, &light.vertices(), light.normal());
+        assert!(expect > 0.0);
+        let grid = direct_radiance(
+            &scene,
+            &tracer,
+            &emitters,
+            &on_floor(DVec3::ZERO, Samples::Hashed(3)),
+            2,
+        );
+        assert!((grid[0] - expect).abs() < 1e-12, "{} vs {expect}", grid[0]);
+        let (mean, error) = mean_and_error(
+            (0..4000)
+                .map(|k| {
+                    direct_radiance(
+                        &scene,
+                        &tracer,
+                        &emitters,
+                        &on_floor(DVec3::ZERO, Samples::Hashed(k)),
+                        1,
+                    )[0]
+                })
+                .collect(),
+        );
+        assert!(
+            (mean - expect).abs() < 4.0 * error,
+            "{mean} ± {error} vs {expect}"
+        );
+    }
+
     fn floor_under_three_lights() -> Scene {
         let mut scene = crate::testing::mirror_floor_and_light();
         let light = |origin: DVec3, edge_s: DVec3, edge_t: DVec3, radiance: f64| Surface {

@@ -453,8 +453,21 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// so detail finer than the elements shows.
     fn element_radiance(&self, reconstruction: Reconstruction, s: usize, uv: DVec2) -> Rgb {
         let solution = self.solution();
-        let (tree, radiance) = (&solution.trees[s], &solution.radiance[s]);
-        let l = self.reader().lookup[s].radiance(tree, radiance, uv, reconstruction);
+        let emission = solution.scene.surfaces[s].emission;
+        self.element_values(reconstruction, s, uv, (&solution.radiance[s], emission))
+    }
+
+    /// As [`Renderer::element_radiance`], of `values` per node of surface
+    /// `s`'s element tree, of which `emission` is not reflected light.
+    fn element_values(
+        &self,
+        reconstruction: Reconstruction,
+        s: usize,
+        uv: DVec2,
+        (values, emission): (&[Rgb], Rgb),
+    ) -> Rgb {
+        let solution = self.solution();
+        let l = self.reader().lookup[s].radiance(&solution.trees[s], values, uv, reconstruction);
         let Some(scales) = solution.interactions.texture_of(s) else {
             return l;
         };
@@ -463,7 +476,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         else {
             return l;
         };
-        let leaf = scales[tree.locate(uv).0 as usize];
+        let leaf = scales[solution.trees[s].locate(uv).0 as usize];
         let factor = Rgb([0, 1, 2].map(|c| {
             let average = leaf[c] * rho[c];
             if average > 0.0 {
@@ -472,7 +485,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 0.0
             }
         }));
-        surface.emission + (l - surface.emission) * factor
+        emission + (l - emission) * factor
     }
 
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`

@@ -45,6 +45,11 @@ use rayon::prelude::*;
 /// emitters' `mirrors` images, and the `caustic` receivers they light; and
 /// the `emitters`, by power (emission, the mean of the channels, times
 /// area), from which shadow rays and glossy points' light samples draw.
+///
+/// `rest` is, per surface with a Lambertian lobe, its elements' radiance
+/// less their emission and first bounce ([`Solution::first_bounce`]): what
+/// a camera ray's final gather estimates beyond the light straight from the
+/// emitters, smooth where the solution is, its control variate.
 pub(super) struct SolutionReader {
     pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
@@ -54,6 +59,7 @@ pub(super) struct SolutionReader {
     mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
     links: LinkGuide,
+    rest: Vec<Option<Vec<Rgb>>>,
 }
 
 /// What a final gather finds at a point, in two parts: light that varies as
@@ -129,8 +135,9 @@ impl SolutionReader {
         let per_point: Vec<usize> = (bright.surfaces().iter().map(|&s| s as usize))
             .filter(|&s| power[s] > 0.5 * total)
             .collect();
+        let first = solution.first_bounce();
         let mut beyond_first = vec![None; surfaces.len()];
-        if let (false, Some(first)) = (per_point.is_empty(), solution.first_bounce()) {
+        if let (false, Some(first)) = (per_point.is_empty(), &first) {
             for s in per_point.into_iter().filter(|&s| !first[s].is_empty()) {
                 beyond_first[s] = Some(
                     solution.radiance[s]
@@ -153,6 +160,19 @@ impl SolutionReader {
                 }
             })
             .collect();
+        let rest = match first {
+            Some(first) => (first.into_par_iter().enumerate())
+                .map(|(s, first)| {
+                    let emission = surfaces[s].emission;
+                    (!first.is_empty()).then(|| {
+                        (solution.radiance[s].iter().zip(first))
+                            .map(|(&l, f)| l - f - emission)
+                            .collect()
+                    })
+                })
+                .collect(),
+            None => vec![None; surfaces.len()],
+        };
         SolutionReader {
             lookup: solution.trees.par_iter().map(TreeLookup::new).collect(),
             non_lambertian,
@@ -166,7 +186,15 @@ impl SolutionReader {
                 true => LinkGuide::default(),
                 false => LinkGuide::new(solution),
             },
+            rest,
         }
+    }
+
+    /// Surface `s`'s elements' radiance beyond its emission and first
+    /// bounce (see [`SolutionReader`]); `None` for a surface without a
+    /// Lambertian lobe, or while the solution's links are not arranged.
+    pub(super) fn rest(&self, s: usize) -> Option<&[Rgb]> {
+        self.rest[s].as_deref()
     }
 
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
@@ -198,6 +226,24 @@ impl SolutionReader {
         GatherBudget { rays, shadow_grid }: GatherBudget,
     ) -> FinalGather {
         let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let indirect = self.indirect_gather(solution, point, rays);
+        let direct = gather::direct_radiance(scene, tracer, &self.emitters, point, shadow_grid);
+        FinalGather {
+            direct: scene.surfaces[point.surface as usize].emission + direct,
+            indirect,
+        }
+    }
+
+    /// The indirect part of [`SolutionReader::final_gather`]: `rays` cosine
+    /// rays' worth of the solution's light less emission, with the samples
+    /// of its bright surfaces, mirror images and links.
+    pub(super) fn indirect_gather(
+        &self,
+        solution: &Solution,
+        point: &GatherPoint,
+        rays: u32,
+    ) -> gather::Indirect {
+        let (scene, tracer) = (&solution.scene, &solution.tracer);
         let grid = f64::from(rays).sqrt().round() as u32;
         let bright = self.bright.surfaces().len() as u32;
         let few = (GATHER_GRID * GATHER_GRID).saturating_mul(bright);
@@ -222,19 +268,14 @@ impl SolutionReader {
         };
         let to = SurfacePoint::from(point);
         let seed = point.samples.seed();
-        let indirect = gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
+        gather::indirect_radiance(scene, tracer, point, rays, sources, |q, y| {
             let from = SurfacePoint {
                 surface: q,
                 position: y,
             };
             let l = self.radiance_leaving(solution, from, to, seed, GLOSSY_GRID);
             (l - scene.surfaces[q as usize].emission).map(|x| x.max(0.0))
-        });
-        let direct = gather::direct_radiance(scene, tracer, &self.emitters, point, shadow_grid);
-        FinalGather {
-            direct: scene.surfaces[point.surface as usize].emission + direct,
-            indirect,
-        }
+        })
     }
 
     /// Radiance leaving point `from` towards point `to`, as a gather ray
