@@ -237,9 +237,107 @@ pub fn pixel_offsets_len(samples_per_pixel: u32) -> u32 {
     n * n
 }
 
+/// A density over the unit square that interpolates four corner values
+/// bilinearly, and the warp that draws points from it (Hart, Pharr,
+/// Müller, Lopes, McGuire & Shirley 2020, "Practical product sampling by
+/// fitting and composing warps"): fitted to an integrand at the corners, it
+/// draws points roughly in proportion to it. The warp is monotone in each
+/// dimension, so a stratified set of points stays stratified.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bilinear {
+    /// Values at (0,0), (1,0), (0,1), (1,1), normalised to average 1.
+    corners: [f64; 4],
+}
+
+impl Bilinear {
+    /// The density through `corners` (at (0,0), (1,0), (0,1), (1,1)), none
+    /// below `floor` times the largest, so that it is positive wherever the
+    /// fitted integrand may be; uniform when no corner is positive.
+    pub fn fit(corners: [f64; 4], floor: f64) -> Bilinear {
+        let top = corners.iter().cloned().fold(0.0, f64::max);
+        if top.is_nan() || top <= 0.0 || !top.is_finite() {
+            return Bilinear { corners: [1.0; 4] };
+        }
+        let c = corners.map(|v| v.max(floor * top));
+        let mean = c.iter().sum::<f64>() / 4.0;
+        Bilinear {
+            corners: c.map(|v| v / mean),
+        }
+    }
+
+    /// Density at `uv` (integrates to one over the square).
+    pub fn pdf(&self, uv: DVec2) -> f64 {
+        let [a, b, c, d] = self.corners;
+        let (u, v) = (uv.x, uv.y);
+        (1.0 - v) * ((1.0 - u) * a + u * b) + v * ((1.0 - u) * c + u * d)
+    }
+
+    /// The point drawn for the uniform point `xi`: u from the marginal,
+    /// v from the conditional at that u, each a linear density.
+    pub fn sample(&self, xi: DVec2) -> DVec2 {
+        let [a, b, c, d] = self.corners;
+        let u = linear(a + c, b + d, xi.x);
+        let v = linear((1.0 - u) * a + u * b, (1.0 - u) * c + u * d, xi.y);
+        DVec2::new(u, v)
+    }
+}
+
+/// The point of [0,1] drawn for the uniform `xi` from the density that is
+/// linear from `a` at 0 to `b` at 1 (both ≥ 0, not both 0).
+fn linear(a: f64, b: f64, xi: f64) -> f64 {
+    if (a - b).abs() <= 1e-9 * (a + b) {
+        return xi;
+    }
+    let x = (a - (a * a + (b * b - a * a) * xi).max(0.0).sqrt()) / (a - b);
+    x.clamp(0.0, 1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bilinear_warp_draws_points_by_its_density() {
+        // The warp's density, estimated from where a grid of uniform
+        // points lands (a histogram of 4 × 4 cells), is the bilinear pdf
+        // integrated over each cell; and the pdf integrates to one.
+        let warp = Bilinear::fit([1.0, 3.0, 0.5, 6.0], 0.05);
+        let n = 400;
+        let mut counts = [[0u32; 4]; 4];
+        for i in 0..n {
+            for j in 0..n {
+                let xi = DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let p = warp.sample(xi);
+                counts[((p.x * 4.0) as usize).min(3)][((p.y * 4.0) as usize).min(3)] += 1;
+            }
+        }
+        let m = 64;
+        let mut total = 0.0;
+        for (cu, row) in counts.iter().enumerate() {
+            for (cv, &count) in row.iter().enumerate() {
+                let mut mass = 0.0;
+                for a in 0..m {
+                    for b in 0..m {
+                        let uv = DVec2::new(
+                            (cu as f64 + (a as f64 + 0.5) / m as f64) / 4.0,
+                            (cv as f64 + (b as f64 + 0.5) / m as f64) / 4.0,
+                        );
+                        mass += warp.pdf(uv) / (16.0 * (m * m) as f64);
+                    }
+                }
+                total += mass;
+                let share = f64::from(count) / (n * n) as f64;
+                assert!(
+                    (share - mass).abs() < 2e-3,
+                    "cell {cu},{cv}: {share} vs {mass}"
+                );
+            }
+        }
+        assert!((total - 1.0).abs() < 1e-9, "{total}");
+        // A corner at zero is raised to the floor; none positive is uniform.
+        assert!(Bilinear::fit([0.0, 1.0, 1.0, 1.0], 0.1).pdf(DVec2::ZERO) > 0.0);
+        assert_eq!(Bilinear::fit([0.0; 4], 0.1).pdf(DVec2::splat(0.3)), 1.0);
+    }
 
     #[test]
     fn offsets_stay_inside_their_strata_and_differ_between_pixels() {
