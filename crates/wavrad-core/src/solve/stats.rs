@@ -114,9 +114,11 @@ pub struct Stats {
     pub peak_memory_bytes: Option<u64>,
     /// What cut the solve short ([`crate::progress::Budget`]), if anything.
     pub stopped: Option<Stop>,
-    /// Surface pairs and triples linked whole, and links left as they were
-    /// instead of refined further, because the solve was cut short: what
-    /// it cost in accuracy.
+    /// Surface pairs and triples linked whole, links left as they were
+    /// instead of refined further, and pairs of clusters linked at the
+    /// coarsest cluster ratio
+    /// ([`MAX_CLUSTER_RATIO`](crate::refine::cluster_links::MAX_CLUSTER_RATIO)),
+    /// because the solve was cut short: what it cost in accuracy.
     pub unrefined_items: usize,
     /// Surface triples (r, p, q) of glossy surfaces the plan projects
     /// (the paper's three-point kernels, each refined from whole surfaces).
