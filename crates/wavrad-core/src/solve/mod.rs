@@ -1382,6 +1382,12 @@ mod tests {
         assert_eq!(linking.len(), 1, "{warnings:?}");
         assert!(linking[0].contains("the time limit"), "{}", linking[0]);
 
+        // Resumed, it is planned afresh (no item was finished) and gives
+        // the solve the budget cut short.
+        let resumed = resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
+        assert_eq!(resumed.radiance, full.radiance);
+        assert_eq!(resumed.stats.cluster_links, full.stats.cluster_links);
+
         // Every surface is lit, and none reflects more than reaches it: in
         // a closed box of reflectance ρ lit by radiance Le, no surface
         // that does not emit exceeds ρ·Le/(1 − ρ).
