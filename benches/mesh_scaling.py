@@ -155,8 +155,9 @@ def table(rows: list[dict]) -> list[str]:
         mib = s["peak_rss_bytes"] / 2**20
         unclustered = f"{u['wall_s']:.1f} / {u['peak_rss_bytes'] / 2**20:.0f}" if u else "–"
         error = f"{100 * e['gather']:.2f} %, {100 * e['direct']:.2f} %" if e else "–"
+        triangles = r.get("triangles", s["surfaces"] - 6)
         lines.append(
-            f"| {r['case']} | {r.get('triangles', s['surfaces'] - 6)} | {s['wall_s']:.1f} | {mib:.0f} "
+            f"| {r['case']} | {triangles} | {s['wall_s']:.1f} | {mib:.0f} "
             f"| {s['two_point_nodes']} | {s['two_point_interactions']} | {s['cluster_links']} "
             f"| {s['exchanging_pairs']} | {unclustered} | {error} |"
         )
@@ -168,7 +169,7 @@ def report(rows: list[dict], args, notes: str) -> str:
     out = [
         "# Scaling with triangle count",
         "",
-        f"Written by `python3 benches/mesh_scaling.py {' '.join(sys.argv[1:])}` on "
+        f"Written by `python3 benches/mesh_scaling.py {shlex.join(sys.argv[1:])}` on "
         f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
         f"{os.cpu_count()} logical CPUs ({platform.machine()}), "
         f"load average {load:.2f} at the end. "

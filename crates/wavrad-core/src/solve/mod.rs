@@ -292,7 +292,7 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let coarse = projector.budget.coarse_items();
     if let (Some(stop), true) = (projector.budget.stopped(), coarse > 0) {
         progress.warn(&format!(
-            "{stop} was reached while linking: {coarse} pairs of clusters or elements were \
+            "{stop} cut the linking short: {coarse} pairs of clusters or elements were \
              linked whole, up to (size of both ends)/distance {MAX_CLUSTER_RATIO} instead of the \
              cluster ratio {}; their light is carried, less accurately",
             settings.cluster_ratio
