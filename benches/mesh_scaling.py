@@ -17,10 +17,14 @@ keeping what follows its `<!-- notes -->` line. Standard library only.
     python3 benches/mesh_scaling.py                          # 10^3 … 10^6 (an hour or more)
     python3 benches/mesh_scaling.py --sizes 1000 10000 --compare-up-to 10000
     python3 benches/mesh_scaling.py --mesh path/to/bunny.ply  # add a real mesh
+    python3 benches/mesh_scaling.py --sizes --bowl-sizes --scene veach-bidir \
+        --scene-args "--approximate --time-limit 300 --max-memory 8"   # a real scene
 
 A real mesh (e.g. the Stanford bunny, common/meshes/bunny.ply of Mitsuba's
 mitsuba-data repository; not redistributed here) is fitted into the box
-in place of the sphere.
+in place of the sphere. A real scene (`--scene`, a name of
+scenes/public/scenes.json) is solved as it is, with its `-D` values from
+there and `--scene-args`; it has no unclustered comparison.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import json
 import math
 import os
 import platform
+import shlex
 import subprocess
 import sys
 import tempfile
@@ -41,14 +46,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import mesh_scenes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
+PUBLIC = ROOT / "scenes" / "public"
 NOTES = "<!-- notes -->"
 
 
-def solve(wavrad: Path, scene: Path, extra: list[str]) -> dict:
-    stats = scene.parent / "stats.json"
+def solve(wavrad: Path, scene: Path, extra: list[str], stats: Path | None = None) -> dict:
+    stats = stats or scene.parent / "stats.json"
     start = time.perf_counter()
     proc = subprocess.Popen(
-        [str(wavrad), "solve", scene.name, "--stats", stats.name, *extra],
+        [str(wavrad), "solve", scene.name, "--stats", str(stats.resolve()), *extra],
         cwd=scene.parent,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
@@ -122,6 +128,18 @@ def measure(args, notes: str) -> list[dict]:
             rows.append(row)
             args.out.write_text(report(rows, args, notes))
             print(f"  {s['wall_s']:.1f} s, {s['peak_rss_bytes'] / 2**20:.0f} MiB", file=sys.stderr)
+        public = json.loads((PUBLIC / "scenes.json").read_text())["scenes"]
+        for name in args.scene:
+            entry = public[name]
+            defines = [a for k, v in entry.get("defines", {}).items() for a in ("-D", f"{k}={v}")]
+            extra = defines + shlex.split(args.scene_args)
+            print(f"{name}: solving", file=sys.stderr, flush=True)
+            stats = Path(tmp) / f"{name}.json"
+            s = solve(args.wavrad, PUBLIC / entry["file"], extra, stats)
+            case = f"{name} ({' '.join(extra)}; stopped: {s['stopped'] or 'no'})"
+            rows.append({"case": case, "stats": s, "triangles": entry["triangles"]})
+            args.out.write_text(report(rows, args, notes))
+            print(f"  {s['wall_s']:.1f} s, {s['peak_rss_bytes'] / 2**20:.0f} MiB", file=sys.stderr)
     return rows
 
 
@@ -137,8 +155,9 @@ def table(rows: list[dict]) -> list[str]:
         mib = s["peak_rss_bytes"] / 2**20
         unclustered = f"{u['wall_s']:.1f} / {u['peak_rss_bytes'] / 2**20:.0f}" if u else "–"
         error = f"{100 * e['gather']:.2f} %, {100 * e['direct']:.2f} %" if e else "–"
+        triangles = r.get("triangles", s["surfaces"] - 6)
         lines.append(
-            f"| {r['case']} | {s['surfaces'] - 6} | {s['wall_s']:.1f} | {mib:.0f} "
+            f"| {r['case']} | {triangles} | {s['wall_s']:.1f} | {mib:.0f} "
             f"| {s['two_point_nodes']} | {s['two_point_interactions']} | {s['cluster_links']} "
             f"| {s['exchanging_pairs']} | {unclustered} | {error} |"
         )
@@ -150,7 +169,7 @@ def report(rows: list[dict], args, notes: str) -> str:
     out = [
         "# Scaling with triangle count",
         "",
-        f"Written by `python3 benches/mesh_scaling.py {' '.join(sys.argv[1:])}` on "
+        f"Written by `python3 benches/mesh_scaling.py {shlex.join(sys.argv[1:])}` on "
         f"{datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
         f"{os.cpu_count()} logical CPUs ({platform.machine()}), "
         f"load average {load:.2f} at the end. "
@@ -160,7 +179,9 @@ def report(rows: list[dict], args, notes: str) -> str:
         "six rectangles. Solve = the whole `wavrad solve` process (loading included); memory = "
         "its peak resident set. Elements and element links are the two-point nodes and "
         "interactions; clustering error = relRMSE at 64² between the clustered solve and the "
-        "same scene with `--cluster-ratio 0` (default render, and `--mode direct`).",
+        "same scene with `--cluster-ratio 0` (default render, and `--mode direct`). A public "
+        "scene's row (`--scene`) is solved as it is, with the arguments it names; its "
+        "triangles are scenes/public/scenes.json's count.",
         "",
         *table(rows),
         "",
@@ -193,6 +214,19 @@ def main() -> int:
         help="largest surface count solved unclustered too",
     )
     parser.add_argument("--mesh", type=Path, help="a real mesh (PLY/OBJ) to fit into the box")
+    parser.add_argument(
+        "--scene",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="a public scene of scenes/public/scenes.json, solved as it is (repeatable)",
+    )
+    parser.add_argument(
+        "--scene-args",
+        default="",
+        help="more `wavrad solve` arguments for --scene, e.g. "
+        "'--approximate --time-limit 300 --max-memory 8'",
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "docs/scaling.md")
     args = parser.parse_args()
     notes = ""

@@ -93,3 +93,16 @@ def test_blocks_that_do_not_fit_the_plan_are_refused(scene: wavrad.Scene) -> Non
         plan.finish([b"links"])
     # Refusals leave the plan usable.
     plan.finish(links)
+
+
+def test_a_limit_reached_while_planning_is_told(scene: wavrad.Scene) -> None:
+    # Reached before the linking: it links the pairs left coarser and says
+    # so; the plan's blocks are then projected whole, and finishing says
+    # that the limit cut the solve short. The solution still has light.
+    with pytest.warns(wavrad.SolveWarning, match="cut the linking short"):
+        plan = wavrad.plan(scene, time_limit=1e-9, **SETTINGS)
+    blocks = [plan.project(block) for block in plan.blocks(2)]
+    with pytest.warns(wavrad.SolveWarning, match="the time limit cut the solve short"):
+        cut = plan.finish(blocks)
+    assert cut.stats["stopped"] == "time_limit"
+    assert np.isfinite(cut.radiance).all() and cut.radiance.max() > 0

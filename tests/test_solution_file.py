@@ -100,7 +100,8 @@ def test_a_solve_cut_short_resumes_to_the_uninterrupted_solution(
     assert whole.checkpoint is None
     # Cut short by a time limit of a third of the kernels' time.
     limit = whole.stats["times"]["kernels_s"] / 3
-    cut = wavrad.solve(scene, time_limit=limit, **settings)
+    with pytest.warns(wavrad.SolveWarning, match="the time limit cut the solve short"):
+        cut = wavrad.solve(scene, time_limit=limit, **settings)
     assert cut.stats["stopped"] == "time_limit"
     finished, items = cut.checkpoint
     assert 0 < finished < items == whole.stats["projected_items"]
@@ -120,7 +121,8 @@ def test_a_solve_cut_short_resumes_to_the_uninterrupted_solution(
 
 def test_resuming_what_does_not_fit_is_refused(scene_file: Path) -> None:
     scene = wavrad.load_scene(scene_file, res=24)
-    cut = wavrad.solve(scene, threshold=1e-2, max_level=3, time_limit=1e-9, progress=False)
+    with pytest.warns(wavrad.SolveWarning, match="cut the linking short"):
+        cut = wavrad.solve(scene, threshold=1e-2, max_level=3, time_limit=1e-9, progress=False)
     assert cut.checkpoint is not None
     with pytest.raises(wavrad.SolveError, match="threshold is 1e-4"):
         wavrad.solve(scene, resume=cut, threshold=1e-4, progress=False)

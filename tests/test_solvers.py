@@ -5,6 +5,7 @@ level 3) so the file runs in a few seconds."""
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -150,7 +151,10 @@ def test_every_setting_given_is_the_one_the_stats_report(scene: wavrad.Scene) ->
         "time_limit": 3600.0,
         "max_memory": 64.0,
     }
-    solution = wavrad.solve(scene, **given)  # type: ignore[arg-type]
+    with warnings.catch_warnings():
+        # A limit that is not reached tells nothing.
+        warnings.simplefilter("error", wavrad.SolveWarning)
+        solution = wavrad.solve(scene, **given)  # type: ignore[arg-type]
     assert solution.stats["settings"] == given
     assert solution.stats["projections"] in range(1, given["refine_passes"] + 1)
     assert (solution.stats["stopped"], solution.stats["unrefined_items"]) == (None, 0)
@@ -158,7 +162,17 @@ def test_every_setting_given_is_the_one_the_stats_report(scene: wavrad.Scene) ->
 
 def test_a_time_limit_finishes_the_solve_from_what_was_done(scene: wavrad.Scene) -> None:
     full = wavrad.solve(scene, max_level=MAX_LEVEL)
-    cut = wavrad.solve(scene, max_level=MAX_LEVEL, time_limit=1e-9)
+    with pytest.warns(wavrad.SolveWarning) as told:
+        cut = wavrad.solve(scene, max_level=MAX_LEVEL, time_limit=1e-9)
+    # Told where the solve was called, as a UserWarning: once that the
+    # limit cut the solve short (with what it left unrefined), once that it
+    # coarsened the linking, which it reached first.
+    messages = [str(w.message) for w in told]
+    assert all(w.filename == __file__ for w in told), [w.filename for w in told]
+    assert issubclass(wavrad.SolveWarning, UserWarning)
+    short = [m for m in messages if "the time limit cut the solve short" in m]
+    assert len(short) == 1 and str(cut.stats["unrefined_items"]) in short[0], messages
+    assert len([m for m in messages if "the time limit cut the linking short" in m]) == 1
     assert cut.stats["stopped"] == "time_limit"
     assert cut.stats["unrefined_items"] > 0
     assert cut.stats["two_point_interactions"] < full.stats["two_point_interactions"]

@@ -17,6 +17,7 @@ __all__ = [
     "SceneError",
     "Solution",
     "SolveError",
+    "SolveWarning",
     "WavradError",
     "load_scene",
     "plan",
@@ -63,6 +64,16 @@ class SolveError(WavradError):
     """The solver or renderer refused its input or failed (invalid settings,
     empty scene, no light, no sensor, a diverging solve, pixels not
     finite)."""
+
+class SolveWarning(UserWarning):
+    """A solve went on, but you should know: a time or memory limit (or
+    Ctrl-C) cut it short, and what that left unrefined or out; linking
+    coarsened because the limit was reached while linking; surface triples
+    of glossy surfaces left out of a plan too large to hold. Warned where
+    the call to wavrad was made, while the solve goes on (looked at every
+    0.05 s) and when it returns. ``warnings`` filters apply: one that makes
+    it an error stops the solve, as a ``progress`` callable that raises
+    does, and raises it."""
 
 class ArgumentError(WavradError, ValueError):
     """An argument wavrad cannot use (a wrongly typed setting, a wrongly
@@ -285,7 +296,10 @@ def solve(
     default 0: 80 % of the machine's memory) bound the solve: once one is
     reached, the surface pairs left are linked whole, without refinement,
     the sweeps stop after at least 8, and the solution is finished from
-    what was done; ``stats["stopped"]`` names the limit (``"time_limit"``,
+    what was done, with a :class:`SolveWarning` saying so (and another if
+    the limit was reached while linking, which then links the pairs of
+    clusters left as coarsely as ``cluster_ratio`` 0.9);
+    ``stats["stopped"]`` names the limit (``"time_limit"``,
     ``"memory_limit"``) and ``stats["unrefined_items"]`` counts what it
     left unrefined (``None`` and 0 when nothing did).
 
@@ -342,7 +356,7 @@ def solve(
     is raised from ``solve``. The first Ctrl-C does the same: the solve
     stops refining and sweeping, is finished from what is done
     (``stats["stopped"]`` is ``"interrupted"``) and returned, with a
-    ``UserWarning``; a second one raises ``KeyboardInterrupt`` once it has
+    :class:`SolveWarning`; a second one raises ``KeyboardInterrupt`` once it has
     finished.
 
     Raises ``TypeError`` for an unknown keyword, ``ArgumentError`` for a value

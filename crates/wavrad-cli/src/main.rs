@@ -796,25 +796,8 @@ fn check_output_extension(output: &Path) -> Result<(), String> {
 fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
     let s = &solution.stats;
     let t = &s.times;
-    if let Some(stop) = s.stopped {
-        eprintln!(
-            "wavrad: warning: {stop} cut the solve short: {} surface pairs, triples or links were \
-             left unrefined{}{}; the image is coarser than a full solve's",
-            s.unrefined_items,
-            match s.left_out_items {
-                0 => String::new(),
-                n => format!(
-                    ", {n} of {} surface triples of glossy surfaces left out (no three-point \
-                     links)",
-                    s.three_point_items
-                ),
-            },
-            if s.converged {
-                String::new()
-            } else {
-                format!(", and Gauss–Seidel stopped after {} sweeps", s.iterations)
-            }
-        );
+    if let Some(warning) = s.cut_short_warning() {
+        eprintln!("wavrad: warning: {warning}");
     }
     if progress.show == Show::Nothing {
         return report_warnings(solution);

@@ -21,8 +21,9 @@ pub trait Progress: Sync {
     fn interrupted(&self) -> bool {
         false
     }
-    /// `items` (surface pairs or triples, links) were linked whole or left
-    /// as they were, instead of refined, because the work was asked to stop.
+    /// `items` (surface pairs or triples, links, pairs of clusters) were
+    /// linked whole or left as they were, instead of refined, because the
+    /// work was asked to stop.
     fn cut_short(&self, _items: u64) {}
     /// `items` (surface triples) were left out, without any links, because
     /// the work was asked to stop before they started: a three-point item
@@ -98,8 +99,9 @@ const MEMORY_CHECK_INTERVAL: Duration = Duration::from_millis(50);
 
 /// The limits a solve respects: a wall-clock time limit from its start, a
 /// limit on the process's resident memory, and the driver's interrupt.
-/// Once one is reached the budget stays spent: refinement links the items
-/// left without splitting them (counted in [`Budget::coarse_items`]), the
+/// Once one is reached the budget stays spent: linking links the pairs of
+/// clusters left at the coarsest ratio and refinement links the items left
+/// without splitting them (both counted in [`Budget::coarse_items`]), the
 /// three-point items not yet started are left out (counted in
 /// [`Budget::left_out_items`]) and Gauss–Seidel stops after its current
 /// sweep, so the solution is finished from what was done.
@@ -170,8 +172,9 @@ impl Budget {
         self.coarse.fetch_add(n, Ordering::Relaxed);
     }
 
-    /// Items (surface pairs or triples, links) linked whole or left as they
-    /// were, instead of refined, because the budget was spent.
+    /// Items (surface pairs or triples, links, pairs of clusters) linked
+    /// whole or left as they were, instead of refined, because the budget
+    /// was spent.
     pub fn coarse_items(&self) -> usize {
         self.coarse.load(Ordering::Relaxed)
     }

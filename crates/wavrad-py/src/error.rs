@@ -12,6 +12,10 @@
 //!     └── ArgumentError  (also a ValueError) an argument wavrad cannot use: a
 //!                        wrongly typed setting, a wrongly shaped image, a plan
 //!                        used up, an option without its companion
+//!
+//! UserWarning
+//! └── SolveWarning       what a solve tells as it goes on: a limit reached and
+//!                        what it cut short, linking coarsened, triples left out
 //! ```
 //! Settings outside their described range or choices, and settings that do
 //! not go together, are `SolveError`s. Python's own `TypeError` stays for
@@ -19,7 +23,7 @@
 //! PyO3 cannot convert.
 
 use pyo3::create_exception;
-use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::exceptions::{PyException, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::GILOnceCell;
 use pyo3::types::{PyDict, PyTuple, PyType};
@@ -42,6 +46,13 @@ create_exception!(
     SolveError,
     WavradError,
     "The solver or renderer refused its input or failed (invalid settings, empty scene, no light, no sensor, a diverging solve, pixels not finite)."
+);
+
+create_exception!(
+    wavrad,
+    SolveWarning,
+    PyUserWarning,
+    "A solve went on, but the user should know: a time or memory limit (or Ctrl-C) cut it short and what that left unrefined or out, linking coarsened, surface triples left out of a plan."
 );
 
 /// `wavrad.ArgumentError`, made once: `create_exception!` takes one base,

@@ -38,8 +38,8 @@ use wavrad_io::solution_file::{
     read_solution, read_unfinished, write_checkpoint, write_solution, Source,
 };
 
-use error::{argument_error, Error, Result, SceneError, SolveError, WavradError};
-use progress::PyProgress;
+use error::{argument_error, Error, Result, SceneError, SolveError, SolveWarning, WavradError};
+use progress::{PyProgress, Warnings};
 
 /// A scene loaded from a Mitsuba 3 XML file, with where it came from (for
 /// the solution files of its solutions).
@@ -291,7 +291,10 @@ impl Plan {
         })?;
         self.planned()?.check_cover(&links)?;
         let plan = self.plan.take().expect("checked above");
-        let solution = py.allow_threads(|| plan.finish(links, &Silent))?;
+        let told = Warnings::default();
+        let solution = py.allow_threads(|| plan.finish(links, &told))?;
+        told.raise(py)?;
+        warn_cut_short(py, &solution)?;
         Ok(Solution(Renderer::new(solution), self.source.clone()))
     }
 
@@ -514,6 +517,7 @@ fn solve(
             })
         })??;
         warn_unsaved(py, saving)?;
+        warn_cut_short(py, &solution)?;
         return Ok(Solution(Renderer::new(solution), scene.1.clone()));
     }
     let saving = checkpoint_saver(checkpoint.as_deref(), checkpoint_every, scene)?;
@@ -563,7 +567,17 @@ fn solve(
         return Err(Error::Python(e));
     }
     warn_unsaved(py, saving)?;
+    warn_cut_short(py, &solution)?;
     Ok(Solution(Renderer::new(solution), scene.1.clone()))
+}
+
+/// A `wavrad.SolveWarning` saying what cut `solution`'s solve short, if
+/// anything did ([`Stats::cut_short_warning`](wavrad_core::solve::stats::Stats::cut_short_warning)).
+fn warn_cut_short(py: Python<'_>, solution: &wavrad_core::solve::Solution) -> PyResult<()> {
+    match solution.stats.cut_short_warning() {
+        Some(message) => progress::warn(py, &message),
+        None => Ok(()),
+    }
 }
 
 /// Checkpoints of a solve saved to a file ([`solve`]'s `checkpoint`).
@@ -654,7 +668,9 @@ fn load_solution(py: Python<'_>, path: PathBuf) -> Result<Solution> {
 #[pyo3(signature = (scene, **settings))]
 fn plan(py: Python<'_>, scene: &Scene, settings: Option<&Bound<'_, PyDict>>) -> Result<Plan> {
     let settings = SolveSettings::from_values(&described_values::<SolveSettings>(settings)?)?;
-    let plan = py.allow_threads(|| wavrad_core::solve::plan(&scene.0, &settings, &Silent))?;
+    let told = Warnings::default();
+    let plan = py.allow_threads(|| wavrad_core::solve::plan(&scene.0, &settings, &told))?;
+    told.raise(py)?;
     Ok(Plan {
         source: scene.1.clone(),
         fingerprint: fingerprint(&plan),
@@ -791,6 +807,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SceneError", py.get_type::<SceneError>())?;
     m.add("SolveError", py.get_type::<SolveError>())?;
     m.add("ArgumentError", argument_error(py)?)?;
+    m.add("SolveWarning", py.get_type::<SolveWarning>())?;
     m.add_class::<Scene>()?;
     m.add_class::<Solution>()?;
     m.add_class::<Plan>()?;

@@ -5,23 +5,28 @@
 //!
 //! The first Ctrl-C asks the work to stop ([`Progress::interrupted`]): a
 //! solve stops refining and sweeping and is finished from what is done
-//! (its `stats["stopped"]` says `"interrupted"`), with a `UserWarning`. A
+//! (its `stats["stopped"]` says `"interrupted"`), with a `SolveWarning`. A
 //! second one, or an exception a callable raises (which stops the work the
 //! same way), is raised once the work has returned. Work with nothing to
 //! finish (a render, [`PyProgress::raising_interrupts`]) stops at the first
 //! Ctrl-C, and `KeyboardInterrupt` is raised once it has.
+//!
+//! What the work tells the user as it goes on ([`Progress::warn`]) becomes
+//! a `wavrad.SolveWarning` on the Python thread, at its next look at the
+//! signals and once the work has returned, so that `warnings` filters and
+//! `pytest.warns` see it where the call was made.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use pyo3::exceptions::{PyKeyboardInterrupt, PyUserWarning};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
 use wavrad_core::progress::Progress;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, SolveWarning};
 
 /// How often the Python thread runs signal handlers while work is under way.
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
@@ -61,6 +66,8 @@ pub struct PyProgress {
     phase: Mutex<Option<Phase>>,
     stop: AtomicBool,
     raised: Mutex<Option<PyErr>>,
+    /// What the work told ([`Progress::warn`]), not yet warned in Python.
+    warnings: Warnings,
 }
 
 impl PyProgress {
@@ -98,6 +105,7 @@ impl PyProgress {
             phase: Mutex::new(None),
             stop: AtomicBool::new(false),
             raised: Mutex::new(None),
+            warnings: Warnings::default(),
         })
     }
 
@@ -129,6 +137,9 @@ impl PyProgress {
             })
         });
         let done = done.expect("a scope whose thread panicked panics itself");
+        if let Err(e) = self.warnings.raise(py) {
+            self.keep(e);
+        }
         self.raise_kept().map(|()| done)
     }
 
@@ -144,6 +155,9 @@ impl PyProgress {
     /// work to stop and warns; anything else raised is kept for later.
     fn poll_signals(&self) {
         Python::with_gil(|py| {
+            if let Err(e) = self.warnings.raise(py) {
+                self.keep(e);
+            }
             let Err(e) = py.check_signals() else {
                 return;
             };
@@ -152,16 +166,11 @@ impl PyProgress {
             if !first || self.raise_first {
                 return self.keep(e);
             }
-            let warned = py.import("warnings").and_then(|w| {
-                w.call_method1(
-                    "warn",
-                    (
-                        "wavrad: interrupted: the solve stops refining and finishes from what \
-                         is done (Ctrl-C again raises KeyboardInterrupt once it has)",
-                        py.get_type::<PyUserWarning>(),
-                    ),
-                )
-            });
+            let warned = warn(
+                py,
+                "wavrad: interrupted: the solve stops refining and finishes from what is done \
+                 (Ctrl-C again raises KeyboardInterrupt once it has)",
+            );
             if let Err(e) = warned {
                 self.keep(e);
             }
@@ -288,4 +297,42 @@ impl Progress for PyProgress {
     fn interrupted(&self) -> bool {
         self.stop.load(Ordering::SeqCst)
     }
+
+    fn warn(&self, message: &str) {
+        self.warnings.warn(message)
+    }
+}
+
+/// What work that reports no progress told ([`Progress::warn`]), kept to
+/// be warned in Python once it has returned ([`Warnings::raise`]).
+#[derive(Debug, Default)]
+pub struct Warnings(Mutex<Vec<String>>);
+
+impl Warnings {
+    /// Each message kept, as a `wavrad.SolveWarning`, in the order told;
+    /// then none is kept. Raises what `warnings.warn` raises (a filter that
+    /// turns warnings into errors).
+    pub fn raise(&self, py: Python<'_>) -> PyResult<()> {
+        let told = std::mem::take(&mut *self.0.lock().expect("warnings lock"));
+        told.iter().try_for_each(|message| warn(py, message))
+    }
+}
+
+impl Progress for Warnings {
+    fn warn(&self, message: &str) {
+        self.0
+            .lock()
+            .expect("warnings lock")
+            .push(message.to_string())
+    }
+}
+
+/// Warn `message` as a `wavrad.SolveWarning`, attributed to the line that
+/// called wavrad (under the thin wrapper `wavrad._docs` puts around each
+/// native function).
+pub fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
+    let category = py.get_type::<SolveWarning>();
+    py.import("warnings")?
+        .call_method1("warn", (message, category, 2))
+        .map(drop)
 }

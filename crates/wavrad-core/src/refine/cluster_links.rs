@@ -31,6 +31,13 @@
 //! sampled with one ray, a large one with up to [`CLUSTER_LINK_RAYS`]
 //! (Smits, Arvo & Greenberg 1994 bound a cluster link's error the same
 //! way, by the transfer it could carry).
+//!
+//! Linking keeps to the solve's budget ([`crate::progress::Budget`]): once
+//! it is spent ([`Progress::interrupted`]), a pair of ends apart by
+//! [`MAX_CLUSTER_RATIO`] is linked as it stands instead of split, the
+//! coarsest cluster link the settings allow; pairs closer than that are
+//! still split, so every pair of surfaces stays linked exactly once and no
+//! light is dropped. Each such pair is counted ([`Progress::cut_short`]).
 
 use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::ElementRef;
@@ -40,11 +47,18 @@ use crate::sampling::hash2;
 use crate::scene::Patch;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Most visibility rays of one cluster link (between points picked by area
 /// on its two ends): also the most pairs of points drawn, of which only
 /// those facing each other are traced.
 pub const CLUSTER_LINK_RAYS: u32 = 16;
+
+/// Largest (r_x + r_y)/d of any cluster link: the largest `cluster_ratio`
+/// setting, and the ratio at which linking links the pairs left once the
+/// budget is spent. Below 1, so the ends are apart and every member's
+/// transfer towards the other end's centre is finite.
+pub const MAX_CLUSTER_RATIO: f64 = 0.9;
 
 /// A pair with more members than this splits its work over threads.
 const PARALLEL_MEMBERS: u32 = 64;
@@ -192,9 +206,18 @@ struct Linker<'a> {
     ctx: KernelContext<'a>,
     clusters: &'a ClusterTree,
     settings: ClusterSettings,
+    /// Asks the linking to stop refining ([`Progress::interrupted`]).
+    progress: &'a dyn Progress,
+    /// Pairs linked at [`MAX_CLUSTER_RATIO`] because the work was asked
+    /// to stop.
+    coarse: AtomicU64,
 }
 
-/// Link `clusters` (the scene's) from the root down ([`Linking`]).
+/// Link `clusters` (the scene's) from the root down ([`Linking`]). Once
+/// `progress` asks the work to stop ([`Progress::interrupted`]: a spent
+/// budget), the pairs left are linked at [`MAX_CLUSTER_RATIO`] rather than
+/// the settings' ratio, and counted ([`Progress::cut_short`]); their cluster
+/// links are reported as held ([`Progress::holding`]).
 pub fn link_from_root(
     ctx: &KernelContext,
     clusters: &ClusterTree,
@@ -209,8 +232,14 @@ pub fn link_from_root(
         ctx: *ctx,
         clusters,
         settings,
+        progress,
+        coarse: AtomicU64::new(0),
     };
     let linking = linker.with_itself(0);
+    let coarse = linker.coarse.load(Ordering::Relaxed);
+    if coarse > 0 {
+        progress.cut_short(coarse);
+    }
     progress.advance(1);
     progress.finish();
     linking
@@ -270,11 +299,26 @@ impl Linker<'_> {
     }
 
     /// Whether two ends are apart and small against their distance:
-    /// (r_x + r_y)/d at most the cluster ratio.
-    fn small_against_distance(&self, x: End, y: End) -> bool {
-        let (bx, by) = (self.bounds(x), self.bounds(y));
+    /// (r_x + r_y)/d at most `ratio` (0: never).
+    fn small_against_distance(bx: &Bounds, by: &Bounds, ratio: f64) -> bool {
         let (reach, d) = (bx.radius + by.radius, bx.center.distance(by.center));
-        self.settings.ratio > 0.0 && d > reach && reach <= self.settings.ratio * d
+        ratio > 0.0 && d > reach && reach <= ratio * d
+    }
+
+    /// Whether the work was asked to stop and links with clusters are made
+    /// at all (a cluster ratio above 0): then the pairs left are linked at
+    /// [`MAX_CLUSTER_RATIO`].
+    fn coarsening(&self) -> bool {
+        self.settings.ratio > 0.0 && self.progress.interrupted()
+    }
+
+    /// Push the link between `x` and `y`, if they exchange light.
+    fn push_link(&self, x: End, y: End, out: &mut Linking) {
+        if let Some(link) = self.cluster_link(x, y) {
+            self.progress
+                .holding(std::mem::size_of::<ClusterLink>() as u64);
+            out.cluster_links.push(link);
+        }
     }
 
     /// Whether the light elements `a` and `c` exchange is within the
@@ -336,9 +380,7 @@ impl Linker<'_> {
                 return;
             }
             if !self.emits(a, c) && self.carries_little(a, c) {
-                if let Some(link) = self.cluster_link(x, y) {
-                    out.cluster_links.push(link);
-                }
+                self.push_link(x, y, out);
                 return;
             }
             // In surface order, as the projection of every pair of
@@ -351,10 +393,15 @@ impl Linker<'_> {
             return;
         }
         let (bx, by) = (self.bounds(x), self.bounds(y));
-        if self.small_against_distance(x, y) {
-            if let Some(link) = self.cluster_link(x, y) {
-                out.cluster_links.push(link);
-            }
+        if Self::small_against_distance(&bx, &by, self.settings.ratio) {
+            self.push_link(x, y, out);
+            return;
+        }
+        // Once the budget is spent, ends apart by the coarsest ratio are
+        // linked as they stand.
+        if Self::small_against_distance(&bx, &by, MAX_CLUSTER_RATIO) && self.coarsening() {
+            self.coarse.fetch_add(1, Ordering::Relaxed);
+            self.push_link(x, y, out);
             return;
         }
         // Split the larger end, unless it is an element that may not split
@@ -479,7 +526,6 @@ fn end_seed(end: End) -> u64 {
 mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
-    use crate::kernel::Quadrature;
     use crate::progress::Silent;
     use crate::scene::Scene;
     use crate::testing::grey;
@@ -633,14 +679,9 @@ mod tests {
         assert_eq!(rays_needed(1e-9, threshold), 1);
     }
 
-    #[test]
-    fn every_pair_of_surfaces_is_covered_once() {
-        // A floor of 8 × 8 squares, a facing ceiling of 8 × 8 and a
-        // large wall between them: pairs near each other go to the
-        // projection, distant groups to cluster links, and the wall's
-        // elements are split towards the clusters that face them. Whatever
-        // the mix, each pair of surfaces that face each other must be
-        // linked exactly once: the covered fraction of p × r sums to one.
+    /// A floor of 8 × 8 squares, a facing ceiling of 8 × 8 and a large
+    /// wall between them, with the context and cluster tree to link them.
+    fn floor_ceiling_and_wall() -> Scene {
         let floor = grid(DVec3::ZERO, DVec3::X, DVec3::Y, 8);
         let ceiling = grid(DVec3::new(0.0, 0.0, 12.0), DVec3::Y, DVec3::X, 8);
         let wall = Patch::Parallelogram {
@@ -649,26 +690,25 @@ mod tests {
             edge_t: DVec3::new(0.0, 0.0, 11.0),
         };
         let patches: Vec<Patch> = floor.chain(ceiling).chain([wall]).collect();
-        let scene = Scene::from_surfaces(patches.into_iter().map(grey).collect());
-        let tracer = SceneTracer::new(&scene);
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: Quadrature::default(),
-        };
-        let clusters = ClusterTree::build(&scene);
-        let settings = ClusterSettings {
-            ratio: 0.25,
-            max_level: 5,
-            threshold: 1e-3,
-        };
-        let linking = link_from_root(&ctx, &clusters, settings, &Silent);
-        assert!(!linking.cluster_links.is_empty());
-        assert!(linking.cluster_links.iter().any(|l| l
-            .ends
-            .iter()
-            .any(|e| matches!(e, End::Element(e) if e.id.level > 0))));
+        Scene::from_surfaces(patches.into_iter().map(grey).collect())
+    }
 
+    const SETTINGS: ClusterSettings = ClusterSettings {
+        ratio: 0.25,
+        max_level: 5,
+        threshold: 1e-3,
+    };
+
+    /// Each pair of surfaces of `ctx`'s scene that face each other is
+    /// linked exactly once by `linking` (made over `clusters`): the covered
+    /// fraction of p × r, from element pairs and cluster links, sums to
+    /// one (to zero for pairs that exchange nothing).
+    fn assert_every_pair_covered_once(
+        ctx: &KernelContext,
+        clusters: &ClusterTree,
+        linking: &Linking,
+    ) {
+        let scene = ctx.scene;
         let area = |e: ElementRef| {
             let root = &scene.surfaces[e.surface as usize].patch;
             e.id.patch(root).area() / root.area()
@@ -705,5 +745,83 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn every_pair_of_surfaces_is_covered_once() {
+        // Pairs near each other go to the projection, distant groups to
+        // cluster links, and the wall's elements are split towards the
+        // clusters that face them. Whatever the mix, each pair of surfaces
+        // that face each other must be linked exactly once.
+        let scene = floor_ceiling_and_wall();
+        let tracer = SceneTracer::new(&scene);
+        let ctx = crate::kernel::default_context(&scene, &tracer);
+        let clusters = ClusterTree::build(&scene);
+        let linking = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+        assert!(!linking.cluster_links.is_empty());
+        assert!(linking.cluster_links.iter().any(|l| l
+            .ends
+            .iter()
+            .any(|e| matches!(e, End::Element(e) if e.id.level > 0))));
+        assert_every_pair_covered_once(&ctx, &clusters, &linking);
+    }
+
+    #[test]
+    fn a_spent_budget_links_the_pairs_left_coarser_and_still_covers_every_pair_once() {
+        use crate::progress::{Budget, Budgeted, Stop};
+        use std::time::Duration;
+        let scene = floor_ceiling_and_wall();
+        let tracer = SceneTracer::new(&scene);
+        let ctx = crate::kernel::default_context(&scene, &tracer);
+        let clusters = ClusterTree::build(&scene);
+        let link = |budget: &Budget| {
+            let progress = Budgeted {
+                progress: &Silent,
+                budget,
+            };
+            link_from_root(&ctx, &clusters, SETTINGS, &progress)
+        };
+        let full = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+
+        // A budget that is never spent changes nothing.
+        let open = Budget::new(Some(Duration::from_secs(3600)), None);
+        assert_eq!(link(&open), full);
+        assert_eq!((open.stopped(), open.coarse_items()), (None, 0));
+
+        // Spent from the start: the pairs apart by the coarsest ratio are
+        // linked as they stand, each counted, and no pair of surfaces is
+        // left out or linked twice.
+        let spent = Budget::new(Some(Duration::ZERO), None);
+        let cut = link(&spent);
+        assert_eq!(spent.stopped(), Some(Stop::TimeLimit));
+        assert!(spent.coarse_items() > 0);
+        assert!(
+            cut.cluster_links.len() < full.cluster_links.len(),
+            "{} cluster links, {} unlimited",
+            cut.cluster_links.len(),
+            full.cluster_links.len()
+        );
+        assert!(cut.element_pairs.len() <= full.element_pairs.len());
+        assert_every_pair_covered_once(&ctx, &clusters, &cut);
+
+        // Coarser, but never closer than the coarsest ratio: ends apart,
+        // so every member's transfer stays finite.
+        let linker = Linker {
+            ctx,
+            clusters: &clusters,
+            settings: SETTINGS,
+            progress: &Silent,
+            coarse: AtomicU64::new(0),
+        };
+        let ratio = |l: &ClusterLink| {
+            let [bx, by] = l.ends.map(|e| linker.bounds(e));
+            (bx.radius + by.radius) / bx.center.distance(by.center)
+        };
+        let with_a_cluster = || {
+            (cut.cluster_links.iter())
+                .filter(|l| l.ends.iter().any(|e| matches!(e, End::Cluster(_))))
+        };
+        assert!(with_a_cluster().all(|l| ratio(l) <= MAX_CLUSTER_RATIO));
+        assert!(with_a_cluster().any(|l| ratio(l) > SETTINGS.ratio));
     }
 }

@@ -383,7 +383,9 @@ impl SolveSettings {
 /// project the items it left, keep the links of those it finished, and
 /// finish as [`super::solve`] does, with `settings` (which must refine as
 /// `from.settings` did: [`SolveSettings::for_resuming`] makes them),
-/// saving checkpoints through `saver` as [`super::solve_saving`] does. The
+/// saving checkpoints through `saver` as [`super::solve_saving`] does; a
+/// checkpoint that finished no item (its solve stopped while linking, which
+/// the budget coarsens, or before its first item) is planned afresh. The
 /// result is what the uninterrupted solve gives, bit for bit, and its
 /// statistics count the items taken from the checkpoint (`resumed_items`)
 /// and those projected (`projected_items`). Cut short again, it has a
@@ -409,26 +411,31 @@ pub fn resume(
     }
     settings.check_resumes(from.settings)?;
 
-    // The plan of the interrupted solve, its linking as it was.
-    let mut times = PhaseTimes::default();
-    let projector = Projector::timed(scene, settings, &mut times)?;
-    let clusters = ClusterTree::build(scene);
-    checkpoint.check(scene, clusters.nodes.len())?;
-    let plan = Plan::new(projector, clusters, checkpoint.linking.clone(), times);
-    if plan.items().end != checkpoint.items {
-        return Err(Error::Resume(format!(
-            "the checkpoint holds a plan of {} items, the scene's has {}",
-            checkpoint.items,
-            plan.items().end
-        )));
-    }
+    // A solve stopped before it finished any item (its linking, perhaps
+    // coarsened by the budget, included) leaves nothing to keep: it is
+    // planned afresh. Else the plan of the interrupted solve, its linking
+    // as it was.
+    let (plan, unfinished) = if checkpoint.finished.is_empty() {
+        let plan = super::plan(scene, settings, progress)?;
+        let items = plan.items().collect();
+        (plan, items)
+    } else {
+        let mut times = PhaseTimes::default();
+        let projector = Projector::timed(scene, settings, &mut times)?;
+        let clusters = ClusterTree::build(scene);
+        checkpoint.check(scene, clusters.nodes.len())?;
+        let plan = Plan::new(projector, clusters, checkpoint.linking.clone(), times);
+        if plan.items().end != checkpoint.items {
+            return Err(Error::Resume(format!(
+                "the checkpoint holds a plan of {} items, the scene's has {}",
+                checkpoint.items,
+                plan.items().end
+            )));
+        }
+        (plan, checkpoint.unfinished())
+    };
     let resumed = checkpoint.finished_items();
-    let left = plan.project_saving(
-        &checkpoint.unfinished(),
-        &checkpoint.finished,
-        saver,
-        progress,
-    );
+    let left = plan.project_saving(&unfinished, &checkpoint.finished, saver, progress);
     let runs = (checkpoint.finished.iter().cloned())
         .map(|links| Run {
             links,

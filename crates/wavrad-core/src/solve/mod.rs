@@ -19,7 +19,9 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::exposure::{exposed_fractions, PairExposure};
 use crate::kernel::{KernelContext, Quadrature};
 use crate::progress::{Budget, Budgeted, Progress};
-use crate::refine::cluster_links::{link_from_root, ClusterLink, ClusterSettings, End, Linking};
+use crate::refine::cluster_links::{
+    link_from_root, ClusterLink, ClusterSettings, End, Linking, MAX_CLUSTER_RATIO,
+};
 use crate::refine::emitter_links::resolve_emitter_links;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::importance::Importance;
@@ -278,8 +280,24 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let clock = Instant::now();
     let ctx = projector.kernel_context();
     let clusters = ClusterTree::build(scene);
-    let linking = link_from_root(&ctx, &clusters, settings.clusters(), progress);
+    let linking = link_from_root(
+        &ctx,
+        &clusters,
+        settings.clusters(),
+        &projector.budgeted(progress),
+    );
     times.kernels_s += clock.elapsed().as_secs_f64();
+    // Linking is the plan's first budgeted work: every pair linked coarse
+    // so far is its own.
+    let coarse = projector.budget.coarse_items();
+    if let (Some(stop), true) = (projector.budget.stopped(), coarse > 0) {
+        progress.warn(&format!(
+            "{stop} cut the linking short: {coarse} pairs of clusters or elements were \
+             linked whole, up to (size of both ends)/distance {MAX_CLUSTER_RATIO} instead of the \
+             cluster ratio {}; their light is carried, less accurately",
+            settings.cluster_ratio
+        ));
+    }
     let plan = Plan::new(projector, clusters, linking, times);
     if plan.unplanned_triples > 0 {
         progress.warn(&format!(
@@ -1316,6 +1334,78 @@ mod tests {
         }
     }
 
+    /// Keeps the warnings it is given.
+    #[derive(Default)]
+    struct Warnings(std::sync::Mutex<Vec<String>>);
+
+    impl Progress for Warnings {
+        fn warn(&self, message: &str) {
+            self.0.lock().unwrap().push(message.to_string());
+        }
+    }
+
+    #[test]
+    fn a_budget_spent_before_linking_links_coarser_and_still_solves_within_the_energy_bound() {
+        // The unit box, grey (ρ = 0.5), its floor cut into 64 tiles, and a
+        // small light of radiance 5.
+        let scene = Scene::from_surfaces(
+            (crate::testing::glossy_tiled_box(3).surfaces.into_iter())
+                .map(|s| Surface {
+                    brdf: Brdf::diffuse(Rgb::splat(0.5)),
+                    ..s
+                })
+                .collect(),
+        );
+        let settings = SolveSettings::default();
+        let full = solve(&scene, &settings, &Silent).unwrap();
+        assert!(full.stats.cluster_links > 0);
+        // A budget that is not spent changes nothing.
+        let open = SolveSettings {
+            time_limit: 3600.0,
+            ..settings
+        };
+        let unspent = solve(&scene, &open, &Silent).unwrap();
+        assert_eq!(unspent.radiance, full.radiance);
+        assert_eq!(unspent.stats.cluster_links, full.stats.cluster_links);
+
+        let limited = SolveSettings {
+            time_limit: 1e-9,
+            ..settings
+        };
+        let warnings = Warnings::default();
+        let cut = solve(&scene, &limited, &warnings).unwrap();
+        assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
+        assert!(cut.stats.cluster_links < full.stats.cluster_links);
+        assert!(cut.stats.exchanging_pairs < full.stats.exchanging_pairs);
+        let warnings = warnings.0.into_inner().unwrap();
+        let linking: Vec<&String> = warnings.iter().filter(|w| w.contains("linking")).collect();
+        assert_eq!(linking.len(), 1, "{warnings:?}");
+        assert!(linking[0].contains("the time limit"), "{}", linking[0]);
+
+        // Resumed, it is planned afresh (no item was finished) and gives
+        // the solve the budget cut short.
+        let resumed = resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
+        assert_eq!(resumed.radiance, full.radiance);
+        assert_eq!(resumed.stats.cluster_links, full.stats.cluster_links);
+
+        // Every surface is lit, and none reflects more than reaches it: in
+        // a closed box of reflectance ρ lit by radiance Le, no surface
+        // that does not emit exceeds ρ·Le/(1 − ρ).
+        let bound = 0.5 * 5.0 / (1.0 - 0.5);
+        for (s, (c, f)) in cut.radiance.iter().zip(&full.radiance).enumerate() {
+            if scene.surfaces[s].is_emitter() {
+                continue;
+            }
+            let brightest = c.iter().map(|l| l.max_channel()).fold(0.0, f64::max);
+            assert!(
+                brightest.is_finite() && brightest <= bound,
+                "surface {s}: {brightest}"
+            );
+            let (c, f) = (c[0].max_channel(), f[0].max_channel());
+            assert!(c > 0.1 * f, "surface {s}: {c} against {f}");
+        }
+    }
+
     /// Counts the questions whether to stop, and says yes from the
     /// `after`-th on; remembers how many had been asked when the
     /// three-point phase started.
@@ -1373,7 +1463,10 @@ mod tests {
         };
         let cut = solve(&scene, &limited, &Silent).unwrap();
         assert_eq!(cut.stats.stopped, Some(crate::progress::Stop::TimeLimit));
-        assert_eq!(cut.stats.left_out_items, triples);
+        // (The linking, cut short too, element-links fewer pairs: its plan
+        // holds fewer triples.)
+        assert!(cut.stats.three_point_items <= triples);
+        assert_eq!(cut.stats.left_out_items, cut.stats.three_point_items);
         assert_eq!(cut.stats.three_point_interactions, 0);
         assert!(cut.radiance.iter().all(|r| r[0].max_channel().is_finite()));
         assert!(cut.radiance[1][0].max_channel() > 0.0);

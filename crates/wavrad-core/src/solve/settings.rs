@@ -3,6 +3,7 @@
 //! Python's `wavrad.solve` and the `settings` of the statistics JSON.
 
 use super::{SolveSettings, Solver};
+use crate::refine::cluster_links::MAX_CLUSTER_RATIO;
 use crate::refine::oracle::Oracle;
 use crate::setting::{Choice, Described, Domain, Group, Setting, Value};
 use crate::Result;
@@ -89,7 +90,10 @@ impl Described for SolveSettings {
         Setting {
             name: "cluster_ratio",
             group: Group::Solve,
-            domain: Domain::Real { min: 0.0, max: 0.9 },
+            domain: Domain::Real {
+                min: 0.0,
+                max: MAX_CLUSTER_RATIO,
+            },
             default: "0.25",
             help: "Largest (size of both ends)/distance of a link between clusters of surfaces: \
                    groups of surfaces this small against their distance exchange light as \

@@ -114,9 +114,11 @@ pub struct Stats {
     pub peak_memory_bytes: Option<u64>,
     /// What cut the solve short ([`crate::progress::Budget`]), if anything.
     pub stopped: Option<Stop>,
-    /// Surface pairs and triples linked whole, and links left as they were
-    /// instead of refined further, because the solve was cut short: what
-    /// it cost in accuracy.
+    /// Surface pairs and triples linked whole, links left as they were
+    /// instead of refined further, and pairs of clusters linked at the
+    /// coarsest cluster ratio
+    /// ([`MAX_CLUSTER_RATIO`](crate::refine::cluster_links::MAX_CLUSTER_RATIO)),
+    /// because the solve was cut short: what it cost in accuracy.
     pub unrefined_items: usize,
     /// Surface triples (r, p, q) of glossy surfaces the plan projects
     /// (the paper's three-point kernels, each refined from whole surfaces).
@@ -141,6 +143,32 @@ pub struct Stats {
 }
 
 impl Stats {
+    /// What the user should be told when something cut the solve short
+    /// ([`Stats::stopped`]): the limit, what it left unrefined or out, and
+    /// whether Gauss–Seidel stopped early; `None` when it ran to the end.
+    pub fn cut_short_warning(&self) -> Option<String> {
+        let stop = self.stopped?;
+        let left_out = match self.left_out_items {
+            0 => String::new(),
+            n => format!(
+                ", {n} of {} surface triples of glossy surfaces left out (no three-point links)",
+                self.three_point_items
+            ),
+        };
+        let sweeps = match self.converged {
+            true => String::new(),
+            false => format!(
+                ", and Gauss–Seidel stopped after {} sweeps",
+                self.iterations
+            ),
+        };
+        Some(format!(
+            "{stop} cut the solve short: {} surface pairs, triples or links were left \
+             unrefined{left_out}{sweeps}; the image is coarser than a full solve's",
+            self.unrefined_items
+        ))
+    }
+
     /// The counts of a gathering solve over `trees` and the two-point
     /// `links`, `three_point_interactions` three-point links into the
     /// `directional` structures, after `sweeps`; one refine pass, no times
