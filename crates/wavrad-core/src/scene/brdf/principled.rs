@@ -134,14 +134,14 @@ impl Principled {
         let (m, t) = (self.metallic, self.spec_tint);
         let mut f = Rgb::splat((1.0 - m) * (1.0 - t) * dielectric);
         if m > 0.0 {
-            f = f + self
+            f += self
                 .base_color
                 .map(|r0| m * schlick(r0, cos_theta, self.eta));
         }
         if t > 0.0 {
             let lum = self.base_color.luminance();
             let r0 = ((self.eta - 1.0) / (self.eta + 1.0)).powi(2);
-            f = f + self.base_color.map(|c| {
+            f += self.base_color.map(|c| {
                 let tint = if lum > 0.0 { c / lum } else { 1.0 };
                 (1.0 - m) * t * schlick(tint * r0, cos_theta, self.eta)
             });
