@@ -2,28 +2,15 @@
 //! have: a texture's `uscale`/`vscale`/`uoffset`/`voffset`/`uvscale`, a
 //! bitmap's MIP-map `filterType`, and a `<spectrum>` listing three values.
 
-use std::path::{Path, PathBuf};
+mod common;
 
 use wavrad_core::scene::texture::{Texture, TextureFilter, UvTransform};
 use wavrad_core::scene::Rgb;
-use wavrad_io::{load_scene_with_options, LoadOptions, Loaded};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use wavrad_io::Loaded;
 
 /// `body` in a scene file of `version` beside `wall.png`.
 fn load(version: &str, body: &str) -> wavrad_io::Result<Loaded> {
-    let dir = tempfile::tempdir().unwrap();
-    let wall = repo().join("scenes/textured-cornell-box/wall.png");
-    std::fs::copy(wall, dir.path().join("wall.png")).unwrap();
-    let path = dir.path().join("scene.xml");
-    std::fs::write(
-        &path,
-        format!("<scene version=\"{version}\">\n{body}\n</scene>"),
-    )
-    .unwrap();
-    load_scene_with_options(&path, &[], LoadOptions::default())
+    common::load_beside_wall(version, body, false)
 }
 
 fn checker(params: &str) -> String {

@@ -1,38 +1,26 @@
 //! Materials people use: textures on reflectance, `plastic`, `conductor`,
 //! and what `--approximate` puts in place of the rest.
 
-use std::path::{Path, PathBuf};
-
 use glam::{DVec2, DVec3};
 use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
 use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
 use wavrad_core::scene::texture::Texture;
 use wavrad_core::scene::{Patch, Rgb, Scene};
-use wavrad_io::{load_scene_with_options, LoadOptions, Loaded};
+use wavrad_io::Loaded;
 
-/// `body` in a scene file beside `wall.png` (the textured Cornell box's
-/// texture), loaded as `approximate` says.
+mod common;
+use common::repo;
+
+/// `body` in a Mitsuba 3 scene file beside `wall.png`, loaded as
+/// `approximate` says.
 fn load(body: &str, approximate: bool) -> wavrad_io::Result<Loaded> {
-    let dir = tempfile::tempdir().unwrap();
-    let wall = repo().join("scenes/textured-cornell-box/wall.png");
-    std::fs::copy(wall, dir.path().join("wall.png")).unwrap();
-    let path = dir.path().join("scene.xml");
-    std::fs::write(
-        &path,
-        format!("<scene version=\"3.0.0\">\n{body}\n</scene>"),
-    )
-    .unwrap();
-    load_scene_with_options(&path, &[], LoadOptions { approximate })
+    common::load_beside_wall("3.0.0", body, approximate)
 }
 
 fn scene(body: &str) -> Scene {
     let loaded = load(body, false).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(loaded.warnings, [], "unexpected warnings");
     loaded.scene
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 const CHECKER: &str = r#"<texture type="checkerboard" name="reflectance">

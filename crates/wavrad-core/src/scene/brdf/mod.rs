@@ -60,6 +60,17 @@ bitflags::bitflags! {
     }
 }
 
+impl BrdfFlags {
+    /// A glossy lobe on the front side, with a Lambertian one when
+    /// `diffuse`, marked anisotropic when `anisotropic`.
+    pub fn glossy(diffuse: bool, anisotropic: bool) -> BrdfFlags {
+        let mut flags = BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::FRONT_SIDE;
+        flags.set(BrdfFlags::DIFFUSE_REFLECTION, diffuse);
+        flags.set(BrdfFlags::ANISOTROPIC, anisotropic);
+        flags
+    }
+}
+
 /// An orthonormal shading frame: tangent `s`, bitangent `t`, normal `n`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {

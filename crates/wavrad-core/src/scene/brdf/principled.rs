@@ -262,11 +262,8 @@ impl BrdfModel for Principled {
     /// The components Mitsuba's `principled` lists for reflection: diffuse
     /// and glossy, anisotropic when α_u ≠ α_v.
     fn flags(&self) -> BrdfFlags {
-        let mut flags =
-            BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION | BrdfFlags::FRONT_SIDE;
         let d = &self.distribution;
-        flags.set(BrdfFlags::ANISOTROPIC, d.alpha_u != d.alpha_v);
-        flags
+        BrdfFlags::glossy(true, d.alpha_u != d.alpha_v)
     }
 }
 
