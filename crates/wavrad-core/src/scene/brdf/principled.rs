@@ -311,6 +311,20 @@ mod tests {
     }
 
     #[test]
+    fn serialised_whole_within_brdf() {
+        // A solution file holds the BRDF; the Lambertian split must survive.
+        let brdf = super::super::Brdf::Principled(Principled::new(PrincipledParams {
+            metallic: 0.2,
+            ..PrincipledParams::default()
+        }));
+        let json = serde_json::to_string(&brdf).unwrap();
+        let back: super::super::Brdf = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, brdf);
+        assert_eq!(back.lambertian(), brdf.lambertian());
+        assert!(back.lambertian().is_some());
+    }
+
+    #[test]
     fn metallic_reflects_its_base_color_head_on() {
         let base = Rgb([0.9, 0.6, 0.2]);
         let p = Principled::new(PrincipledParams {
