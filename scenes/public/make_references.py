@@ -22,6 +22,14 @@ pixels and over those that see no emitter (the pixels the test compares):
 
 then records spp and the second noise_ref in scenes.json.
 
+Mitsuba 0.x files: Mitsuba 3 upgrades their parameter names itself (scene
+version < 2) but refuses their camelCase <lookAt> tag. An entry with
+"upgrade": "lookat-tag" is loaded from a temporary copy beside the file in
+which that tag, and only it, is spelt <lookat> (LOOKAT below; the copy is
+removed after loading); everything else is Mitsuba 3's own reading of the
+0.x file. Such files have fixed films (no <default>s), so their references
+are at the film's own resolution.
+
 Usage:
   python3 scenes/public/make_references.py                     # every scene, 4096 spp
   python3 scenes/public/make_references.py --scene veach-mis --spp 65536
@@ -51,8 +59,28 @@ def bundled_references():
     return module
 
 
+# The one edit an "upgrade": "lookat-tag" entry's copy gets.
+LOOKAT = (("<lookAt", "<lookat"), ("</lookAt>", "</lookat>"))
+
+
 def load(mi, entry):
-    return mi.load_file(os.path.join(HERE, entry["file"]), **entry["defines"])
+    path = os.path.join(HERE, entry["file"])
+    upgrade = entry.get("upgrade")
+    if upgrade is None:
+        return mi.load_file(path, **entry["defines"])
+    if upgrade != "lookat-tag":
+        raise SystemExit(f"{entry['file']}: unknown upgrade {upgrade!r}")
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    for old, new in LOOKAT:
+        text = text.replace(old, new)
+    copy = os.path.join(os.path.dirname(path), ".lookat-upgraded.xml")
+    with open(copy, "w", encoding="utf-8") as f:
+        f.write(text)
+    try:
+        return mi.load_file(copy, **entry["defines"])
+    finally:
+        os.remove(copy)
 
 
 def rgb(mi, np, image):

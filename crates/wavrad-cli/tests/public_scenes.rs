@@ -12,7 +12,9 @@
 //! By default only the load is checked: every scene is solved with a
 //! one-second time limit, not rendered, so the test takes seconds.
 //! `WAVRAD_PUBLIC_SCENES=all` also renders every passing scene with default
-//! settings at the table's resolution and checks its error (on 2 cores:
+//! settings at the table's resolution and checks its error, and every
+//! failing scene with a `tolerance_approximate` with `--approximate` and
+//! checks that error against it (on 2 cores:
 //! half a minute for the Cornell box, over ten minutes for veach-mis);
 //! `WAVRAD_PUBLIC_SCENES=cornell-box,veach-mis` renders those only.
 
@@ -66,14 +68,13 @@ fn read_exr(path: &Path) -> (u32, u32, Vec<f32>) {
     wavrad_io::read_exr_rgb(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// Render a passing scene with defaults and return its error.
-fn render_error(name: &str, entry: &Value, dir: &Path) -> f64 {
+/// Render a scene with defaults and the `options` (none for a passing
+/// scene) and return its error.
+fn render_error(name: &str, entry: &Value, dir: &Path, options: &[&str]) -> f64 {
     let out = dir.join(format!("{name}.exr"));
-    let run = wavrad(&arguments(
-        "render",
-        entry,
-        &["-q", "-o", out.to_str().unwrap()],
-    ));
+    let mut extra = vec!["-q", "-o", out.to_str().unwrap()];
+    extra.extend_from_slice(options);
+    let run = wavrad(&arguments("render", entry, &extra));
     assert!(
         run.status.success(),
         "{name}: {}",
@@ -100,7 +101,7 @@ fn public_scenes_behave_as_their_table_says() {
         let expect = entry["expect"].as_str().unwrap();
         if expect == "pass" && render(name) {
             let tolerance = entry["tolerance"].as_f64().unwrap();
-            let error = render_error(name, entry, dir.path());
+            let error = render_error(name, entry, dir.path(), &[]);
             eprintln!("{name}: relRMSE without emitter pixels {error:.4} (tolerance {tolerance})");
             if error.is_nan() || error > tolerance {
                 wrong.push(format!("{name}: relRMSE {error:.4} > {tolerance}"));
@@ -126,6 +127,20 @@ fn public_scenes_behave_as_their_table_says() {
                 "{name}: expected to fail with\n  {error}\nbut exited {:?} with\n  {stderr}",
                 run.status.code()
             ));
+        }
+        if let Some(tolerance) = entry["tolerance_approximate"].as_f64() {
+            if render(name) {
+                let error = render_error(name, entry, dir.path(), &["--approximate"]);
+                eprintln!(
+                    "{name}: with --approximate, relRMSE without emitter pixels {error:.4} \
+                     (tolerance {tolerance})"
+                );
+                if error.is_nan() || error > tolerance {
+                    wrong.push(format!(
+                        "{name}: with --approximate, relRMSE {error:.4} > {tolerance}"
+                    ));
+                }
+            }
         }
     }
     assert!(

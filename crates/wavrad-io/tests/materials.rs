@@ -1,38 +1,26 @@
 //! Materials people use: textures on reflectance, `plastic`, `conductor`,
 //! and what `--approximate` puts in place of the rest.
 
-use std::path::{Path, PathBuf};
-
 use glam::{DVec2, DVec3};
 use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
 use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
 use wavrad_core::scene::texture::Texture;
 use wavrad_core::scene::{Patch, Rgb, Scene};
-use wavrad_io::{load_scene_with_options, LoadOptions, Loaded};
+use wavrad_io::Loaded;
 
-/// `body` in a scene file beside `wall.png` (the textured Cornell box's
-/// texture), loaded as `approximate` says.
+mod common;
+use common::repo;
+
+/// `body` in a Mitsuba 3 scene file beside `wall.png`, loaded as
+/// `approximate` says.
 fn load(body: &str, approximate: bool) -> wavrad_io::Result<Loaded> {
-    let dir = tempfile::tempdir().unwrap();
-    let wall = repo().join("scenes/textured-cornell-box/wall.png");
-    std::fs::copy(wall, dir.path().join("wall.png")).unwrap();
-    let path = dir.path().join("scene.xml");
-    std::fs::write(
-        &path,
-        format!("<scene version=\"3.0.0\">\n{body}\n</scene>"),
-    )
-    .unwrap();
-    load_scene_with_options(&path, &[], LoadOptions { approximate })
+    common::load_beside_wall("3.0.0", body, approximate)
 }
 
 fn scene(body: &str) -> Scene {
     let loaded = load(body, false).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(loaded.warnings, [], "unexpected warnings");
     loaded.scene
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 const CHECKER: &str = r#"<texture type="checkerboard" name="reflectance">
@@ -174,7 +162,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     for plugin in [
         "bsdf \"dielectric\": left out",
         "bsdf \"thindielectric\"",
-        "bsdf \"principled\": rough plastic",
+        "bsdf \"principled\": its reflection: a Lambertian lobe",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
         assert!(
@@ -183,12 +171,63 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         );
     }
     let s = loaded.scene;
-    // Glass is left out; principled is a red rough plastic; the bump map's
+    // Glass is left out; principled is a red Lambertian lobe (Burley's
+    // albedo at roughness 0.3) under a GGX lobe of α = 0.3²; the bump map's
     // nested diffuse stays.
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
     assert!(matches!(&s.surfaces[0].brdf,
-        Brdf::RoughPlastic(p) if p.params().diffuse_reflectance == Rgb([0.8, 0.1, 0.1])
-            && (p.params().alpha - 0.09).abs() < 1e-12));
+        Brdf::Principled(p) if p.diffuse_reflectance == Rgb([0.8, 0.1, 0.1]).map(|c| c * burley)
+            && (p.distribution.alpha_u - 0.09).abs() < 1e-12
+            && (p.eta - 1.5).abs() < 1e-12));
+    assert_eq!(
+        s.surfaces[0].brdf.lambertian(),
+        Some(Rgb([0.8, 0.1, 0.1]).map(|c| c * burley))
+    );
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
+}
+
+#[test]
+fn approximate_principled_keeps_metallic_eta_and_the_diffuse_weight() {
+    let loaded = load(
+        r#"<shape type="rectangle"><bsdf type="principled">
+               <rgb name="base_color" value="0.9, 0.6, 0.2"/>
+               <float name="metallic" value="0.25"/>
+               <float name="spec_trans" value="0.5"/>
+               <float name="eta" value="1.33"/>
+               <float name="anisotropic" value="0.5"/>
+               <float name="clearcoat" value="0.7"/>
+           </bsdf></shape>"#,
+        true,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let Brdf::Principled(p) = &loaded.scene.surfaces[0].brdf else {
+        panic!("{:?}", loaded.scene.surfaces[0].brdf)
+    };
+    // base (1 − metallic)(1 − spec_trans), times Burley's albedo at the
+    // default roughness 0.5; η as given; α = 0.25 stretched by √(1 − 0.45).
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.5);
+    let expect = Rgb([0.9, 0.6, 0.2]).map(|c| c * 0.75 * 0.5 * burley);
+    assert!((0..3).all(|c| (p.diffuse_reflectance.0[c] - expect.0[c]).abs() < 1e-12));
+    assert_eq!((p.metallic, p.eta), (0.25, 1.33));
+    let aspect = 0.55f64.sqrt();
+    assert!((p.distribution.alpha_u - 0.25 / aspect).abs() < 1e-12);
+    assert!((p.distribution.alpha_v - 0.25 * aspect).abs() < 1e-12);
+    assert!(p.flags().contains(BrdfFlags::ANISOTROPIC));
+    // Head on, a quarter of the metal's Schlick (its base colour) joins
+    // three quarters of the dielectric's ((0.33/2.33)²).
+    let f0 = 0.75 * (0.33f64 / 2.33).powi(2);
+    for (f, b) in p.fresnel(1.0).0.into_iter().zip([0.9, 0.6, 0.2]) {
+        assert!((f - (f0 + 0.25 * b)).abs() < 1e-12, "{f}");
+    }
+    // A non-positive eta is an error at its line.
+    let e = load(
+        r#"<shape type="rectangle"><bsdf type="principled">
+               <float name="eta" value="0"/></bsdf></shape>"#,
+        true,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("scene.xml:3") && e.contains("eta"), "{e}");
 }
 
 #[test]

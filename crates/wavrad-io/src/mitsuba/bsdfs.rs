@@ -47,7 +47,7 @@
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
 //! | `dielectric`, `thindielectric`, `roughdielectric` | nothing: the shape is left out (fully transparent)     |
-//! | `principled`                                    | `roughplastic` of `base_color` (`metallic` < ½) or `roughconductor` tinted by it, GGX, α = `roughness`², η from `specular` |
+//! | `principled`                                    | its reflection ([`Principled`]): a Lambertian lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) with Burley's albedo, plus its GGX lobe; transmission, clearcoat, sheen dropped |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
 //! | a texture on another parameter                  | the texture's mean                                       |
@@ -56,8 +56,8 @@
 
 use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
 use wavrad_core::scene::brdf::{
-    Brdf, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams, Ward,
-    WardVariant,
+    Brdf, Microfacet, MicrofacetType, Principled, PrincipledParams, RoughConductor, RoughPlastic,
+    RoughPlasticParams, Ward, WardVariant,
 };
 use wavrad_core::scene::Rgb;
 
@@ -113,6 +113,13 @@ const SUPPORTED: &str =
 /// What `--approximate` puts in place of each glass plugin.
 const GLASS: &str =
     "left out: the shape is fully transparent (no reflection, refraction or shadow)";
+
+/// What `--approximate` puts in place of `principled`.
+const PRINCIPLED: &str =
+    "its reflection: a Lambertian lobe of base_color·(1−metallic)·(1−spec_trans) \
+     (Burley's diffuse, with its albedo but not its angular shape) plus its GGX specular lobe \
+     (roughness, anisotropic, metallic, specular or eta, spec_tint as Mitsuba); its specular \
+     transmission, clearcoat, sheen and flatness dropped";
 
 /// Read the BSDF `bsdf` (a `<bsdf>` element, possibly reached by `<ref>`).
 pub(crate) fn parse_bsdf(bsdf: Nested, doc: &Document) -> Result<Material> {
@@ -236,13 +243,7 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             Ok(Material::Transparent)
         }
         "principled" => {
-            doc.approximate(
-                obj.at(),
-                &plugin,
-                "rough plastic of its base_color (metallic < 0.5) or rough conductor \
-                 (metallic ≥ 0.5), alpha = roughness², the index from specular; other \
-                 parameters dropped",
-            )?;
+            doc.approximate(obj.at(), &plugin, PRINCIPLED)?;
             let material = approximate_principled(&mut obj, doc)?;
             obj.ignore_all();
             Ok(material)
@@ -274,36 +275,34 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
     }
 }
 
-/// Mitsuba 3's `principled` as the nearest supported model: rough plastic
-/// of its `base_color` or, when mostly metallic, a rough conductor tinted by
-/// it; `alpha = roughness²` (its mapping), the index from `specular` as its
-/// `eta = 2 / (1 − √(0.08·specular)) − 1`.
+/// Mitsuba 3's `principled` as the nearest supported model: its
+/// reflection as [`Principled`] (a Lambertian lobe for Burley's diffuse, its
+/// GGX specular lobe as Mitsuba evaluates it), from `base_color`,
+/// `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`),
+/// `spec_tint` and `spec_trans`; a texture on any of them becomes its mean.
 fn approximate_principled(obj: &mut Object, doc: &Document) -> Result<Material> {
-    let base = constant_color(obj, "base_color", 0.5, doc)?;
-    let roughness = constant_float(obj, "roughness", 0.5, doc)?;
-    let metallic = constant_float(obj, "metallic", 0.0, doc)?;
-    let specular = constant_float(obj, "specular", 0.5, doc)?;
-    let alpha = (roughness * roughness).clamp(0.0, 1.0);
-    let base = base.map(|c| c.clamp(0.0, 1.0));
-    let brdf = if metallic >= 0.5 {
-        Brdf::RoughConductor(RoughConductor {
-            distribution: Microfacet::isotropic(MicrofacetType::Ggx, alpha),
-            specular_reflectance: base,
-            ..RoughConductor::default()
-        })
-    } else {
-        let eta = 2.0 / (1.0 - (0.08 * specular.clamp(0.0, 1.0)).sqrt()) - 1.0;
-        Brdf::RoughPlastic(RoughPlastic::new(RoughPlasticParams {
-            distribution: MicrofacetType::Ggx,
-            alpha,
-            int_ior: eta.max(1.0 + 1e-3),
-            ext_ior: 1.0,
-            diffuse_reflectance: base,
-            ..RoughPlasticParams::default()
-        }))
+    let defaults = PrincipledParams::default();
+    let eta = match obj.has("eta") {
+        true => Some(constant_float(obj, "eta", 1.5, doc)?),
+        false => None,
+    };
+    if let Some(eta) = eta.filter(|e| !(e.is_finite() && *e > 0.0)) {
+        return Err(obj.location_of("eta").error(format!(
+            "eta of bsdf \"principled\" must be positive, not {eta}"
+        )));
+    }
+    let params = PrincipledParams {
+        base_color: constant_color(obj, "base_color", 0.5, doc)?,
+        roughness: constant_float(obj, "roughness", defaults.roughness, doc)?,
+        anisotropic: constant_float(obj, "anisotropic", defaults.anisotropic, doc)?,
+        metallic: constant_float(obj, "metallic", defaults.metallic, doc)?,
+        specular: constant_float(obj, "specular", defaults.specular, doc)?,
+        eta,
+        spec_tint: constant_float(obj, "spec_tint", defaults.spec_tint, doc)?,
+        spec_trans: constant_float(obj, "spec_trans", defaults.spec_trans, doc)?,
     };
     obj.nested.clear();
-    Ok(Material::opaque(brdf))
+    Ok(Material::opaque(Brdf::Principled(Principled::new(params))))
 }
 
 /// A reflectance given as a colour or as a texture.

@@ -411,7 +411,7 @@ impl Expander {
                 _ => {
                     self.children(source, child, depth + 1, &mut element.children)?;
                     if source.legacy {
-                        upgrade_from_legacy(&mut element);
+                        upgrade_from_legacy(&mut element, &mut self.warnings)?;
                     }
                     out.push(element);
                 }
@@ -605,9 +605,11 @@ fn is_legacy_version(version: &str, at: &Location) -> Result<bool> {
 }
 
 /// Upgrade `element` (its own children already upgraded) from Mitsuba
-/// 0.x's names to Mitsuba 3's, as Mitsuba 3's `upgrade_tree` does. Elements
-/// of included files keep their own file's version.
-fn upgrade_from_legacy(element: &mut Element) {
+/// 0.x's names to Mitsuba 3's, as Mitsuba 3's `upgrade_tree` does, and
+/// Mitsuba 0.x's texture parameters and spectra to what they meant there
+/// ([`upgrade_texture`], [`upgrade_spectrum`]). Elements of included files
+/// keep their own file's version.
+fn upgrade_from_legacy(element: &mut Element, warnings: &mut Vec<Warning>) -> Result<()> {
     if element.tag == "lookAt" {
         element.tag = "lookat".into();
     }
@@ -623,6 +625,112 @@ fn upgrade_from_legacy(element: &mut Element) {
                 });
             }
         }
+    }
+    if element.tag == "texture" {
+        upgrade_texture(element, warnings)?;
+    }
+    if element.tag == "spectrum" {
+        upgrade_spectrum(element);
+    }
+    Ok(())
+}
+
+/// The UV parameters of Mitsuba 0.x's `Texture2D` (0.6's
+/// `src/librender/texture.cpp`): the texture is looked up at
+/// (u·uscale + uoffset, v·vscale + voffset), `uvscale` the default of both
+/// scales. They become the `to_uv` `<transform>` of that affine map, a
+/// `<matrix>` at the line of the first of them. (Mitsuba 3's upgrade,
+/// `upgrade_from_v1` in `src/core/parser.cpp`, writes scale · translate,
+/// which also scales the offset; the two agree unless a file gives both.)
+/// `filter_type` `trilinear` and `ewa`, Mitsuba 0.x's MIP-map filters of a
+/// `bitmap`, become `bilinear`, with a warning: wavrad has no MIP maps, and
+/// a pixel averages the texels its samples see.
+fn upgrade_texture(element: &mut Element, warnings: &mut Vec<Warning>) -> Result<()> {
+    const UV: [&str; 5] = ["uscale", "vscale", "uoffset", "voffset", "uvscale"];
+    let mut given = [None; 5];
+    let mut first: Option<Location> = None;
+    let mut kept = Vec::with_capacity(element.children.len());
+    for child in std::mem::take(&mut element.children) {
+        let index = (child.tag == "float")
+            .then(|| {
+                child
+                    .attr("name")
+                    .and_then(|n| UV.iter().position(|u| *u == n))
+            })
+            .flatten();
+        let Some(index) = index else {
+            kept.push(child);
+            continue;
+        };
+        let value = child.attr("value").unwrap_or_default();
+        let number = value.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+        let Some(number) = number else {
+            return Err(child.at.error(format!(
+                "{} of a Mitsuba 0.x texture must be a finite number, not \"{value}\"",
+                UV[index]
+            )));
+        };
+        if given[index].replace(number).is_some() {
+            return Err(child.at.error(format!("{} given twice", UV[index])));
+        }
+        first.get_or_insert(child.at.clone());
+    }
+    element.children = kept;
+    if let Some(at) = first {
+        let scale = given[4].unwrap_or(1.0);
+        let (su, sv) = (given[0].unwrap_or(scale), given[1].unwrap_or(scale));
+        let (ou, ov) = (given[2].unwrap_or(0.0), given[3].unwrap_or(0.0));
+        let matrix = format!("{su} 0 0 {ou} 0 {sv} 0 {ov} 0 0 1 0 0 0 0 1");
+        element.children.push(Element {
+            tag: "transform".into(),
+            attrs: vec![("name".into(), "to_uv".into())],
+            children: vec![Element {
+                tag: "matrix".into(),
+                attrs: vec![("value".into(), matrix)],
+                children: Vec::new(),
+                at: at.clone(),
+            }],
+            at,
+        });
+    }
+    if element.attr("type") == Some("bitmap") {
+        for child in element.children.iter_mut() {
+            let filter = child.tag == "string" && child.attr("name") == Some("filter_type");
+            let Some(value) = child.attr("value").filter(|_| filter).map(str::to_string) else {
+                continue;
+            };
+            if ["trilinear", "ewa"].contains(&value.to_ascii_lowercase().as_str()) {
+                warnings.push(child.at.warning(format!(
+                    "filter_type \"{value}\" (Mitsuba 0.x's MIP-map filtering) is read as \
+                     \"bilinear\": wavrad has no MIP maps; each pixel averages the texels its \
+                     samples see"
+                )));
+                for (key, v) in &mut child.attrs {
+                    if key == "value" {
+                        *v = "bilinear".into();
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A Mitsuba 0.x `<spectrum value>` that lists values without wavelengths
+/// gives one value per spectral sample of the renderer's build (0.6's
+/// `scenehandler.cpp`; its default RGB build has three, red, green and
+/// blue): three such values become the `<rgb>` they meant. Other forms are
+/// left to the spectrum reader.
+fn upgrade_spectrum(element: &mut Element) {
+    let Some(value) = element.attr("value") else {
+        return;
+    };
+    let tokens: Vec<&str> = value
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .collect();
+    if tokens.len() == 3 && tokens.iter().all(|t| !t.contains(':')) {
+        element.tag = "rgb".into();
     }
 }
 

@@ -20,6 +20,11 @@
 //! </texture>
 //! ```
 //!
+//! In Mitsuba 0.x files, `uscale`, `vscale`, `uoffset`, `voffset` and
+//! `uvscale` become `to_uv`, and a bitmap's `filterType` `trilinear` or
+//! `ewa` becomes `bilinear` with a warning, when the file is read
+//! (`mitsuba/document.rs`, `upgrade_texture`).
+//!
 //! Images are decoded by the `image` crate. As in Mitsuba 3, integer
 //! texels (8 or 16 bits) are sRGB-encoded and made linear unless `raw`;
 //! floating-point ones (EXR, HDR) are linear. Grey images give grey

@@ -103,10 +103,8 @@ impl BrdfModel for RoughConductor {
     /// Anisotropic when α_u ≠ α_v (Mitsuba 3 compares the two textures, so
     /// it also calls equal `alpha_u` and `alpha_v` given apart anisotropic).
     fn flags(&self) -> BrdfFlags {
-        let mut flags = BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::FRONT_SIDE;
         let d = &self.distribution;
-        flags.set(BrdfFlags::ANISOTROPIC, d.alpha_u != d.alpha_v);
-        flags
+        BrdfFlags::glossy(false, d.alpha_u != d.alpha_v)
     }
 }
 

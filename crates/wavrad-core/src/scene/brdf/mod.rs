@@ -18,6 +18,7 @@
 //! | [`Ward`]           | `ward` (Mitsuba 0.6)         | glossy: anisotropic Ward; diffuse: Lambertian           |
 //! | [`RoughConductor`] | `roughconductor` (Mitsuba 3) | glossy: microfacet, conductor Fresnel                   |
 //! | [`RoughPlastic`]   | `roughplastic` (Mitsuba 3)   | glossy: rough dielectric coating; diffuse: base below it |
+//! | [`Principled`]     | `principled` (Mitsuba 3), its reflection | glossy: GGX, principled Fresnel; diffuse: Lambertian |
 //!
 //! [`microfacet`] holds the Beckmann/GGX distributions and [`fresnel`] the
 //! Fresnel terms and named indices of refraction they share.
@@ -27,12 +28,14 @@ pub mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod principled;
 pub mod ward;
 
 pub use conductor::RoughConductor;
 pub use diffuse::Diffuse;
 pub use microfacet::{Microfacet, MicrofacetType};
 pub use plastic::{RoughPlastic, RoughPlasticParams};
+pub use principled::{Principled, PrincipledParams};
 pub use ward::{Ward, WardVariant};
 
 use crate::scene::Rgb;
@@ -54,6 +57,17 @@ bitflags::bitflags! {
         const ANISOTROPIC = 0x0_1000;
         /// Reflects on the front side (the side the normal points to).
         const FRONT_SIDE = 0x0_8000;
+    }
+}
+
+impl BrdfFlags {
+    /// A glossy lobe on the front side, with a Lambertian one when
+    /// `diffuse`, marked anisotropic when `anisotropic`.
+    pub fn glossy(diffuse: bool, anisotropic: bool) -> BrdfFlags {
+        let mut flags = BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::FRONT_SIDE;
+        flags.set(BrdfFlags::DIFFUSE_REFLECTION, diffuse);
+        flags.set(BrdfFlags::ANISOTROPIC, anisotropic);
+        flags
     }
 }
 
@@ -157,6 +171,8 @@ pub enum Brdf {
     RoughConductor(RoughConductor),
     /// Rough plastic (Mitsuba 3's `roughplastic`).
     RoughPlastic(RoughPlastic),
+    /// The reflection of Mitsuba 3's `principled`: Lambertian plus GGX.
+    Principled(Principled),
 }
 
 impl Brdf {
@@ -166,7 +182,7 @@ impl Brdf {
     }
 
     /// The albedo of the BRDF's Lambertian lobe: ρ of a diffuse BRDF, ρ_d
-    /// of a Ward one (unless black); `None` for models without one. The
+    /// of a Ward or principled one (unless black); `None` for models without one. The
     /// solvers carry light this lobe reflects like a diffuse surface's
     /// (two-point links, one radiance per element) and only the rest, f less
     /// ρ/π ([`Brdf::without_lambertian`]), through three-point links.
@@ -175,6 +191,9 @@ impl Brdf {
             Brdf::Diffuse(d) => Some(d.reflectance),
             Brdf::Ward(w) if w.diffuse_reflectance.max_channel() > 0.0 => {
                 Some(w.diffuse_reflectance)
+            }
+            Brdf::Principled(p) if p.diffuse_reflectance.max_channel() > 0.0 => {
+                Some(p.diffuse_reflectance)
             }
             _ => None,
         }
@@ -189,6 +208,10 @@ impl Brdf {
                 diffuse_reflectance: Rgb::ZERO,
                 ..*w
             }),
+            Brdf::Principled(p) => Brdf::Principled(Principled {
+                diffuse_reflectance: Rgb::ZERO,
+                ..*p
+            }),
             other => other.clone(),
         }
     }
@@ -199,6 +222,7 @@ impl Brdf {
             Brdf::Ward(w) => w,
             Brdf::RoughConductor(c) => c,
             Brdf::RoughPlastic(p) => p,
+            Brdf::Principled(p) => p,
         }
     }
 }

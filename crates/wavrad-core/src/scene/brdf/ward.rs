@@ -185,10 +185,7 @@ impl BrdfModel for Ward {
     /// Both lobes whatever their weights, anisotropic when α_u ≠ α_v, as
     /// Mitsuba 0.6's `Ward::configure`.
     fn flags(&self) -> BrdfFlags {
-        let mut flags =
-            BrdfFlags::GLOSSY_REFLECTION | BrdfFlags::DIFFUSE_REFLECTION | BrdfFlags::FRONT_SIDE;
-        flags.set(BrdfFlags::ANISOTROPIC, self.alpha_u != self.alpha_v);
-        flags
+        BrdfFlags::glossy(true, self.alpha_u != self.alpha_v)
     }
 }
 
