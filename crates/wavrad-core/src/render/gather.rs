@@ -769,9 +769,6 @@ mod tests {
         );
     }
 
-    /// The unit floor (surface 0) under three lights of different power: the
-    /// light overhead (radiance 1), a brighter one off to the side, and an
-    /// upright one beyond the floor's edge facing it.
     #[test]
     fn light_partly_below_the_point_is_seen_through_its_front_part_alone() {
         // An upright unit light of radiance 1 whose lower half reaches
@@ -785,17 +782,7 @@ mod tests {
             edge_s: DVec3::NEG_Y,
             edge_t: DVec3::Z,
         };
-        let scene = Scene::from_surfaces(vec![
-            crate::testing::grey(Patch::Parallelogram {
-                origin: DVec3::new(-5.0, -5.0, 0.0),
-                edge_s: DVec3::X * 10.0,
-                edge_t: DVec3::Y * 10.0,
-            }),
-            Surface {
-                emission: Rgb::splat(1.0),
-                ..crate::testing::grey(light)
-            },
-        ]);
+        let scene = floor_lit_by(light, None);
         assert!(light.normal().x < 0.0, "the light faces the point");
         let rho = lambertian_albedo(&scene, 0, DVec3::ZERO)[0];
         let expect =
@@ -812,11 +799,11 @@ mod tests {
 
     #[test]
     fn a_penumbra_receives_the_kernel_weighted_visible_part_of_the_light() {
-        // A floor point under the edge of a wall that hides the near half
-        // of a 1 × 1 light above: the light it receives is the integral of
-        // the point-to-area kernel over the far half (a fine midpoint rule
-        // with shadow rays), less than F times the visible area's share,
-        // since the near half's kernel is larger. One shadow ray per
+        // A floor point under the edge of a wall that hides all but the
+        // far fifth of a 1 × 1 light above: the light it receives is the
+        // integral of the point-to-area kernel over that fifth (a fine
+        // midpoint rule with shadow rays), less than F times the visible
+        // area's share, since the hidden part's kernel is larger. One shadow ray per
         // estimate and a 2 × 2 grid both average to it.
         let light = Patch::Parallelogram {
             origin: DVec3::new(-0.5, -0.5, 1.0),
@@ -828,18 +815,7 @@ mod tests {
             edge_s: DVec3::X * 5.0,
             edge_t: DVec3::Y * 10.0,
         };
-        let scene = Scene::from_surfaces(vec![
-            crate::testing::grey(Patch::Parallelogram {
-                origin: DVec3::new(-5.0, -5.0, 0.0),
-                edge_s: DVec3::X * 10.0,
-                edge_t: DVec3::Y * 10.0,
-            }),
-            Surface {
-                emission: Rgb::splat(1.0),
-                ..crate::testing::grey(light)
-            },
-            crate::testing::grey(wall),
-        ]);
+        let scene = floor_lit_by(light, Some(wall));
         let x = DVec3::new(-0.3, 0.0, 0.0);
         let tracer = SceneTracer::new(&scene);
         let m = 200;
@@ -878,6 +854,23 @@ mod tests {
         }
     }
 
+    /// A grey 10 × 10 floor (surface 0) at z = 0 around the origin, lit by
+    /// `light` of radiance 1 (surface 1), with a grey `blocker` (surface 2).
+    fn floor_lit_by(light: Patch, blocker: Option<Patch>) -> Scene {
+        let floor = Patch::Parallelogram {
+            origin: DVec3::new(-5.0, -5.0, 0.0),
+            edge_s: DVec3::X * 10.0,
+            edge_t: DVec3::Y * 10.0,
+        };
+        let lit = Surface {
+            emission: Rgb::splat(1.0),
+            ..crate::testing::grey(light)
+        };
+        let mut surfaces = vec![crate::testing::grey(floor), lit];
+        surfaces.extend(blocker.map(crate::testing::grey));
+        Scene::from_surfaces(surfaces)
+    }
+
     /// Mean and standard error of 4 000 independent estimates of the direct
     /// light at `x` on the floor (surface 0) of `scene`, whose surface 1 is
     /// the lone emitter.
@@ -899,6 +892,9 @@ mod tests {
         )
     }
 
+    /// The unit floor (surface 0) under three lights of different power: the
+    /// light overhead (radiance 1), a brighter one off to the side, and an
+    /// upright one beyond the floor's edge facing it.
     fn floor_under_three_lights() -> Scene {
         let mut scene = crate::testing::mirror_floor_and_light();
         let light = |origin: DVec3, edge_s: DVec3, edge_t: DVec3, radiance: f64| Surface {
