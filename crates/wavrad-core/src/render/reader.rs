@@ -17,10 +17,11 @@ use rayon::prelude::*;
 
 /// What gather rays read from a solution on diffuse surfaces: the radiance
 /// of the element they hit (piecewise constant; the bilinear reconstruction
-/// is what camera rays show; both through each tree's `lookup`); on a surface with an entry in
-/// `beyond_first` (the solution's radiance less its first bounce,
-/// [`Solution::first_bounce`]), that element's value of it plus the light
-/// reflected straight from the `emitters` evaluated at the point hit.
+/// is what camera rays show; both through each tree's `lookup`); on a
+/// surface marked `per_point`, that element's value of `rest` (the
+/// solution's radiance less its first bounce, [`Solution::first_bounce`],
+/// and emission) plus its emission and the light reflected straight from
+/// the `emitters` evaluated at the point hit.
 ///
 /// A gather averages what it reads over many elements, so the smooth
 /// reconstruction gains it nothing, and near a concave edge, where the
@@ -53,7 +54,7 @@ use rayon::prelude::*;
 pub(super) struct SolutionReader {
     pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
-    beyond_first: Vec<Option<Vec<Rgb>>>,
+    per_point: Vec<bool>,
     pub(super) emitters: SurfaceDistribution,
     pub(super) bright: SurfaceDistribution,
     mirrors: MirrorImages,
@@ -132,22 +133,12 @@ impl SolutionReader {
         // light shows gather rays its first bounce per point.
         let power = reflected_power(solution);
         let total: f64 = power.iter().sum();
-        let per_point: Vec<usize> = (bright.surfaces().iter().map(|&s| s as usize))
-            .filter(|&s| power[s] > 0.5 * total)
-            .collect();
-        let first = solution.first_bounce();
-        let mut beyond_first = vec![None; surfaces.len()];
-        if let (false, Some(first)) = (per_point.is_empty(), &first) {
-            for s in per_point.into_iter().filter(|&s| !first[s].is_empty()) {
-                beyond_first[s] = Some(
-                    solution.radiance[s]
-                        .iter()
-                        .zip(&first[s])
-                        .map(|(&b, &f)| b - f)
-                        .collect(),
-                );
-            }
+        let mut per_point = vec![false; surfaces.len()];
+        for s in (bright.surfaces().iter().map(|&s| s as usize)).filter(|&s| power[s] > 0.5 * total)
+        {
+            per_point[s] = true;
         }
+        let first = solution.first_bounce();
         let non_lambertian = surfaces
             .iter()
             .map(|s| {
@@ -176,7 +167,7 @@ impl SolutionReader {
         SolutionReader {
             lookup: solution.trees.par_iter().map(TreeLookup::new).collect(),
             non_lambertian,
-            beyond_first,
+            per_point,
             emitters,
             bright,
             mirrors,
@@ -342,10 +333,10 @@ impl SolutionReader {
             let glossy = directional_radiance(solution, q, y, to.surface, to.position);
             return own + glossy;
         }
-        let Some(beyond_first) = &self.beyond_first[i] else {
+        let (true, Some(rest)) = (self.per_point[i], self.rest(i)) else {
             return element(&solution.radiance[i]);
         };
-        let solved = element(beyond_first);
+        let solved = element(rest) + surface.emission;
         let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
         let first =
             gather::direct_radiance(&solution.scene, &solution.tracer, &self.emitters, &at, 1);
