@@ -173,6 +173,64 @@ pub fn direct_radiance(
     out
 }
 
+/// How much of the emitters' light a point receives unoccluded
+/// ([`emitters_seen`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EmittersSeen {
+    /// All of it: [`direct_radiance`] is Lambert's closed form, exactly.
+    Whole,
+    /// None of it: an umbra.
+    Nothing,
+    /// Some: a penumbra, where [`direct_radiance`]'s shadow rays vary.
+    Part,
+}
+
+/// Most emitters [`emitters_seen`] tests, with a shadow ray to each of
+/// their corners and centres.
+pub const MAX_EMITTERS_SEEN: usize = 8;
+
+/// Whether `point` receives the light of the `emitters` whole, not at all
+/// or in part, tested by a shadow ray to each corner and the centre of
+/// every emitter that sends it light (an occluder that hides none of those
+/// points from it, a thin one across the middle of an emitter, is missed).
+/// `None` where that is not known: the scene has lights that are not
+/// surfaces (points, spots, the sky), or more than [`MAX_EMITTERS_SEEN`]
+/// emitters.
+pub fn emitters_seen(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    emitters: &SurfaceDistribution,
+    point: &GatherPoint,
+) -> Option<EmittersSeen> {
+    if !scene.lights.is_empty() || emitters.surfaces().len() > MAX_EMITTERS_SEEN {
+        return None;
+    }
+    let (mut seen, mut hidden) = (false, false);
+    for &e in emitters.surfaces().iter().filter(|&&e| e != point.surface) {
+        let light = &scene.surfaces[e as usize];
+        let skip = |prim: u32| {
+            let s = tracer.surface_of(prim);
+            s == e || s == point.surface
+        };
+        for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
+            let y = light.patch.point_at(light.patch.square_to_param(DVec2::new(u, v)));
+            let d = y - point.position;
+            if !point.receives(scene, d) || light.patch.normal().dot(d) >= 0.0 {
+                continue; // sends the point no light
+            }
+            match tracer.occluder.occluded_except(point.position, y, skip) {
+                true => hidden = true,
+                false => seen = true,
+            }
+        }
+    }
+    Some(match (seen, hidden) {
+        (_, false) => EmittersSeen::Whole,
+        (false, true) => EmittersSeen::Nothing,
+        (true, true) => EmittersSeen::Part,
+    })
+}
+
 /// Lambert's point-to-polygon factor ([`point_to_polygon`]) of `patch` at
 /// `x` for a surface whose shading normal there is `normal` and whose own
 /// normal is `front`: the cosine the shading normal's, over the part of
@@ -795,6 +853,39 @@ mod tests {
                 "grid {grid}: {mean} ± {error} vs {expect}"
             );
         }
+    }
+
+    #[test]
+    fn a_point_sees_the_light_whole_in_part_or_not_at_all() {
+        // A 1 × 1 light at height 1 over the floor, a wall at height 0.5
+        // over x < 0: far to the right of the wall's edge a floor point sees
+        // all of the light, far to its left none, under the edge part.
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(-0.5, -0.5, 1.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(-5.0, -5.0, 0.5),
+            edge_s: DVec3::X * 5.0,
+            edge_t: DVec3::Y * 10.0,
+        };
+        let mut scene = floor_lit_by(light, Some(wall));
+        let tracer = SceneTracer::new(&scene);
+        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let seen = |scene: &Scene, x: f64| {
+            let point = on_floor(DVec3::new(x, 0.0, 0.0), Samples::Hashed(0));
+            emitters_seen(scene, &tracer, &emitters, &point)
+        };
+        assert_eq!(seen(&scene, 3.0), Some(EmittersSeen::Whole));
+        assert_eq!(seen(&scene, -3.0), Some(EmittersSeen::Nothing));
+        assert_eq!(seen(&scene, 0.0), Some(EmittersSeen::Part));
+        // Beside the floor, a point light whose visibility is not tested.
+        scene.lights.push(crate::scene::Light::Point {
+            position: DVec3::new(0.0, 0.0, 2.0),
+            intensity: Rgb::splat(1.0),
+        });
+        assert_eq!(seen(&scene, 3.0), None);
     }
 
     #[test]

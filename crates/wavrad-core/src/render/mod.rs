@@ -20,6 +20,7 @@ pub mod reconstruct;
 pub mod settings;
 
 use crate::geometry::analytic::SeenHit;
+use crate::geometry::tracing::SurfaceHit;
 use crate::progress::{Progress, Silent};
 use crate::sampling::{seeded, Samples};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -31,7 +32,7 @@ use enclosure::EnclosureRadiance;
 use estimator::{CameraHit, Estimator, GlossyView, ViewEstimator};
 use eye::EyeRadiance;
 use film::{develop, Image};
-use gather::GatherPoint;
+use gather::{EmittersSeen, GatherPoint};
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use reader::SolutionReader;
@@ -45,6 +46,15 @@ use std::sync::OnceLock;
 /// surface, each camera ray takes proportionally more light and BRDF
 /// samples). A quarter of an edge pixel's.
 pub const INTERIOR_SHARE: u32 = 4;
+
+/// Camera rays per pixel in the interior pixels whose light straight from
+/// the emitters is uniform, relative to an interior pixel's: where the
+/// probes of the pixel and of its neighbours see every emitter whole, or
+/// none ([`gather::emitters_seen`]), the final gather's direct light is
+/// Lambert's closed form exactly (or nothing), the rest of the solution is
+/// smooth, and the camera rays only average smooth light over the pixel.
+/// Such pixels gather as often as an interior pixel.
+pub const QUIET_SHARE: u32 = 4;
 
 /// Camera rays per pixel at the outline of an emitter, or of a diffuse
 /// surface lit strongly enough to light others as one does, relative to an
@@ -152,17 +162,27 @@ impl RenderSettings {
         (self.samples_per_pixel / INTERIOR_SHARE).max(1)
     }
 
+    /// Camera rays per pixel in an interior pixel whose direct light is
+    /// uniform ([`QUIET_SHARE`]).
+    pub fn quiet_samples_per_pixel(&self) -> u32 {
+        (self.interior_samples_per_pixel() / QUIET_SHARE).max(1)
+    }
+
     /// Camera rays per pixel at an emitter's outline ([`EMITTER_EDGE_FACTOR`]).
     pub fn emitter_edge_samples_per_pixel(&self) -> u32 {
         self.samples_per_pixel.saturating_mul(EMITTER_EDGE_FACTOR)
     }
 
     /// How many of a pixel's `n` camera rays gather: in proportion to `n`,
-    /// as in an interior pixel, up to as many as an edge pixel's.
+    /// as in an interior pixel, up to as many as an edge pixel's, and as
+    /// many as an interior pixel's where it has fewer rays ([`QUIET_SHARE`]).
     pub(super) fn gathers_among(&self, n: usize) -> u32 {
-        let n = n.min(crate::sampling::pixel_offsets_len(self.samples_per_pixel) as usize);
         let interior =
             crate::sampling::pixel_offsets_len(self.interior_samples_per_pixel()) as usize;
+        let n = n.clamp(
+            interior,
+            crate::sampling::pixel_offsets_len(self.samples_per_pixel) as usize,
+        );
         let share = self.gather_samples_per_pixel as f64 / interior as f64;
         ((n as f64 * share).round() as u32).max(1)
     }
@@ -274,7 +294,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays; those near an emitter's outline, more.
-        let probes = &self.probe(camera, film);
+        let quiet = matches!(settings.estimator, Estimator::FinalGather { .. });
+        let probes = &self.probe(camera, film, quiet);
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
         let seed = settings.seed;
         let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n), seed) {
@@ -488,10 +509,27 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         emission + (l - emission) * factor
     }
 
+    /// How much of the emitters the camera ray's `hit` sees
+    /// ([`gather::emitters_seen`]), where it is on a diffuse untextured
+    /// surface (elsewhere the camera rays resolve more than direct light).
+    fn emitters_seen(&self, hit: &SurfaceHit) -> Option<EmittersSeen> {
+        let solution = self.solution();
+        let surface = &solution.scene.surfaces[hit.surface as usize];
+        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+            || surface.texture.is_some()
+        {
+            return None;
+        }
+        let point = GatherPoint::on(&solution.scene, hit.surface, hit.position, Samples::Hashed(0));
+        gather::emitters_seen(&solution.scene, &solution.tracer, &self.reader().emitters, &point)
+    }
+
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`
     /// per surface: emitters, and diffuse surfaces among the bright ones
-    /// (the final gather's secondary sources).
-    fn probe(&self, camera: &Camera, film: &Film) -> Vec<PixelProbe> {
+    /// (the final gather's secondary sources). With `direct`, also how much
+    /// of the emitters the point nearest the pixel's centre sees, where
+    /// that point is on a diffuse untextured surface.
+    fn probe(&self, camera: &Camera, film: &Film, direct: bool) -> Vec<PixelProbe> {
         let solution = self.solution();
         let bright = &self.reader().bright;
         let glaring: Vec<bool> = (solution.scene.surfaces.iter().enumerate())
@@ -507,21 +545,30 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .into_par_iter()
             .map(|pixel| {
                 let (px, py) = ((pixel % w) as f64, (pixel / w) as f64);
-                let hits = (0..16).map(|k| {
-                    let at = DVec2::new(
-                        (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
-                        (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
-                    );
-                    let ray = camera.ray(at, aspect);
-                    (solution.tracer)
-                        .trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max)
-                        .map(|hit| hit.surface())
-                });
-                let hits: Vec<Option<u32>> = hits.collect();
+                let seen: Vec<Option<SeenHit>> = (0..16)
+                    .map(|k| {
+                        let at = DVec2::new(
+                            (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
+                            (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
+                        );
+                        let ray = camera.ray(at, aspect);
+                        (solution.tracer).trace_seen(
+                            ray.origin,
+                            ray.direction,
+                            ray.t_min,
+                            ray.t_max,
+                        )
+                    })
+                    .collect();
+                let hits: Vec<Option<u32>> = seen.iter().map(|h| h.map(|h| h.surface())).collect();
                 let one = hits.iter().all(|&s| s == hits[0]);
                 PixelProbe {
                     surface: if one { hits[0] } else { None },
                     glaring: hits.iter().any(|s| s.is_some_and(|s| glaring[s as usize])),
+                    emitters: match seen[10] {
+                        Some(SeenHit::Surface(hit)) if direct => self.emitters_seen(&hit),
+                        _ => None,
+                    },
                 }
             })
             .collect()
@@ -535,6 +582,10 @@ struct PixelProbe {
     surface: Option<u32>,
     /// Some meet an emitter or a strongly lit diffuse surface.
     glaring: bool,
+    /// How much of the emitters the point nearest the centre sees, where
+    /// it is on a diffuse untextured surface and that is known
+    /// ([`gather::emitters_seen`]).
+    emitters: Option<EmittersSeen>,
 }
 
 /// Camera rays for pixel `(px, py)` of `film`, from what the `probes` of it
@@ -553,13 +604,18 @@ fn camera_rays(
     // An edge pixel is at an emitter's outline when it or a neighbour sees
     // the emitter: the outline may run along a pixel boundary, between the
     // probes of the pixels on either side.
+    let lit = probes[py * w + px].emitters;
     let mut uniform = centre.is_some();
+    let mut quiet = matches!(lit, Some(EmittersSeen::Whole | EmittersSeen::Nothing));
     let mut emitter_edge = false;
     for p in neighbours {
         uniform &= p.surface == centre;
+        quiet &= p.emitters == lit;
         emitter_edge |= p.glaring;
     }
-    if uniform {
+    if uniform && quiet {
+        settings.quiet_samples_per_pixel()
+    } else if uniform {
         settings.interior_samples_per_pixel()
     } else if emitter_edge {
         settings.emitter_edge_samples_per_pixel()
@@ -585,6 +641,7 @@ mod tests {
         let probe = |surface: u32| PixelProbe {
             surface: Some(surface),
             glaring: surface == 1,
+            emitters: None,
         };
         let probes: Vec<PixelProbe> = (0..9).map(|i| probe(u32::from(i < 3))).collect();
         let settings = RenderSettings::default();
@@ -604,6 +661,48 @@ mod tests {
         assert_eq!(
             camera_rays(&walls, &film, (1, 1), &settings),
             settings.samples_per_pixel
+        );
+    }
+
+    #[test]
+    fn interior_pixels_whose_direct_light_is_uniform_get_fewest_rays() {
+        // A 3×3 film of one wall that sees the emitters whole, but for the
+        // bottom row's probes, which see them in part or not at all.
+        let film = Film {
+            width: 3,
+            height: 3,
+            filter: crate::scene::PixelFilter::Box,
+        };
+        let probes: Vec<PixelProbe> = (0..9)
+            .map(|i| PixelProbe {
+                surface: Some(0),
+                glaring: false,
+                emitters: Some(match i {
+                    6 => EmittersSeen::Part,
+                    7 | 8 => EmittersSeen::Nothing,
+                    _ => EmittersSeen::Whole,
+                }),
+            })
+            .collect();
+        let settings = RenderSettings::default();
+        let rays = |px, py| camera_rays(&probes, &film, (px, py), &settings);
+        assert_eq!(rays(2, 0), settings.quiet_samples_per_pixel());
+        assert!(settings.quiet_samples_per_pixel() < settings.interior_samples_per_pixel());
+        // Beside a differently lit neighbour, or not known: interior.
+        assert_eq!(rays(1, 1), settings.interior_samples_per_pixel());
+        assert_eq!(rays(2, 2), settings.interior_samples_per_pixel());
+        let unknown: Vec<PixelProbe> = (probes.iter())
+            .map(|p| PixelProbe {
+                emitters: None,
+                ..*p
+            })
+            .collect();
+        let rays = |px, py| camera_rays(&unknown, &film, (px, py), &settings);
+        assert_eq!(rays(2, 0), settings.interior_samples_per_pixel());
+        // They gather as often as an interior pixel.
+        assert_eq!(
+            settings.gathers_among(settings.quiet_samples_per_pixel() as usize),
+            settings.gather_samples_per_pixel
         );
     }
 

@@ -31,9 +31,10 @@ use rayon::prelude::*;
 /// A final gather's bias is the error of what its rays read. On a strongly
 /// lit diffuse surface ([`secondary_sources`]) that reflects over half of
 /// the scene's light, that is the first bounce, which its elements average
-/// over (Figure 3's reflector, which alone lights the receiver). Elsewhere
-/// evaluating the first bounce per point changes nothing measurable and
-/// costs a shadow ray per gather sample that meets the surface.
+/// over (Figure 3's reflector, which alone lights the receiver); so it is
+/// wherever a ray meets a surface within [`NEAR_ELEMENTS`] element widths
+/// of its start. Elsewhere evaluating the first bounce per point changes
+/// nothing measurable and costs a shadow ray per gather sample.
 ///
 /// `non_lambertian` is, for a glossy surface whose BRDF has a Lambertian
 /// lobe besides others (Ward's), the rest of its BRDF: camera rays meeting
@@ -326,14 +327,17 @@ impl SolutionReader {
         let (q, y) = (from.surface, from.position);
         let surface = &solution.scene.surfaces[q as usize];
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
-        let i = q as usize;
-        let element = |radiance: &[Rgb]| self.lookup[i].haar(&solution.trees[i], radiance, uv_y);
+        let (i, tree) = (q as usize, &solution.trees[q as usize]);
+        let leaf = self.lookup[i].locate(tree, uv_y).0 as usize;
+        let element = |radiance: &[Rgb]| radiance[leaf];
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&solution.radiance[i]);
             let glossy = directional_radiance(solution, q, y, to.surface, to.position);
             return own + glossy;
         }
-        let (true, Some(rest)) = (self.per_point[i], self.rest(i)) else {
+        let near = (to.position - y).length_squared()
+            < NEAR_ELEMENTS * NEAR_ELEMENTS * tree.nodes[leaf].patch.area();
+        let (true, Some(rest)) = (self.per_point[i] || near, self.rest(i)) else {
             return element(&solution.radiance[i]);
         };
         let solved = element(rest) + surface.emission;
@@ -343,6 +347,13 @@ impl SolutionReader {
         solved.map(|x| x.max(0.0)) + first
     }
 }
+
+/// A gather ray that meets a diffuse surface within this many element
+/// widths of where it starts reads the first bounce there per point (see
+/// [`SolutionReader`]): that close, the gather's kernel varies across the
+/// element it hits, which its average then misweighs (the floor at the
+/// foot of a box, where the box's shadow begins).
+const NEAR_ELEMENTS: f64 = 3.0;
 
 /// Per surface, the light its diffuse solution reflects: average radiance
 /// (mean of the channels) times area, zero for emitters and glossy
