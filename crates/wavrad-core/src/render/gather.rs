@@ -262,8 +262,10 @@ pub struct GatherSources<'a> {
     pub bright: &'a SurfaceDistribution,
     /// Emitters' images through glossy surfaces.
     pub mirrors: &'a MirrorImages,
-    /// Samples of the bright surfaces, and of the mirror images.
-    pub count: u32,
+    /// Samples of the bright surfaces.
+    pub bright_count: u32,
+    /// Samples of the mirror images.
+    pub mirror_count: u32,
     /// The source elements of the links into the point's elements.
     pub linked: &'a LinkedSources,
     /// Samples of them.
@@ -304,13 +306,15 @@ pub fn indirect_radiance(
     let GatherSources {
         bright,
         mirrors,
-        count,
+        bright_count,
+        mirror_count,
         linked,
         linked_count,
     } = sources;
     let rho = lambertian_albedo(scene, surface, x);
     let (t, b) = orthonormal_basis(normal);
-    let (n_cos, n_area) = (f64::from(rays), f64::from(count));
+    let (n_cos, n_bright) = (f64::from(rays), f64::from(bright_count));
+    let n_mirror = f64::from(mirror_count);
     let n_linked = f64::from(linked_count);
     // Σ_k n_k·p_k(wi) over the strategies that can pick direction `wi`,
     // whose ray first meets surface q at y: each looks at q alone.
@@ -319,12 +323,12 @@ pub fn indirect_radiance(
         let patch = &scene.surfaces[q as usize].patch;
         let chosen = bright.probability(q, surface);
         if chosen > 0.0 {
-            d += n_area * chosen * area_pdf(patch, wi, (y - x).length_squared());
+            d += n_bright * chosen * area_pdf(patch, wi, (y - x).length_squared());
         }
         if linked_count > 0 {
             d += n_linked * linked.pdf((q, patch), x, y);
         }
-        d + n_area * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
+        d + n_mirror * mirrors.pdf(surface, x, (wi, q, (y - x).length()))
     };
     let mut sum = Rgb::ZERO;
     // f·cos/Σ n_k·p_k with f = ρ/π (ρ applied at the end).
@@ -332,8 +336,8 @@ pub fn indirect_radiance(
         let weight = normal.dot(wi) * std::f64::consts::FRAC_1_PI / density(q, wi, y);
         sum += outgoing(q, y) * weight;
     };
-    for k in 0..count {
-        let u = samples.point(Stream::Bright, count, k);
+    for k in 0..bright_count {
+        let u = samples.point(Stream::Bright, bright_count, k);
         let Some((q, uv, _)) = bright.sample(u, surface) else {
             break;
         };
@@ -352,8 +356,8 @@ pub fn indirect_radiance(
             add(q, wi, y);
         }
     }
-    for k in 0..count {
-        let u = samples.point(Stream::Mirror, count, k);
+    for k in 0..mirror_count {
+        let u = samples.point(Stream::Mirror, mirror_count, k);
         let Some((m, uv, _)) = mirrors.sample(u, surface) else {
             break;
         };
@@ -589,7 +593,8 @@ mod tests {
         let sources = GatherSources {
             bright: &SurfaceDistribution::default(),
             mirrors: &MirrorImages::default(),
-            count: 1,
+            bright_count: 1,
+            mirror_count: 1,
             linked: &LinkedSources::default(),
             linked_count: 0,
         };
@@ -646,7 +651,8 @@ mod tests {
             let sources = GatherSources {
                 bright: &bright,
                 mirrors,
-                count: 9,
+                bright_count: 9,
+                mirror_count: 9,
                 linked: &LinkedSources::default(),
                 linked_count: 0,
             };

@@ -326,7 +326,8 @@ mod tests {
                 let gather = GatherSources {
                     bright: &none,
                     mirrors: &mirrors,
-                    count: 0,
+                    bright_count: 0,
+                    mirror_count: 0,
                     linked: &sources,
                     linked_count: linked,
                 };

@@ -83,6 +83,14 @@ pub const CAUSTIC_GATHERS: u32 = 16;
 /// indirect rays, and at least this many each while they are few.
 pub const GATHER_GRID: u32 = 2;
 
+/// A final gather draws a square grid of samples of the bright surfaces
+/// together ([`gather::GatherSources`]) with a `BRIGHT_SHARE`-th as many
+/// points as it has cosine rays: combined with those by multiple importance
+/// sampling, that many already take out the variance of a small bright
+/// surface that cosine rays find now and then, and more cost a shadow ray
+/// each for little.
+pub const BRIGHT_SHARE: u32 = 4;
+
 /// A final gather also samples the source elements of its point's links
 /// ([`link_guide`]), as many as it has cosine rays, where glossy sources
 /// bring at least this share of the light the links bring.

@@ -6,7 +6,7 @@ use super::gather::{self, GatherPoint};
 use super::link_guide::LinkGuide;
 use super::mirror::MirrorImages;
 use super::reconstruct::{directional_radiance, TreeLookup};
-use super::{GATHER_GRID, GATHER_RAYS, GLOSSY_GRID, GLOSSY_SHARE_LINKED};
+use super::{BRIGHT_SHARE, GATHER_GRID, GATHER_RAYS, GLOSSY_GRID, GLOSSY_SHARE_LINKED};
 use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
@@ -192,8 +192,9 @@ impl SolutionReader {
     /// Radiance leaving the diffuse `point` (view-independent): its emission,
     /// the light straight from the emitters (the `budget`'s shadow rays,
     /// [`gather::direct_radiance`]) and its cosine rays' worth of the rest of
-    /// the solution, with a square grid of about as many samples of the
-    /// bright surfaces together, and as many of the mirror images together
+    /// the solution, with a square grid of about a [`BRIGHT_SHARE`]-th as
+    /// many samples of the bright surfaces together, and as many as it has
+    /// cosine rays of the mirror images together
     /// ([`gather::indirect_radiance`]; each costs a shadow ray and, on a
     /// glossy surface, a glossy evaluation), or where that is fewer, a
     /// [`GATHER_GRID`]² grid's worth for each of a few bright surfaces, up
@@ -251,7 +252,8 @@ impl SolutionReader {
         let sources = gather::GatherSources {
             bright: &self.bright,
             mirrors: &self.mirrors,
-            count: (grid * grid).max(few.min(GATHER_RAYS)),
+            bright_count: (grid * grid / BRIGHT_SHARE).max(few.min(GATHER_RAYS)),
+            mirror_count: (grid * grid).max(few.min(GATHER_RAYS)),
             linked,
             linked_count: match linked.glossy_share() >= GLOSSY_SHARE_LINKED {
                 true => grid * grid,
