@@ -411,13 +411,14 @@ impl GatheringRays {
         let side = ((n as f64).sqrt().round() as usize).max(1);
         let gathers = (wanted as usize).clamp(1, side * side);
         let excess = wanted.div_ceil(gathers as u32).max(1);
-        let coprime = |p: usize| {
-            (1..=p.min(side))
-                .rev()
-                .all(|d| d == 1 || !p.is_multiple_of(d) || !side.is_multiple_of(d))
+        let gcd = |(mut a, mut b): (usize, usize)| {
+            while b != 0 {
+                (a, b) = (b, a % b);
+            }
+            a
         };
         let step = (((side as f64) * 0.618).round() as usize..)
-            .find(|&p| coprime(p))
+            .find(|&p| gcd((p, side)) == 1)
             .unwrap_or(1);
         GatheringRays {
             side,
