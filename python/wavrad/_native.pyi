@@ -157,7 +157,7 @@ class Solution:
         wide), made by the first render that asks for it and read by every
         later one, instead of gathering per camera ray: for many views of
         one solution. ``gather_spp``: for ``"gather"``, how many of an
-        interior pixel's camera rays also final-gather (default ``spp`` / 16).
+        interior pixel's camera rays also final-gather (default ``spp`` / 32).
         ``seed``: scrambles every pixel's samples, as Mitsuba's sampler
         ``seed`` does (0 to 2³²−1): renders with different seeds have
         independent noise.

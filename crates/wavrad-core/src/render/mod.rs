@@ -66,7 +66,7 @@ pub const QUIET_SHARE: u32 = 4;
 pub const EMITTER_EDGE_FACTOR: u32 = 16;
 
 /// Of an edge pixel's camera rays, the share that also gathers by default.
-pub const GATHER_SHARE: u32 = 16;
+pub const GATHER_SHARE: u32 = 32;
 
 /// How many times as many camera rays gather on a caustic's receiver: a
 /// diffuse surface that sees a sharp glossy surface mirror an emitter
@@ -801,7 +801,7 @@ mod tests {
                 s.interior_samples_per_pixel(),
                 s.gather_samples_per_pixel
             ),
-            (4096, 1024, 256)
+            (4096, 1024, 128)
         );
         assert_eq!(s.estimator, default.estimator);
     }

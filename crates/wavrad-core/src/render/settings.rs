@@ -43,7 +43,7 @@ impl Described for RenderSettings {
                 min: 1,
                 max: MAX_SAMPLES_PER_PIXEL,
             },
-            default: "spp / 16",
+            default: "spp / 32",
             help: "With mode gather: of an interior pixel's camera rays, how many also \
                    final-gather (32 indirect rays each; every camera ray casts a shadow ray to the \
                    emitters); pixels with more camera rays gather in the same proportion, those \
@@ -195,7 +195,7 @@ mod tests {
         let s = RenderSettings::from_values(&no_hints(), &[gathers, spp]).unwrap();
         assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (64, 5));
         let s = RenderSettings::from_values(&no_hints(), &[spp]).unwrap();
-        assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (64, 4));
+        assert_eq!((s.samples_per_pixel, s.gather_samples_per_pixel), (64, 2));
         assert!(RenderSettings::from_values(&no_hints(), &[("spp", Value::Count(0))]).is_err());
     }
 }
