@@ -180,6 +180,17 @@ def test_a_time_limit_finishes_the_solve_from_what_was_done(scene: wavrad.Scene)
     assert np.isfinite(image).all() and image.max() > 0
 
 
+def test_a_solve_out_of_sweeps_warns_that_it_did_not_converge(scene: wavrad.Scene) -> None:
+    with pytest.warns(wavrad.SolveWarning, match="not converged: the residual is") as told:
+        solution = wavrad.solve(scene, max_level=MAX_LEVEL, max_iterations=1)
+    assert all(w.filename == __file__ for w in told), [w.filename for w in told]
+    assert solution.stats["converged"] is False and solution.stats["iterations"] == 1
+    assert solution.stats["residual"] > solution.stats["settings"]["tolerance"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wavrad.SolveWarning)
+        assert wavrad.solve(scene, max_level=MAX_LEVEL).stats["converged"] is True
+
+
 def test_render_settings_are_taken_by_name(kernel: wavrad.Solution) -> None:
     a = kernel.render("gather", 4, gather_spp=1)
     b = kernel.render(mode="gather", spp=4, gather_spp=1)

@@ -829,13 +829,9 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
 
 /// Warnings about a solve that ended without a hard failure.
 fn report_warnings(solution: &Solution) {
-    let s = &solution.stats;
-    if !s.converged && s.stopped.is_none() {
-        eprintln!(
-            "wavrad: warning: not converged: the residual is {:.2e} after {} sweeps (tolerance \
-             {:.0e}); more --max-iterations may help",
-            s.residual, s.iterations, solution.settings.tolerance
-        );
+    let tolerance = solution.settings.tolerance;
+    if let Some(message) = solution.stats.not_converged_warning(tolerance) {
+        eprintln!("wavrad: warning: {message}; more --max-iterations may help");
     }
 }
 

@@ -294,7 +294,7 @@ impl Plan {
         let told = Warnings::default();
         let solution = py.allow_threads(|| plan.finish(links, &told))?;
         told.raise(py)?;
-        warn_cut_short(py, &solution)?;
+        warn_solve_end(py, &solution)?;
         Ok(Solution(Renderer::new(solution), self.source.clone()))
     }
 
@@ -517,7 +517,7 @@ fn solve(
             })
         })??;
         warn_unsaved(py, saving)?;
-        warn_cut_short(py, &solution)?;
+        warn_solve_end(py, &solution)?;
         return Ok(Solution(Renderer::new(solution), scene.1.clone()));
     }
     let saving = checkpoint_saver(checkpoint.as_deref(), checkpoint_every, scene)?;
@@ -567,15 +567,23 @@ fn solve(
         return Err(Error::Python(e));
     }
     warn_unsaved(py, saving)?;
-    warn_cut_short(py, &solution)?;
+    warn_solve_end(py, &solution)?;
     Ok(Solution(Renderer::new(solution), scene.1.clone()))
 }
 
 /// A `wavrad.SolveWarning` saying what cut `solution`'s solve short, if
-/// anything did ([`Stats::cut_short_warning`](wavrad_core::solve::stats::Stats::cut_short_warning)).
-fn warn_cut_short(py: Python<'_>, solution: &wavrad_core::solve::Solution) -> PyResult<()> {
-    match solution.stats.cut_short_warning() {
-        Some(message) => progress::warn(py, &message),
+/// anything did ([`Stats::cut_short_warning`](wavrad_core::solve::stats::Stats::cut_short_warning)),
+/// or that Gauss–Seidel did not converge
+/// ([`Stats::not_converged_warning`](wavrad_core::solve::stats::Stats::not_converged_warning)).
+fn warn_solve_end(py: Python<'_>, solution: &wavrad_core::solve::Solution) -> PyResult<()> {
+    let stats = &solution.stats;
+    if let Some(message) = stats.cut_short_warning() {
+        progress::warn(py, &message)?;
+    }
+    match stats.not_converged_warning(solution.settings.tolerance) {
+        Some(message) => {
+            progress::warn(py, &format!("{message}; a larger max_iterations may help"))
+        }
         None => Ok(()),
     }
 }

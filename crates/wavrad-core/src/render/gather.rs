@@ -213,7 +213,9 @@ pub fn emitters_seen(
             s == e || s == point.surface
         };
         for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
-            let y = light.patch.point_at(light.patch.square_to_param(DVec2::new(u, v)));
+            let y = light
+                .patch
+                .point_at(light.patch.square_to_param(DVec2::new(u, v)));
             let d = y - point.position;
             if !point.receives(scene, d) || light.patch.normal().dot(d) >= 0.0 {
                 continue; // sends the point no light

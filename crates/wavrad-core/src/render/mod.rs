@@ -523,13 +523,22 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     fn emitters_seen(&self, hit: &SurfaceHit) -> Option<EmittersSeen> {
         let solution = self.solution();
         let surface = &solution.scene.surfaces[hit.surface as usize];
-        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
-            || surface.texture.is_some()
+        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) || surface.texture.is_some()
         {
             return None;
         }
-        let point = GatherPoint::on(&solution.scene, hit.surface, hit.position, Samples::Hashed(0));
-        gather::emitters_seen(&solution.scene, &solution.tracer, &self.reader().emitters, &point)
+        let point = GatherPoint::on(
+            &solution.scene,
+            hit.surface,
+            hit.position,
+            Samples::Hashed(0),
+        );
+        gather::emitters_seen(
+            &solution.scene,
+            &solution.tracer,
+            &self.reader().emitters,
+            &point,
+        )
     }
 
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`

@@ -169,6 +169,19 @@ impl Stats {
         ))
     }
 
+    /// What the user should be told when Gauss–Seidel ran out of sweeps
+    /// before its residual fell below `tolerance` (and no limit stopped
+    /// it: [`Stats::cut_short_warning`] says that); `None` when it
+    /// converged.
+    pub fn not_converged_warning(&self, tolerance: f64) -> Option<String> {
+        (!self.converged && self.stopped.is_none()).then(|| {
+            format!(
+                "not converged: the residual is {:.2e} after {} sweeps (tolerance {tolerance:.0e})",
+                self.residual, self.iterations
+            )
+        })
+    }
+
     /// The counts of a gathering solve over `trees` and the two-point
     /// `links`, `three_point_interactions` three-point links into the
     /// `directional` structures, after `sweeps`; one refine pass, no times
