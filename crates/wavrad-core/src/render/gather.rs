@@ -865,20 +865,9 @@ mod tests {
 
     #[test]
     fn a_point_sees_the_light_whole_in_part_or_not_at_all() {
-        // A 1 × 1 light at height 1 over the floor, a wall at height 0.5
-        // over x < 0: far to the right of the wall's edge a floor point sees
-        // all of the light, far to its left none, under the edge part.
-        let light = Patch::Parallelogram {
-            origin: DVec3::new(-0.5, -0.5, 1.0),
-            edge_s: DVec3::Y,
-            edge_t: DVec3::X,
-        };
-        let wall = Patch::Parallelogram {
-            origin: DVec3::new(-5.0, -5.0, 0.5),
-            edge_s: DVec3::X * 5.0,
-            edge_t: DVec3::Y * 10.0,
-        };
-        let mut scene = floor_lit_by(light, Some(wall));
+        // Far to the right of the wall's edge a floor point sees all of the
+        // light, far to its left none, under the edge part.
+        let mut scene = floor_under_a_wall_edge();
         let tracer = SceneTracer::new(&scene);
         let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
         let seen = |scene: &Scene, x: f64| {
@@ -904,17 +893,8 @@ mod tests {
         // midpoint rule with shadow rays), less than F times the visible
         // area's share, since the hidden part's kernel is larger. One shadow ray per
         // estimate and a 2 × 2 grid both average to it.
-        let light = Patch::Parallelogram {
-            origin: DVec3::new(-0.5, -0.5, 1.0),
-            edge_s: DVec3::Y,
-            edge_t: DVec3::X,
-        };
-        let wall = Patch::Parallelogram {
-            origin: DVec3::new(-5.0, -5.0, 0.5),
-            edge_s: DVec3::X * 5.0,
-            edge_t: DVec3::Y * 10.0,
-        };
-        let scene = floor_lit_by(light, Some(wall));
+        let scene = floor_under_a_wall_edge();
+        let light = scene.surfaces[1].patch;
         let x = DVec3::new(-0.3, 0.0, 0.0);
         let tracer = SceneTracer::new(&scene);
         let m = 200;
@@ -951,6 +931,22 @@ mod tests {
                 "grid {grid}: {mean} ± {error} vs {expect}"
             );
         }
+    }
+
+    /// The floor under a 1 × 1 light at height 1, and a wall at height 0.5
+    /// over x < 0 whose edge runs under the light's middle.
+    fn floor_under_a_wall_edge() -> Scene {
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(-0.5, -0.5, 1.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(-5.0, -5.0, 0.5),
+            edge_s: DVec3::X * 5.0,
+            edge_t: DVec3::Y * 10.0,
+        };
+        floor_lit_by(light, Some(wall))
     }
 
     /// A grey 10 × 10 floor (surface 0) at z = 0 around the origin, lit by
