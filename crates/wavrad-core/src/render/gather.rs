@@ -123,7 +123,7 @@ pub fn direct_radiance(
         let (e, _, chosen) = rays[0];
         let light = &scene.surfaces[e as usize];
         let on_light = |uv: DVec2| light.patch.point_at(light.patch.square_to_param(uv));
-        if light.patch.normal().dot(x - on_light(DVec2::ZERO)) <= 0.0 {
+        if !lit_by(tracer, &light.patch, x) {
             continue;
         }
         let skip = |prim: u32| {
@@ -208,6 +208,9 @@ pub fn emitters_seen(
     let (mut seen, mut hidden) = (false, false);
     for &e in emitters.surfaces().iter().filter(|&&e| e != point.surface) {
         let light = &scene.surfaces[e as usize];
+        if !lit_by(tracer, &light.patch, point.position) {
+            continue;
+        }
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
             s == e || s == point.surface
@@ -231,6 +234,14 @@ pub fn emitters_seen(
         (false, true) => EmittersSeen::Nothing,
         (true, true) => EmittersSeen::Part,
     })
+}
+
+/// Whether point `x` is in front of the emitter `light`'s plane, not
+/// behind it or pressed against it (the back of a two-sided emitter, whose
+/// closed form would count the emitter's own plane).
+fn lit_by(tracer: &SceneTracer, light: &Patch, x: DVec3) -> bool {
+    let on_light = light.point_at(light.square_to_param(DVec2::ZERO));
+    light.normal().dot(x - on_light) > tracer.occluder.contact_distance()
 }
 
 /// Lambert's point-to-polygon factor ([`point_to_polygon`]) of `patch` at
@@ -861,6 +872,39 @@ mod tests {
                 "grid {grid}: {mean} ± {error} vs {expect}"
             );
         }
+    }
+
+    #[test]
+    fn the_back_of_a_two_sided_emitter_receives_none_of_its_light() {
+        // The light's other side: a surface in the light's plane facing up,
+        // its points pressed against the emitter (a rounding error off its
+        // plane, as a ray finds them), which the closed form would
+        // otherwise count whole.
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(-0.5, -0.5, 1.0),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let back = Patch::Parallelogram {
+            origin: DVec3::new(-0.5, -0.5, 1.0),
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        };
+        let scene = floor_lit_by(light, Some(back));
+        let tracer = SceneTracer::new(&scene);
+        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        for (k, x) in [(0.1, 0.2), (-0.3, 0.4)].into_iter().enumerate() {
+            let point = GatherPoint {
+                surface: 2,
+                position: DVec3::new(x.0, x.1, 1.0 - 1e-9),
+                normal: DVec3::Z,
+                samples: Samples::Hashed(k as u64),
+            };
+            assert_eq!(direct_radiance(&scene, &tracer, &emitters, &point, 2), Rgb::ZERO);
+        }
+        // The floor below still sees it.
+        let below = on_floor(DVec3::ZERO, Samples::Hashed(0));
+        assert!(direct_radiance(&scene, &tracer, &emitters, &below, 2)[0] > 0.1);
     }
 
     #[test]
