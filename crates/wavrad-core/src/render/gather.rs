@@ -900,7 +900,10 @@ mod tests {
                 normal: DVec3::Z,
                 samples: Samples::Hashed(k as u64),
             };
-            assert_eq!(direct_radiance(&scene, &tracer, &emitters, &point, 2), Rgb::ZERO);
+            assert_eq!(
+                direct_radiance(&scene, &tracer, &emitters, &point, 2),
+                Rgb::ZERO
+            );
         }
         // The floor below still sees it.
         let below = on_floor(DVec3::ZERO, Samples::Hashed(0));
