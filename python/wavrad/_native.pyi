@@ -140,10 +140,12 @@ class Solution:
 
         ``mode``: what camera rays show. ``"gather"`` (the default and most
         accurate) is a final gather at each visible point; the others read
-        the solution along view rays, reconstructed ``"smooth"`` (bilinear
-        between elements), ``"haar"`` (the piecewise-constant projection)
-        or ``"direct"`` (smooth, glossy surfaces' radiance towards the eye
-        per element). ``spp``: camera rays per pixel where an edge shows
+        the solution along view rays, with no gather: ``"smooth"`` (the
+        solution alone, bilinear between elements: what a lightmap holds),
+        ``"haar"`` (the piecewise-constant projection) or ``"direct"`` (the
+        light straight from the emitters evaluated per camera ray, the rest
+        of the solution smooth except across occluders' edges; glossy
+        surfaces' radiance towards the eye per element). ``spp``: camera rays per pixel where an edge shows
         (default 256, or the scene sampler's sample_count if larger; pixels
         that show one surface get a quarter, and an eighth of those
         final-gather). ``eye``: for the modes that read the solution, glossy

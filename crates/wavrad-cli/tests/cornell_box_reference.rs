@@ -97,6 +97,18 @@ fn cornell_box_matches_mitsuba_path_tracer() {
     eprintln!("smooth: relRMSE {all:.4}, away from the light {away:.4}");
     assert!(all < 0.015, "smooth relRMSE {all}");
     assert!(away < 0.012, "smooth relRMSE away from the light {away}");
+
+    // `direct`: the light straight from the emitters per camera ray, the
+    // rest of the solution read smooth across all but occluders' edges;
+    // still no gather, and closer than the solution alone.
+    let smooth_all = all;
+    let direct = direct_error(&renderer, &scene, &reference);
+    eprintln!("direct: relRMSE {direct:.4}");
+    assert!(direct < 0.012, "direct relRMSE {direct}");
+    assert!(
+        direct < 0.9 * smooth_all,
+        "direct {direct}, smooth {smooth_all}"
+    );
 }
 
 /// `mi.cornell_box()` written by Mitsuba's own XML writer loads and renders,

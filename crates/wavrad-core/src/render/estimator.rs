@@ -49,6 +49,12 @@ pub enum Estimator {
         reconstruction: Reconstruction,
         /// Where glossy surfaces' radiance towards the eye comes from.
         glossy: GlossyView,
+        /// Whether diffuse surfaces (and glossy ones' Lambertian lobes) show
+        /// the light straight from the emitters evaluated per camera ray
+        /// (one shadow ray each, as in the final gather: shadows as sharp as
+        /// the pixels) on top of the rest of the solution, smooth, instead of
+        /// the solution's own first bounce, which its elements average.
+        direct_per_point: bool,
     },
 }
 
@@ -81,10 +87,15 @@ pub enum Mode {
     /// [`Estimator::FinalGather`].
     #[default]
     Gather,
-    /// The solution read directly: smooth, glossy surfaces' radiance
-    /// towards the eye per element, as stored.
+    /// The solution read directly, with the light straight from the
+    /// emitters evaluated per camera ray instead of the solution's first
+    /// bounce (no gather: what a viewer with shadow rays over a baked
+    /// solution shows), the rest smooth except across occluders
+    /// ([`Reconstruction::Limited`]); glossy surfaces' radiance towards the
+    /// eye per element, as stored.
     Direct,
-    /// The solution read directly, all of it smooth.
+    /// The solution alone read directly, all of it smooth (what a lightmap
+    /// holds).
     Smooth,
     /// The solution read directly, all of it piecewise constant.
     Haar,
@@ -126,7 +137,8 @@ impl Mode {
                 })
             }
             Mode::Haar => Reconstruction::Haar,
-            Mode::Direct | Mode::Smooth => Reconstruction::Smooth,
+            Mode::Direct => Reconstruction::Limited,
+            Mode::Smooth => Reconstruction::Smooth,
         };
         let glossy = match (eye, self) {
             (false, _) => GlossyView::Directional,
@@ -136,27 +148,29 @@ impl Mode {
         Ok(Estimator::Solution {
             reconstruction,
             glossy,
+            direct_per_point: self == Mode::Direct,
         })
     }
 }
 
 impl Estimator {
     /// The mode, eye and gather-cache choice that make this estimator
-    /// ([`Mode::estimator`] backwards; `direct` and `smooth` without the
-    /// eye are one estimator, read as `direct`).
+    /// ([`Mode::estimator`] backwards).
     pub fn choices(self) -> (Mode, bool, bool) {
         match self {
             Estimator::FinalGather { cached } => (Mode::Gather, true, cached),
             Estimator::Solution {
+                direct_per_point: true,
+                glossy,
+                ..
+            } => (Mode::Direct, glossy != GlossyView::Directional, false),
+            Estimator::Solution {
                 reconstruction: Reconstruction::Haar,
                 glossy,
-            } => (Mode::Haar, glossy != GlossyView::Directional, false),
-            Estimator::Solution {
-                glossy: GlossyView::Eye(Reconstruction::Smooth),
                 ..
-            } => (Mode::Smooth, true, false),
+            } => (Mode::Haar, glossy != GlossyView::Directional, false),
             Estimator::Solution { glossy, .. } => {
-                (Mode::Direct, glossy != GlossyView::Directional, false)
+                (Mode::Smooth, glossy != GlossyView::Directional, false)
             }
         }
     }
@@ -185,8 +199,9 @@ pub(super) enum ViewEstimator<'a> {
     /// [`Estimator::Solution`] with [`GlossyView::Eye`]: the eye gathered
     /// for this view.
     Eye {
-        /// How element radiance is reconstructed.
-        reconstruction: Reconstruction,
+        /// How element radiance is reconstructed, and whether the light
+        /// straight from the emitters is evaluated per point.
+        own: (Reconstruction, bool),
         /// Glossy surfaces' radiance towards this view.
         eye: EyeRadiance,
         /// How that is reconstructed.
@@ -195,8 +210,9 @@ pub(super) enum ViewEstimator<'a> {
     /// [`Estimator::Solution`] read from the view-independent solution
     /// alone.
     Directional {
-        /// How element radiance is reconstructed.
-        reconstruction: Reconstruction,
+        /// How element radiance is reconstructed, and whether the light
+        /// straight from the emitters is evaluated per point.
+        own: (Reconstruction, bool),
     },
 }
 
@@ -211,13 +227,11 @@ impl ViewEstimator<'_> {
         match self {
             ViewEstimator::FinalGather { cache } => final_gather(renderer, hit, *cache, settings),
             ViewEstimator::Eye {
-                reconstruction,
+                own,
                 eye,
                 towards_eye,
-            } => read_with_eye(renderer, hit, *reconstruction, (eye, *towards_eye)),
-            ViewEstimator::Directional { reconstruction } => {
-                read_directional(renderer, hit, *reconstruction)
-            }
+            } => read_with_eye(renderer, hit, *own, (eye, *towards_eye)),
+            ViewEstimator::Directional { own } => read_directional(renderer, hit, *own),
         }
     }
 }
@@ -282,15 +296,12 @@ fn final_gather<S: Borrow<Solution> + Sync>(
 }
 
 /// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
-/// at `hit`: the view-independent gather `cache`'s; or the light straight
-/// from the emitters evaluated by every camera ray (one shadow ray each, the
-/// pixel's rays drawing their points on the emitters as one stratified set,
-/// so that a penumbra is sampled as finely as the pixel), and the rest of
-/// the solution ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
-/// smooth, corrected by the final gathers of some of the pixel's camera
-/// rays ([`GatheringRays`]: a control variate). While the solution's links
-/// are not arranged, the whole smooth element radiance is the control
-/// variate of whole final gathers.
+/// at `hit`: the view-independent gather `cache`'s; or its
+/// [`direct_per_point`] parts, the rest of the solution (smooth) corrected
+/// by the final gathers of some of the pixel's camera rays
+/// ([`GatheringRays`]: a control variate). While the solution's links are
+/// not arranged, the whole smooth element radiance is the control variate
+/// of whole final gathers.
 fn lambertian_gather<S: Borrow<Solution> + Sync>(
     renderer: &Renderer<S>,
     hit: &CameraHit,
@@ -302,25 +313,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     }
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
-    let emission = solution.scene.surfaces[s].emission;
-    let rest = reader.rest(s);
-    let (direct, control) = match rest {
-        Some(rest) => (
-            emission
-                + gather::direct_radiance(
-                    &solution.scene,
-                    &solution.tracer,
-                    &reader.emitters,
-                    &hit.point,
-                    1,
-                ),
-            renderer.element_values(Reconstruction::Smooth, s, hit.uv, (rest, Rgb::ZERO)),
-        ),
-        None => (
-            Rgb::ZERO,
-            renderer.element_radiance(Reconstruction::Smooth, s, hit.uv),
-        ),
-    };
+    let (direct, control) = direct_per_point(renderer, hit, Reconstruction::Smooth);
     let (k, n) = hit.rays;
     let local = settings.on_receiver(reader.caustic[s]);
     let gathering = GatheringRays::new(n, local.gathers_among(n));
@@ -332,7 +325,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
         ..hit.point
     };
     let rays = gathering.rays(&local);
-    let gathered = match rest {
+    let gathered = match reader.rest(s) {
         Some(_) => reader.indirect_gather(solution, &point, rays).radiance,
         None => reader.final_gather(
             solution,
@@ -346,17 +339,67 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     direct + control + (gathered - control) * gathering.weight()
 }
 
-/// [`Estimator::Solution`] with [`GlossyView::Eye`] at `hit`: the element
-/// radiance, and on a glossy surface its radiance towards the `eye`
+/// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
+/// at `hit` without a gather, in two parts: its emission and the light
+/// straight from the emitters, evaluated by the camera ray (one shadow ray,
+/// the pixel's rays drawing their points on the emitters as one stratified
+/// set, so that a penumbra is sampled as finely as the pixel:
+/// [`gather::direct_radiance`]); and the rest of the solution
+/// ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
+/// reconstructed as `reconstruction`. Where the solution has no rest (its
+/// links are not arranged), nothing and the whole element radiance.
+fn direct_per_point<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    reconstruction: Reconstruction,
+) -> (Rgb, Rgb) {
+    let (solution, reader) = (renderer.solution(), renderer.reader());
+    let s = hit.point.surface as usize;
+    match reader.rest(s) {
+        Some(rest) => (
+            solution.scene.surfaces[s].emission
+                + gather::direct_radiance(
+                    &solution.scene,
+                    &solution.tracer,
+                    &reader.emitters,
+                    &hit.point,
+                    1,
+                ),
+            renderer.element_values(reconstruction, s, hit.uv, (rest, Rgb::ZERO)),
+        ),
+        None => (
+            Rgb::ZERO,
+            renderer.element_radiance(reconstruction, s, hit.uv),
+        ),
+    }
+}
+
+/// A surface's own radiance at `hit` read from the solution (its element
+/// radiance, reconstructed as `reconstruction`), or with `per_point` its
+/// [`direct_per_point`] parts together.
+fn own_radiance<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    (reconstruction, per_point): (Reconstruction, bool),
+) -> Rgb {
+    if per_point {
+        let (direct, rest) = direct_per_point(renderer, hit, reconstruction);
+        return direct + rest;
+    }
+    renderer.element_radiance(reconstruction, hit.point.surface as usize, hit.uv)
+}
+
+/// [`Estimator::Solution`] with [`GlossyView::Eye`] at `hit`: the surface's
+/// [`own_radiance`], and on a glossy surface its radiance towards the `eye`
 /// gathered for this view, reconstructed as given.
 fn read_with_eye<S: Borrow<Solution> + Sync>(
     renderer: &Renderer<S>,
     hit: &CameraHit,
-    reconstruction: Reconstruction,
+    own: (Reconstruction, bool),
     (eye, towards_eye): (&EyeRadiance, Reconstruction),
 ) -> Rgb {
     let s = hit.point.surface as usize;
-    let own = renderer.element_radiance(reconstruction, s, hit.uv);
+    let own = own_radiance(renderer, hit, own);
     if !renderer.solution().scene.surfaces[s]
         .brdf
         .flags()
@@ -371,24 +414,25 @@ fn read_with_eye<S: Borrow<Solution> + Sync>(
 }
 
 /// [`Estimator::Solution`] with [`GlossyView::Directional`] at `hit`: the
-/// element radiance of a diffuse surface, and a glossy one's radiance
+/// surface's [`own_radiance`], and on a glossy one its directional radiance
 /// towards the eye from the view-independent solution
 /// ([`Renderer::glossy_radiance_towards`]).
 fn read_directional<S: Borrow<Solution> + Sync>(
     renderer: &Renderer<S>,
     hit: &CameraHit,
-    reconstruction: Reconstruction,
+    own: (Reconstruction, bool),
 ) -> Rgb {
     let GatherPoint {
         surface, position, ..
     } = hit.point;
-    match !renderer.solution().scene.surfaces[surface as usize]
+    let own = own_radiance(renderer, hit, own);
+    match renderer.solution().scene.surfaces[surface as usize]
         .brdf
         .flags()
         .contains(BrdfFlags::GLOSSY_REFLECTION)
     {
-        true => renderer.element_radiance(reconstruction, surface as usize, hit.uv),
-        false => renderer.glossy_radiance_towards(surface, position, hit.wo),
+        false => own,
+        true => own + renderer.directional_towards(surface, position, hit.wo),
     }
 }
 
@@ -456,9 +500,8 @@ impl GatheringRays {
 mod tests {
     use super::*;
 
-    /// Each mode with the options it uses is an estimator of its own (but
-    /// `direct` and `smooth` without the eye, which read the same smooth
-    /// solution); the options a mode has no use for are errors.
+    /// Each mode with the options it uses is an estimator of its own; the
+    /// options a mode has no use for are errors.
     #[test]
     fn every_mode_option_combination_is_an_estimator_or_an_error() {
         let mut estimators = Vec::new();
@@ -486,7 +529,7 @@ mod tests {
         assert_eq!(estimators.len(), 8);
         estimators.sort_by_key(|e| format!("{e:?}"));
         estimators.dedup();
-        assert_eq!(estimators.len(), 7);
+        assert_eq!(estimators.len(), 8);
         assert_eq!(
             Mode::default().estimator(true, false),
             Ok(Estimator::default())

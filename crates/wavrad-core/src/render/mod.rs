@@ -275,6 +275,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             estimator: Estimator::Solution {
                 reconstruction: smooth,
                 glossy: GlossyView::Eye(smooth),
+                direct_per_point: false,
             },
             ..RenderSettings::default().with_samples_per_pixel(4)
         })
@@ -302,7 +303,14 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays; those near an emitter's outline, more.
-        let quiet = matches!(settings.estimator, Estimator::FinalGather { .. });
+        let quiet = matches!(
+            settings.estimator,
+            Estimator::FinalGather { .. }
+                | Estimator::Solution {
+                    direct_per_point: true,
+                    ..
+                }
+        );
         let probes = &self.probe(camera, film, quiet);
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
         let seed = settings.seed;
@@ -345,17 +353,24 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// where it meets none.
     pub fn glossy_radiance_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
         let solution = self.solution();
-        let glossy = match solution.tracer.trace(y, d, 1e-7, f64::INFINITY) {
-            Some(hit) if hit.surface != p => {
-                reconstruct::directional_radiance(solution, p, y, hit.surface, hit.position)
-            }
-            _ => self.enclosure().radiance(&solution.scene, p, y, d),
-        };
         let patch = &solution.scene.surfaces[p as usize].patch;
         let uv = patch.clamp_param(patch.param_of(y));
         let (tree, radiance) = (&solution.trees[p as usize], &solution.radiance[p as usize]);
         let own = radiance_at(tree, radiance, uv, Reconstruction::Smooth);
-        own + glossy
+        own + self.directional_towards(p, y, d)
+    }
+
+    /// The directional part of [`Renderer::glossy_radiance_towards`]: the
+    /// radiance L_{p→q} towards the surface q that `d` meets from `y`, or
+    /// the enclosure's.
+    fn directional_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
+        let solution = self.solution();
+        match solution.tracer.trace(y, d, 1e-7, f64::INFINITY) {
+            Some(hit) if hit.surface != p => {
+                reconstruct::directional_radiance(solution, p, y, hit.surface, hit.position)
+            }
+            _ => self.enclosure().radiance(&solution.scene, p, y, d),
+        }
     }
 
     /// What final gathers read from the solution, made on first use.
@@ -392,16 +407,21 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             Estimator::Solution {
                 reconstruction,
                 glossy: GlossyView::Eye(towards_eye),
+                direct_per_point,
             } if any_glossy => ViewEstimator::Eye {
-                reconstruction,
+                own: (reconstruction, direct_per_point),
                 eye: EyeRadiance::gather(solution, camera, progress),
                 towards_eye,
             },
             // Without glossy surfaces there is nothing to gather into the
             // eye: the solution is read alone.
-            Estimator::Solution { reconstruction, .. } => {
-                ViewEstimator::Directional { reconstruction }
-            }
+            Estimator::Solution {
+                reconstruction,
+                direct_per_point,
+                ..
+            } => ViewEstimator::Directional {
+                own: (reconstruction, direct_per_point),
+            },
         }
     }
 
@@ -756,6 +776,7 @@ mod tests {
             estimator: Estimator::Solution {
                 reconstruction: Reconstruction::Smooth,
                 glossy: GlossyView::Eye(Reconstruction::Smooth),
+                direct_per_point: false,
             },
             ..RenderSettings::default().with_samples_per_pixel(4)
         };

@@ -15,6 +15,15 @@
 //!   that falls off towards an edge, as it does across a directly lit
 //!   floor or towards a contact line, keeps its slope up to the edge instead
 //!   of flattening to the boundary element's average.
+//! * [`Reconstruction::Limited`]: the smooth reconstruction of light that
+//!   is smooth except across occluders (light that is not straight from
+//!   the emitters: where that is evaluated per point, what is left). A
+//!   neighbouring element whose value differs from the point's own by more
+//!   than [`JUMP_RATIO`] is across such an edge, which the elements resolve
+//!   no finer, and is blended as if it were that ratio away: a lit element
+//!   beside a dark one is not darkened towards it, nor the dark one
+//!   brightened (the ceiling beside a light hung just below it, above
+//!   which the ceiling is hidden from the room).
 
 use crate::geometry::hierarchy::{ElementId, ElementTree};
 use crate::scene::{Patch, Rgb};
@@ -28,23 +37,42 @@ pub enum Reconstruction {
     Haar,
     /// Bilinear interpolation of leaf averages (dual linear-spline basis).
     Smooth,
+    /// [`Reconstruction::Smooth`] with jumps between neighbouring elements
+    /// beyond [`JUMP_RATIO`] limited to it.
+    Limited,
+}
+
+/// Largest ratio, per channel, between a neighbouring element's value and
+/// the point's own element's that [`Reconstruction::Limited`] blends as it
+/// is (chosen by measurement: docs/decisions-measurements.md).
+pub const JUMP_RATIO: f64 = 1.5;
+
+/// A neighbouring element's value `v`, each channel limited to within
+/// [`JUMP_RATIO`] of the `own` element's.
+fn limit_jump(v: Rgb, own: Rgb) -> Rgb {
+    Rgb([0, 1, 2].map(|c| {
+        let (a, b) = (own[c] / JUMP_RATIO, own[c] * JUMP_RATIO);
+        v[c].max(a.min(b)).min(a.max(b))
+    }))
 }
 
 /// Radiance of `tree` at surface parameter `uv`.
 pub fn radiance_at(tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Reconstruction) -> Rgb {
     let (leaf, _) = tree.locate(uv);
-    match mode {
-        Reconstruction::Haar => radiance[leaf as usize],
-        Reconstruction::Smooth => {
-            let root = &tree.nodes[0].patch;
-            let mut out = Rgb::ZERO;
-            for (centre, w) in hat_stencil(uv, tree.nodes[leaf as usize].id.level) {
-                let (node, _) = tree.locate(root.clamp_param(centre));
-                out += radiance[node as usize] * w;
-            }
-            out
-        }
+    let own = radiance[leaf as usize];
+    if mode == Reconstruction::Haar {
+        return own;
     }
+    let root = &tree.nodes[0].patch;
+    let mut out = Rgb::ZERO;
+    for (centre, w) in hat_stencil(uv, tree.nodes[leaf as usize].id.level) {
+        let v = radiance[tree.locate(root.clamp_param(centre)).0 as usize];
+        out += match mode {
+            Reconstruction::Limited => limit_jump(v, own),
+            _ => v,
+        } * w;
+    }
+    out
 }
 
 /// Most levels of an element tree that a [`TreeLookup`] indexes with a
@@ -194,10 +222,15 @@ impl TreeLookup {
     }
 
     /// The smooth radiance of `tree` at `uv`: [`radiance_at`] with
-    /// [`Reconstruction::Smooth`].
-    pub fn smooth(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2) -> Rgb {
+    /// [`Reconstruction::Smooth`], or with `limited`
+    /// [`Reconstruction::Limited`].
+    pub fn smooth(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2, limited: bool) -> Rgb {
         if self.neighbours.is_empty() {
-            return radiance_at(tree, radiance, uv, Reconstruction::Smooth);
+            let mode = match limited {
+                true => Reconstruction::Limited,
+                false => Reconstruction::Smooth,
+            };
+            return radiance_at(tree, radiance, uv, mode);
         }
         let (leaf, local) = self.locate(tree, uv);
         let (qx, qy) = (local.x >= 0.5, local.y >= 0.5);
@@ -209,7 +242,12 @@ impl TreeLookup {
             local.y + 0.5 - f64::from(u8::from(qy)) - f64::from(stencil.shift[1]),
         )
         .clamp(DVec2::splat(-0.5), DVec2::splat(1.5));
-        blend(stencil.nodes.map(|n| radiance[n as usize]), f).map(|v| v.max(0.0))
+        let values = stencil.nodes.map(|n| radiance[n as usize]);
+        let values = match limited {
+            true => values.map(|v| limit_jump(v, radiance[leaf as usize])),
+            false => values,
+        };
+        blend(values, f).map(|v| v.max(0.0))
     }
 
     /// The radiance of `tree` at `uv` reconstructed as `mode`.
@@ -222,7 +260,8 @@ impl TreeLookup {
     ) -> Rgb {
         match mode {
             Reconstruction::Haar => self.haar(tree, radiance, uv),
-            Reconstruction::Smooth => self.smooth(tree, radiance, uv),
+            Reconstruction::Smooth => self.smooth(tree, radiance, uv, false),
+            Reconstruction::Limited => self.smooth(tree, radiance, uv, true),
         }
     }
 }
@@ -331,6 +370,54 @@ mod tests {
         }
     }
 
+    /// Light that steps down across an occluder's edge between two
+    /// elements: the smooth reconstruction darkens the lit element towards
+    /// the dark one, the limited one only by as much as a neighbour
+    /// [`JUMP_RATIO`] darker would; a gentle ramp it reproduces exactly, as
+    /// the smooth one does.
+    #[test]
+    fn limited_reconstruction_keeps_a_step_from_spreading_and_a_ramp_exact() {
+        let root = crate::testing::unit_floor();
+        let mut ids = BTreeSet::new();
+        for path in 0..64u64 {
+            ids.insert(ElementId { level: 3, path });
+        }
+        let tree = ElementTree::build(&root, &ids);
+        let lookup = TreeLookup::new(&tree);
+        let step: Vec<Rgb> = (tree.nodes.iter())
+            .map(|n| Rgb::splat(if n.patch.centroid().x < 0.5 { 1.0 } else { 0.0 }))
+            .collect();
+        // In the lit element [0.375, 0.5], nearer the dark one than its centre.
+        let uv = DVec2::new(0.49, 0.3);
+        let f = (0.49 - 0.4375) / 0.125;
+        for read in [
+            lookup.radiance(&tree, &step, uv, Reconstruction::Limited)[0],
+            radiance_at(&tree, &step, uv, Reconstruction::Limited)[0],
+        ] {
+            assert!((read - (1.0 - f + f / JUMP_RATIO)).abs() < 1e-12, "{read}");
+        }
+        let smooth = lookup.radiance(&tree, &step, uv, Reconstruction::Smooth)[0];
+        assert!((smooth - (1.0 - f)).abs() < 1e-12, "{smooth}");
+        // The dark element stays dark.
+        let dark = DVec2::new(0.51, 0.3);
+        assert_eq!(
+            lookup.radiance(&tree, &step, dark, Reconstruction::Limited)[0],
+            0.0
+        );
+        // Neighbours within the ratio of each other: blended as they are.
+        let ramp: Vec<Rgb> = (tree.nodes.iter())
+            .map(|n| Rgb::splat(2.0 + n.patch.centroid().x - 0.5 * n.patch.centroid().y))
+            .collect();
+        for &(s, t) in &[(0.3, 0.4), (0.02, 0.97), (0.61, 0.2)] {
+            let uv = DVec2::new(s, t);
+            let limited = lookup.radiance(&tree, &ramp, uv, Reconstruction::Limited)[0];
+            assert!(
+                (limited - (2.0 + s - 0.5 * t)).abs() < 1e-12,
+                "at ({s}, {t}): {limited}"
+            );
+        }
+    }
+
     /// A tree refined unevenly, down to two levels below the lookup's
     /// grid in one corner: locating through the grid finds the leaf and
     /// local parameter the tree's descent finds, to the bit, on cell
@@ -395,7 +482,7 @@ mod tests {
             (1.0, 1.0),
         ] {
             let uv = DVec2::new(s, t);
-            let got = lookup.smooth(&tree, &radiance, uv)[0];
+            let got = lookup.smooth(&tree, &radiance, uv, false)[0];
             let want = ramp(DVec3::new(s, t, 0.0));
             assert!((got - want).abs() < 1e-12, "at ({s}, {t}): {got} vs {want}");
         }
@@ -406,6 +493,9 @@ mod tests {
             .iter()
             .map(|n| Rgb::splat(4.0 * n.patch.centroid().x - 0.2))
             .collect();
-        assert_eq!(lookup.smooth(&tree, &steep, DVec2::new(0.0, 0.5))[0], 0.0);
+        assert_eq!(
+            lookup.smooth(&tree, &steep, DVec2::new(0.0, 0.5), false)[0],
+            0.0
+        );
     }
 }
