@@ -603,9 +603,10 @@ def write_report(info: dict, runs: list[dict], walk: dict | None) -> None:
         "",
         "## The solution without a final gather",
         "",
-        "The default configuration's solution rendered in `direct` (the solution read at "
-        "each pixel) and `smooth` (reconstructed) modes: what a walkthrough, a lightmap or "
-        "a viewer shows.",
+        "The default configuration's solution rendered with no final gather, in `smooth` "
+        "mode (the solution alone, reconstructed: what a lightmap holds) and `direct` mode "
+        "(the light straight from the emitters per camera ray over the rest of the "
+        "solution: what a viewer with shadow rays over a baked solution shows).",
         "",
         "| scene | mode | error (all pixels) | render |",
         "|---|---|---|---|",
