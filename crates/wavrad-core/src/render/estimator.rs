@@ -52,8 +52,9 @@ pub enum Estimator {
         /// Whether diffuse surfaces (and glossy ones' Lambertian lobes) show
         /// the light straight from the emitters evaluated per camera ray
         /// (one shadow ray each, as in the final gather: shadows as sharp as
-        /// the pixels) on top of the rest of the solution, smooth, instead of
-        /// the solution's own first bounce, which its elements average.
+        /// the pixels) on top of the rest of the solution, reconstructed as
+        /// `reconstruction`, instead of the solution's own first bounce,
+        /// which its elements average.
         direct_per_point: bool,
     },
 }
