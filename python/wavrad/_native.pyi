@@ -139,21 +139,21 @@ class Solution:
         or a ``fov`` for an orthographic sensor.
 
         ``mode``: what camera rays show. ``"gather"`` (the default and most
-        accurate) is a final gather at each visible point; the others read
-        the solution along view rays, with no gather: ``"smooth"`` (the
-        solution alone, bilinear between elements: what a lightmap holds),
-        ``"haar"`` (the piecewise-constant projection) or ``"direct"`` (the
-        light straight from the emitters evaluated per camera ray, the rest
-        of the solution smooth except across occluders' edges; glossy
-        surfaces' radiance towards the eye per element). ``spp``: camera rays per pixel where an edge shows
-        (default 256, or the scene sampler's sample_count if larger; pixels
-        that show one surface get a quarter, and an eighth of those
-        final-gather). ``eye``: for the modes that read the solution, glossy
-        surfaces show their radiance gathered once into the eye as a
-        hypothetical receiver (``True``), or read from the view-independent
-        solution alone (``False``: the directional radiance towards what the
-        view ray meets beyond the eye, or towards an enclosure receiver
-        around the scene; no per-view work, softer highlights).
+        accurate) is a final gather at each visible point; the others read the
+        solution along view rays, with no gather: ``"smooth"`` (the solution
+        alone, bilinear between elements: what a lightmap holds), ``"haar"``
+        (the piecewise-constant projection) or ``"direct"`` (the light straight
+        from the emitters evaluated per camera ray, the rest of the solution
+        smooth except across occluders' edges; glossy surfaces' radiance towards
+        the eye per element). ``spp``: camera rays per pixel where an edge shows
+        (default 256, or the scene sampler's sample_count if larger; pixels that
+        show one surface get a quarter, and an eighth of those final-gather).
+        ``eye``: for the modes that read the solution, glossy surfaces show
+        their radiance gathered once into the eye as a hypothetical receiver
+        (``True``), or read from the view-independent solution alone (``False``:
+        the directional radiance towards what the view ray meets beyond the eye,
+        or towards an enclosure receiver around the scene; no per-view work,
+        softer highlights).
         ``gather_cache``: for ``"gather"``, diffuse surfaces show a
         view-independent final gather, one gather per texel (half an element
         wide), made by the first render that asks for it and read by every
