@@ -221,15 +221,10 @@ impl TreeLookup {
         radiance[self.locate(tree, uv).0 as usize]
     }
 
-    /// The smooth radiance of `tree` at `uv`: [`radiance_at`] with
-    /// [`Reconstruction::Smooth`], or with `limited`
-    /// [`Reconstruction::Limited`].
-    pub fn smooth(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2, limited: bool) -> Rgb {
+    /// The smooth radiance of `tree` at `uv`: [`radiance_at`] with `mode`,
+    /// [`Reconstruction::Smooth`] or [`Reconstruction::Limited`].
+    fn smooth(&self, tree: &ElementTree, radiance: &[Rgb], uv: DVec2, mode: Reconstruction) -> Rgb {
         if self.neighbours.is_empty() {
-            let mode = match limited {
-                true => Reconstruction::Limited,
-                false => Reconstruction::Smooth,
-            };
             return radiance_at(tree, radiance, uv, mode);
         }
         let (leaf, local) = self.locate(tree, uv);
@@ -243,9 +238,9 @@ impl TreeLookup {
         )
         .clamp(DVec2::splat(-0.5), DVec2::splat(1.5));
         let values = stencil.nodes.map(|n| radiance[n as usize]);
-        let values = match limited {
-            true => values.map(|v| limit_jump(v, radiance[leaf as usize])),
-            false => values,
+        let values = match mode {
+            Reconstruction::Limited => values.map(|v| limit_jump(v, radiance[leaf as usize])),
+            _ => values,
         };
         blend(values, f).map(|v| v.max(0.0))
     }
@@ -260,8 +255,7 @@ impl TreeLookup {
     ) -> Rgb {
         match mode {
             Reconstruction::Haar => self.haar(tree, radiance, uv),
-            Reconstruction::Smooth => self.smooth(tree, radiance, uv, false),
-            Reconstruction::Limited => self.smooth(tree, radiance, uv, true),
+            smooth => self.smooth(tree, radiance, uv, smooth),
         }
     }
 }
@@ -346,15 +340,17 @@ mod tests {
     use super::*;
     use std::collections::BTreeSet;
 
+    /// The unit floor's tree with every element at level 3.
+    fn uniform_level_3_tree() -> ElementTree {
+        let ids: BTreeSet<ElementId> = (0..64u64)
+            .map(|path| ElementId { level: 3, path })
+            .collect();
+        ElementTree::build(&crate::testing::unit_floor(), &ids)
+    }
+
     #[test]
     fn smooth_reproduces_a_linear_ramp_and_haar_is_piecewise_constant() {
-        let root = crate::testing::unit_floor();
-        // Uniform level-3 tree.
-        let mut ids = BTreeSet::new();
-        for path in 0..64u64 {
-            ids.insert(ElementId { level: 3, path });
-        }
-        let tree = ElementTree::build(&root, &ids);
+        let tree = uniform_level_3_tree();
         // Radiance = element-average of f(s,t) = s (linear in s).
         let radiance: Vec<Rgb> = tree
             .nodes
@@ -377,12 +373,7 @@ mod tests {
     /// the smooth one does.
     #[test]
     fn limited_reconstruction_keeps_a_step_from_spreading_and_a_ramp_exact() {
-        let root = crate::testing::unit_floor();
-        let mut ids = BTreeSet::new();
-        for path in 0..64u64 {
-            ids.insert(ElementId { level: 3, path });
-        }
-        let tree = ElementTree::build(&root, &ids);
+        let tree = uniform_level_3_tree();
         let lookup = TreeLookup::new(&tree);
         let step: Vec<Rgb> = (tree.nodes.iter())
             .map(|n| Rgb::splat(if n.patch.centroid().x < 0.5 { 1.0 } else { 0.0 }))
@@ -482,7 +473,7 @@ mod tests {
             (1.0, 1.0),
         ] {
             let uv = DVec2::new(s, t);
-            let got = lookup.smooth(&tree, &radiance, uv, false)[0];
+            let got = lookup.smooth(&tree, &radiance, uv, Reconstruction::Smooth)[0];
             let want = ramp(DVec3::new(s, t, 0.0));
             assert!((got - want).abs() < 1e-12, "at ({s}, {t}): {got} vs {want}");
         }
@@ -494,7 +485,7 @@ mod tests {
             .map(|n| Rgb::splat(4.0 * n.patch.centroid().x - 0.2))
             .collect();
         assert_eq!(
-            lookup.smooth(&tree, &steep, DVec2::new(0.0, 0.5), false)[0],
+            lookup.smooth(&tree, &steep, DVec2::new(0.0, 0.5), Reconstruction::Smooth)[0],
             0.0
         );
     }
