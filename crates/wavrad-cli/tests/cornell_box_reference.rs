@@ -274,13 +274,15 @@ fn figure3_scenes_carry_the_light_mitsuba_does() {
         eprintln!("figure 3 {name}: mean ratio {ratio:.4}, relRMSE {error:.4}");
         assert!((ratio - 1.0).abs() < 0.03, "{name}: mean ratio {ratio}");
         assert!(error < bound, "{name}: relRMSE {error}");
-        if name == "diffuse" {
-            // The directly lit reflector's elements follow the emitter's
-            // light (`link::resolve_emitter_links`): direct mode is close.
-            let error = direct_error(&renderer, &scene, &reference);
-            eprintln!("figure 3 diffuse, direct: relRMSE {error:.4}");
-            assert!(error < 0.011, "diffuse, direct: relRMSE {error}");
-        }
+        // Diffuse: the directly lit reflector's elements follow the
+        // emitter's light (`link::resolve_emitter_links`). Specular: the
+        // receiving elements of the reflector's sharp lobe split down to
+        // the highlight's scale, and the receiver's two-point links read
+        // the reflection at that resolution (`Interactions`' highlights).
+        let error = direct_error(&renderer, &scene, &reference);
+        eprintln!("figure 3 {name}, direct: relRMSE {error:.4}");
+        let direct_bound = if name == "diffuse" { 0.011 } else { 0.045 };
+        assert!(error < direct_bound, "{name}, direct: relRMSE {error}");
     }
 }
 

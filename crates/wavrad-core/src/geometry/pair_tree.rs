@@ -128,6 +128,28 @@ impl PairTree {
         out
     }
 
+    /// The partition of the pair (a, b) by the tree's leaves: each leaf
+    /// that meets it, cut to the pair (its elements, or the pair's where
+    /// the pair's are finer), in node order. A single (a, b) where the
+    /// structure resolves L_{a→b} no more finely than the pair itself.
+    pub fn tiles(&self, a: ElementId, b: ElementId) -> Vec<(ElementId, ElementId)> {
+        let finer = |x: ElementId, y: ElementId| if x.contains(y) { y } else { x };
+        let mut out = Vec::new();
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let n = self.nodes[i];
+            match n.first_child {
+                Some(first) => {
+                    stack.extend((first as usize..first as usize + 4).rev().filter(|&c| {
+                        intersects(self.nodes[c].a, a) && intersects(self.nodes[c].b, b)
+                    }))
+                }
+                None => out.push((finer(n.a, a), finer(n.b, b))),
+            }
+        }
+        out
+    }
+
     /// The leaf containing the point pair whose elements at every level are
     /// given by `a_at(level)` and `b_at(level)` (the elements of p and q
     /// containing the two points).
@@ -223,6 +245,37 @@ mod tests {
         // The first pair is still exactly represented.
         let total: f64 = t.overlaps(a, b).iter().map(|c| c.1).sum();
         assert!((total - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_tiles_of_a_pair_partition_it_by_the_leaves() {
+        let mut t = PairTree::default();
+        let fine = R.child(3).child(1);
+        t.insert(R.child(0), fine);
+        let area = |tiles: &[(ElementId, ElementId)], a: ElementId, b: ElementId| {
+            tiles.iter().fold(0.0, |sum, &(x, y)| {
+                assert!(a.contains(x) && b.contains(y), "{x:?} {y:?} outside");
+                sum + x.overlap_fraction(a) * y.overlap_fraction(b)
+            })
+        };
+        // The whole pair: every leaf, the fine pair among them.
+        let tiles = t.tiles(R, R);
+        assert!(tiles.contains(&(R.child(0), fine)), "{tiles:?}");
+        assert_eq!(
+            tiles.len(),
+            t.nodes.iter().filter(|n| n.first_child.is_none()).count()
+        );
+        assert!((area(&tiles, R, R) - 1.0).abs() < 1e-12);
+        // A receiver the fine pair lies in, from its glossy element.
+        let tiles = t.tiles(R.child(0), R.child(3));
+        assert_eq!(tiles.len(), 4, "{tiles:?}");
+        assert!((area(&tiles, R.child(0), R.child(3)) - 1.0).abs() < 1e-12);
+        // Finer than any leaf, or where the fine pair is not: the pair.
+        assert_eq!(
+            t.tiles(R.child(0).child(2), fine),
+            [(R.child(0).child(2), fine)]
+        );
+        assert_eq!(t.tiles(R.child(1), R), [(R.child(1), R)]);
     }
 
     #[test]

@@ -80,6 +80,10 @@ struct TripleRefiner<'a> {
     frame: Frame,
     /// p's BRDF less its Lambertian lobe, which two-point links carry.
     brdf: Brdf,
+    /// Solid angle of p's lobe where it is sharp ([`Brdf::is_sharp`]),
+    /// else zero: a receiver splits below the others' deepest level only
+    /// to resolve a highlight ([`finer_than_element`]).
+    lobe: f64,
     links: Vec<ThreePointLink>,
 }
 
@@ -105,6 +109,9 @@ impl<'a> TripleRefiner<'a> {
             q,
             frame: scene.surfaces[p as usize].frame(),
             brdf: scene.surfaces[p as usize].brdf.without_lambertian(),
+            lobe: Some(&scene.surfaces[p as usize].brdf)
+                .filter(|brdf| brdf.is_sharp())
+                .map_or(0.0, Brdf::lobe_solid_angle),
             links: Vec::new(),
         }
     }
@@ -167,8 +174,16 @@ impl<'a> TripleRefiner<'a> {
             },
         ];
         let parts = [c, a, b];
+        // Below the others' deepest level the receiver splits only while
+        // the lobe is narrower than it, as seen from the glossy element.
+        let past_lobe = |i: usize| {
+            i == 2
+                && parts[2].element.id.level >= self.settings.refine.max_level
+                && (self.lobe == 0.0
+                    || !finer_than_element(self.lobe, &parts[1].patch, &parts[2].patch))
+        };
         let mut order: Vec<usize> = (0..3)
-            .filter(|&i| parts[i].element.id.level < max[i])
+            .filter(|&i| parts[i].element.id.level < max[i] && !past_lobe(i))
             .collect();
         order.sort_by(|&i, &j| parts[j].patch.area().total_cmp(&parts[i].patch.area()));
         let mut kept = None;
@@ -237,6 +252,28 @@ impl<'a> TripleRefiner<'a> {
     fn weight(&self, e: &LightEstimate, [c, a, b]: &[Part; 3]) -> f64 {
         e.radiance(c.element, a.element) * e.importance(b.element)
     }
+}
+
+/// How many receiving elements a sharp lobe's reflection may cover before
+/// the receiver stops splitting ([`finer_than_element`]): about 4×4, so
+/// that a highlight's blurred edges fall across a few elements, which the
+/// smooth reconstruction draws as a ramp.
+const ELEMENTS_PER_LOBE: f64 = 16.0;
+
+/// Whether a lobe of solid angle `lobe` reflected from `glossy` is narrower
+/// than [`ELEMENTS_PER_LOBE`] times the solid angle `receiver` subtends
+/// from `glossy`'s centroid: then splitting the receiver resolves the
+/// reflection's shape on it.
+fn finer_than_element(lobe: f64, glossy: &Patch, receiver: &Patch) -> bool {
+    let d = receiver.centroid() - glossy.centroid();
+    let distance2 = d.length_squared();
+    let subtended = if distance2 > 0.0 {
+        (receiver.area() * receiver.normal().dot(d).abs() / (distance2 * distance2.sqrt()))
+            .min(2.0 * std::f64::consts::PI)
+    } else {
+        2.0 * std::f64::consts::PI
+    };
+    lobe < ELEMENTS_PER_LOBE * subtended
 }
 
 /// Most surface triples a plan projects ([`surface_triples`]). A glossy

@@ -163,19 +163,15 @@ impl MirrorImage {
     }
 }
 
-/// BRDF sampling density (sr⁻¹) at normal incidence above which a surface
-/// counts as sharp.
-const SHARP_PEAK: f64 = 4.0;
-
 /// Whether `surface` reflects light into a lobe narrow enough for its
-/// emitters' mirror images to be worth sampling: the lobe's solid angle,
-/// about 1/peak density, is below a quarter of a steradian, narrower than
-/// most emitters' images. Broader lobes spread an emitter's light over much
-/// of the surface, which area sampling already finds: on the glossy Cornell
-/// box (peak densities 0.6 and 0.8) mirror sampling left the error as it was
-/// and cost a third more render time; Figure 3's rolled aluminium has 15.
+/// emitters' mirror images to be worth sampling
+/// ([`Brdf::is_sharp`](crate::scene::brdf::Brdf::is_sharp)).
+/// Broader lobes spread an emitter's light over much of the surface, which
+/// area sampling already finds: on the glossy Cornell box (peak densities
+/// 0.6 and 0.8) mirror sampling left the error as it was and cost a third
+/// more render time; Figure 3's rolled aluminium has 15.
 pub fn is_sharp(surface: &Surface) -> bool {
-    surface.brdf.pdf(DVec3::Z, DVec3::Z) > SHARP_PEAK
+    surface.brdf.is_sharp()
 }
 
 /// Distance along the unit direction `wi` from `x`, in front of `patch`, to

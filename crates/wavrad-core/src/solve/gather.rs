@@ -312,6 +312,14 @@ impl Interactions {
                     t.gradient = g.as_vec3();
                 });
         }
+        for p in 0..out.incoming.len() {
+            let transfers = std::mem::take(&mut out.incoming[p]);
+            let mut resolved = Vec::with_capacity(transfers.len());
+            for t in transfers {
+                out.resolve_highlight(trees, p, t, &mut resolved);
+            }
+            out.incoming[p] = resolved;
+        }
         for l in three_point {
             let s = out.structure_of[&(l.p, l.q)];
             let cover = out.directional[s as usize].tree.overlaps(l.a, l.b);
@@ -442,6 +450,85 @@ impl Interactions {
             .get(p)
             .filter(|t| !t.is_empty())
             .map(Vec::as_slice)
+    }
+
+    /// Transfer `t` into surface `p`, split where its glossy source's
+    /// directional structure resolves L_{c→a} more finely than the pair
+    /// (c, a) of the link (a reflected highlight, which three-point links
+    /// resolve on both the glossy surface and the receiver): one transfer
+    /// per tile (g, b) of the pair ([`PairTree::tiles`]), from g towards
+    /// b, each reading the directional radiance of its own tile. Its form
+    /// factor is the link's, with its linear variation over a (`t.gradient`)
+    /// taken at b, times g's share of Lambert's point-to-polygon form
+    /// factor of c at b's centroid. Read over the whole pair, a coarse link
+    /// averaged L over c and over a, and so neither showed the highlight's
+    /// shape on the receiver nor weighed each part of the glossy surface by
+    /// the form factor of the part that reflects it.
+    fn resolve_highlight(
+        &mut self,
+        trees: &[ElementTree],
+        p: usize,
+        t: Transfer,
+        out: &mut Vec<Transfer>,
+    ) {
+        let Source::Glossy {
+            surface: r,
+            node: c,
+            structure,
+            ..
+        } = t.source
+        else {
+            return out.push(t);
+        };
+        let (tree, source_tree) = (&trees[p], &trees[r as usize]);
+        let c = &source_tree.nodes[c as usize];
+        let a = &tree.nodes[t.receiver as usize];
+        let tiles = self.directional[structure as usize].tree.tiles(c.id, a.id);
+        if tiles.len() == 1 {
+            return out.push(t);
+        }
+        let gradient = t.gradient.as_dvec3();
+        let source_root = &source_tree.nodes[0].patch;
+        for (g, b) in tiles {
+            let receiver = tree
+                .index_of(b)
+                .expect("a pair's receivers are in its tree");
+            let b_patch = &tree.nodes[receiver as usize].patch;
+            let x = b_patch.centroid();
+            let scale = 1.0 + gradient.dot(x - a.patch.centroid());
+            let lambert = |patch: &Patch| {
+                point_to_polygon(x, b_patch.normal(), &patch.vertices(), patch.normal())
+            };
+            let whole = lambert(&c.patch);
+            let share = if whole > 0.0 {
+                lambert(&g.patch(source_root)) / whole
+            } else {
+                0.0
+            };
+            if scale <= 0.0 || share <= 0.0 {
+                continue;
+            }
+            let leaf = tree.first_child(receiver as usize).is_none();
+            // g's own radiance is its tree node's (the one containing it);
+            // its directional radiance the tile's.
+            let cover = self.directional[structure as usize].tree.overlaps(g, b);
+            let source = Source::Glossy {
+                surface: r,
+                node: source_tree.node_containing(g),
+                structure,
+                nodes: self.push_cover(cover),
+            };
+            out.push(Transfer {
+                receiver,
+                source,
+                form_factor: t.form_factor * scale * share,
+                gradient: if leaf {
+                    Vec3::ZERO
+                } else {
+                    (gradient / scale).as_vec3()
+                },
+            });
+        }
     }
 
     fn push_cover(&mut self, cover: Vec<(u32, f64)>) -> Range<u32> {

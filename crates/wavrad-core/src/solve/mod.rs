@@ -59,12 +59,14 @@ pub struct SolveSettings {
     /// `level-3` rows of `docs/benchmarks.md`); the paper uses 8 for both.
     pub three_point_max_level: u32,
     /// Levels the receiving element of a three-point link may go below
-    /// `three_point_max_level` (default 0). Only the receiver splits there,
+    /// `three_point_max_level` (default 3), where the glossy surface's
+    /// lobe is sharp and narrower than the element seen from the glossy
+    /// one (so never for broad lobes). Only the receiver splits there,
     /// which costs no ray queries, and a diffuse receiver's two-point links
-    /// read the glossy surface's directional radiance at that resolution:
-    /// a highlight's edges sharpen on the receiver for a few times the
-    /// kernel time instead of the tenfold of one more level for all three
-    /// elements (`docs/figure3.md`).
+    /// read the glossy surface's directional radiance at that resolution
+    /// ([`Interactions`](gather::Interactions)): a highlight's edges sharpen
+    /// on the receiver for a few times the kernel time instead of the
+    /// tenfold of one more level for all three elements (`docs/figure3.md`).
     pub three_point_receiver_levels: u32,
     /// Oracle threshold of three-point links (the paper's orthonormal
     /// normalisation). Glossy lobes concentrate light that the kernel-only
@@ -847,7 +849,8 @@ struct System {
 }
 
 /// The element hierarchy of every surface: the smallest trees holding every
-/// element of `links`, every source element of `three_point`, every
+/// element of `links`, every source element of `three_point` and its
+/// receiving element on a surface with a Lambertian lobe, every
 /// element end of `cluster_links` and every element of `lights`.
 fn element_trees(
     scene: &Scene,
@@ -871,6 +874,13 @@ fn element_trees(
     }
     for l in three_point {
         ids[l.r as usize].insert(l.c);
+        // The receiving elements, where a diffuse surface gathers the
+        // reflection at their resolution ([`Interactions`]' highlights).
+        if let Some(q) = ids.get_mut(l.q as usize) {
+            if scene.surfaces[l.q as usize].brdf.lambertian().is_some() {
+                q.insert(l.b);
+            }
+        }
     }
     scene
         .surfaces
@@ -1248,7 +1258,7 @@ impl Default for SolveSettings {
             },
             quadrature: Quadrature::default(),
             three_point_max_level: 2,
-            three_point_receiver_levels: 0,
+            three_point_receiver_levels: 3,
             three_point_threshold: 1e-5,
             tolerance: 1e-5,
             max_iterations: 200,
@@ -1305,6 +1315,98 @@ mod tests {
             lights: &[],
         };
         System::assemble(ctx, &[], trees, links, &mut PhaseTimes::default())
+    }
+
+    /// A unit floor of `brdf` (surface 0) under a light beside it (1) and
+    /// a diffuse wall (2) at x = 1.5 facing it, where a sharp floor
+    /// reflects the light as a highlight; nothing stands between floor and
+    /// wall.
+    fn floor_reflecting_onto_a_wall(brdf: Brdf) -> Scene {
+        let light = Patch::Parallelogram {
+            origin: DVec3::new(-1.0, 0.3, 1.0),
+            edge_s: DVec3::Y * 0.4,
+            edge_t: DVec3::X * 0.4,
+        };
+        let wall = Patch::Parallelogram {
+            origin: DVec3::new(1.5, -0.5, 0.2),
+            edge_s: DVec3::Z * 2.8,
+            edge_t: DVec3::Y * 2.0,
+        };
+        let grey = crate::testing::grey;
+        Scene::from_surfaces(vec![
+            Surface {
+                brdf,
+                ..grey(crate::testing::unit_floor())
+            },
+            Surface {
+                emission: Rgb::splat(1.0),
+                ..grey(light)
+            },
+            grey(wall),
+        ])
+    }
+
+    #[test]
+    fn only_a_sharp_lobe_splits_its_receivers_and_its_light_keeps_the_form_factors() {
+        let settings = SolveSettings::default();
+        let deepest_receiver = |solution: &Solution| {
+            let s = solution.interactions.structure_of[&(0, 2)] as usize;
+            let tree = &solution.interactions.directional[s].tree;
+            tree.nodes.iter().map(|n| n.b.level).max().unwrap()
+        };
+        let sharp = solve(
+            &floor_reflecting_onto_a_wall(crate::testing::rolled_aluminium()),
+            &settings,
+            &Silent,
+        )
+        .unwrap();
+        assert!(deepest_receiver(&sharp) > settings.three_point_max_level);
+        let broad = Brdf::Ward(crate::scene::brdf::ward::Ward {
+            alpha_u: 0.4,
+            alpha_v: 0.4,
+            ..match crate::testing::rolled_aluminium() {
+                Brdf::Ward(w) => w,
+                _ => unreachable!(),
+            }
+        });
+        let broad = solve(&floor_reflecting_onto_a_wall(broad), &settings, &Silent).unwrap();
+        assert!(deepest_receiver(&broad) <= settings.three_point_max_level);
+        // Split over the tiles of the reflection or not, the wall's
+        // transfers from the floor add up to its form factor to the floor:
+        // A_wall·F(wall → floor), Lambert's closed form over a fine grid.
+        let floor = sharp.scene.surfaces[0].patch;
+        let wall = sharp.scene.surfaces[2].patch;
+        let n = 200;
+        let exact: f64 = (0..n * n)
+            .map(|k| {
+                let (u, v) = ((k % n) as f64 + 0.5, (k / n) as f64 + 0.5);
+                let x = wall.point_at(glam::DVec2::new(u, v) / n as f64);
+                crate::kernel::form_factor::point_to_polygon(
+                    x,
+                    wall.normal(),
+                    &floor.vertices(),
+                    floor.normal(),
+                )
+            })
+            .sum::<f64>()
+            * wall.area()
+            / (n * n) as f64;
+        for solution in [&sharp, &broad] {
+            let (tree, exposure) = (&solution.trees[2], &solution.interactions.exposure[2]);
+            let total: f64 = (solution.interactions.incoming[2].iter())
+                .filter(|t| t.source.element().0 == 0)
+                .map(|t| {
+                    let node = t.receiver as usize;
+                    t.form_factor * tree.nodes[node].patch.area() * exposure[node]
+                })
+                .sum();
+            assert!(
+                (total / exact - 1.0).abs() < 0.01,
+                "{total} against {exact}"
+            );
+        }
+        let split = |solution: &Solution| solution.interactions.incoming[2].len();
+        assert!(split(&sharp) > split(&broad), "the highlight's tiles");
     }
 
     #[test]
