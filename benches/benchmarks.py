@@ -81,7 +81,7 @@ SCENES: dict[str, SceneSpec] = {
     # seen from the receiver. Its receiver is lit mostly through the
     # reflector, a path the light tracer samples far better.
     "figure3-specular": SceneSpec("figure3/specular.xml", ("ptracer", "path"), "ptracer",
-                                  8192, region="indirect"),
+                                  32768, region="indirect"),
 }
 # Scenes not in the repository (--external NAME=XML: public scenes keep their
 # licence where they are): path tracing with every bounce, as the references.
