@@ -285,9 +285,10 @@ def solve(
     three-point (glossy) links (kernel oracle: default 1e-5);
     ``three_point_max_level``: deepest element level of three-point (glossy)
     links (default 2); ``three_point_receiver_levels``: levels the receiving
-    element of a three-point link may go further where the glossy lobe is
-    sharp and narrower than the element (default 3; sharper highlights on
-    diffuse receivers for no extra ray queries);
+    element of a three-point link may go further, for light straight from
+    an emitter where the glossy lobe is sharp and narrower than the element
+    (default 3; sharper highlights on diffuse receivers for no extra ray
+    queries);
     ``tolerance``: convergence of the Gauss-Seidel sweeps
     (default 1e-5; when shooting, also the unshot power left, relative to
     the emitted power); ``max_iterations``: most sweeps (default 200; when

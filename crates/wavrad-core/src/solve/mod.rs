@@ -59,9 +59,9 @@ pub struct SolveSettings {
     /// `level-3` rows of `docs/benchmarks.md`); the paper uses 8 for both.
     pub three_point_max_level: u32,
     /// Levels the receiving element of a three-point link may go below
-    /// `three_point_max_level` (default 3), where the glossy surface's
-    /// lobe is sharp and narrower than the element seen from the glossy
-    /// one (so never for broad lobes). Only the receiver splits there,
+    /// `three_point_max_level` (default 3), for light straight from an
+    /// emitter where the glossy surface's lobe is sharp and narrower than
+    /// the element seen from the glossy one (so never for broad lobes). Only the receiver splits there,
     /// which costs no ray queries, and a diffuse receiver's two-point links
     /// read the glossy surface's directional radiance at that resolution
     /// ([`Interactions`](gather::Interactions)): a highlight's edges sharpen

@@ -84,9 +84,9 @@ impl Described for SolveSettings {
             },
             default: "3",
             help: "Levels the receiving element of a three-point link may go below \
-                   three_point_max_level where the glossy surface's lobe is sharp and narrower \
-                   than the element: sharper highlights on diffuse receivers for no extra ray \
-                   queries.",
+                   three_point_max_level, for light straight from an emitter where the glossy \
+                   surface's lobe is sharp and narrower than the element: sharper highlights on \
+                   diffuse receivers for no extra ray queries.",
         },
         Setting {
             name: "cluster_ratio",
