@@ -15,7 +15,7 @@
 //! the tessellation, the geometry of the solve.
 //!
 //! Of more than a few shapes, a ray tests only those whose boxes it
-//! crosses, found by an obvhs BVH over the boxes ([`ShapeTree`]); like the
+//! crosses, found by an obvhs BVH over the boxes (`ShapeTree`); like the
 //! triangles' ([`crate::geometry::visibility`]), its `f32` tree only
 //! culls, and the `f64` test of each candidate decides, so the shape seen
 //! and its hit are the ones a test of every shape in turn finds.
