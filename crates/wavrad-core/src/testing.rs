@@ -1,9 +1,11 @@
 //! Scene fixtures shared by tests, examples and benchmarks.
 
+use crate::sampling::hash2;
+use crate::scene::analytic::{AnalyticShape, ShapeKind};
 use crate::scene::brdf::ward::{Ward, WardVariant};
 use crate::scene::brdf::Brdf;
 use crate::scene::{Patch, Rgb, Scene, Surface};
-use glam::DVec3;
+use glam::{DMat4, DVec3};
 
 /// A non-emitting surface reflecting 50 % in every channel.
 pub fn grey(patch: Patch) -> Surface {
@@ -119,6 +121,43 @@ pub fn glossy_tiled_box(levels: u32) -> Scene {
     };
     let walls = faces[1..].iter().map(|&f| grey(f));
     Scene::from_surfaces(glossy.chain(walls).chain([light]).collect())
+}
+
+/// `count` curved shapes, of `kinds` in turn, scattered over the cube
+/// [-1, 1]³ from `seed`, in a scene with no surfaces (ray queries against
+/// the exact shapes alone): centres uniform, radii between 0.5 and 1.5
+/// times 0.3·count^(-1/3), so that the shapes fill the same share of the
+/// cube whatever the count. Spheres stay round; disks and cylinders
+/// are stretched by up to 2 along their unit shape's x and z (a cylinder's
+/// length) and turned about a random axis.
+pub fn scattered_shapes(count: usize, kinds: &[ShapeKind], seed: u64) -> Scene {
+    let size = 0.3 / (count.max(1) as f64).cbrt();
+    let mut scene = Scene::from_surfaces(Vec::new());
+    scene.shapes = (0..count)
+        .map(|i| {
+            let [a, b, c] = [0, 1, 2].map(|j| hash2(seed, 3 * i as u64 + j));
+            let centre = DVec3::new(a.x, a.y, b.x) * 2.0 - DVec3::ONE;
+            let radius = size * (0.5 + b.y);
+            let kind = kinds[i % kinds.len()];
+            let world_from_shape = if kind == ShapeKind::Sphere {
+                DMat4::from_translation(centre) * DMat4::from_scale(DVec3::splat(radius))
+            } else {
+                let (z, phi) = (2.0 * c.x - 1.0, std::f64::consts::TAU * c.y);
+                let r = (1.0 - z * z).sqrt();
+                let axis = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+                let stretch = DVec3::new(1.0 + a.x, 1.0, 1.0 + b.y);
+                DMat4::from_translation(centre)
+                    * DMat4::from_axis_angle(axis, 7.0 * c.x + 3.0 * c.y)
+                    * DMat4::from_scale(radius * stretch)
+            };
+            AnalyticShape {
+                kind,
+                world_from_shape,
+                surfaces: 0..0,
+            }
+        })
+        .collect();
+    scene
 }
 
 #[cfg(test)]

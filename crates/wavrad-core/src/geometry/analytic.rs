@@ -13,12 +13,24 @@
 //!
 //! Only camera rays see the exact shapes: gathers and shadow rays stay on
 //! the tessellation, the geometry of the solve.
+//!
+//! Of more than a few shapes, a ray tests only those whose boxes it
+//! crosses, found by an obvhs BVH over the boxes (`ShapeTree`); like the
+//! triangles' ([`crate::geometry::visibility`]), its `f32` tree only
+//! culls, and the `f64` test of each candidate decides, so the shape seen
+//! and its hit are the ones a test of every shape in turn finds.
 
-use crate::geometry::visibility::Occluder;
+use crate::geometry::visibility::{cull_distance, cull_slack, f32_box, f32_ray, Occluder, BOX_PAD};
 use crate::scene::analytic::{AnalyticShape, ShapeKind};
 use crate::scene::{Patch, Scene};
 use glam::{DMat3, DMat4, DVec3};
+use obvhs::cwbvh::CwBvh;
+use obvhs::BvhBuildParams;
 use std::ops::Range;
+
+/// Fewest shapes for which rays find theirs through a [`ShapeTree`]: below
+/// it, testing each shape's box in turn is as fast.
+const TREE_FROM: usize = 8;
 
 /// A curved shape prepared for ray queries.
 #[derive(Debug, Clone)]
@@ -89,6 +101,8 @@ impl SeenHit {
 #[derive(Debug, Clone, Default)]
 pub struct ExactShapes {
     shapes: Vec<ExactShape>,
+    /// A BVH over their boxes, from [`TREE_FROM`] shapes on.
+    tree: Option<ShapeTree>,
     /// Per surface, whether it tessellates one of them (empty without
     /// shapes).
     tessellates: Vec<bool>,
@@ -111,6 +125,7 @@ impl ExactShapes {
             }
         }
         ExactShapes {
+            tree: (shapes.len() >= TREE_FROM).then(|| ShapeTree::new(&shapes)),
             shapes,
             tessellates,
         }
@@ -127,7 +142,7 @@ impl ExactShapes {
     }
 
     /// The nearest curved shape along `origin + t·dir`, t ∈ (tmin, tmax):
-    /// its index and the hit.
+    /// its index and the hit; of shapes hit at the same t, the first.
     fn nearest(
         &self,
         origin: DVec3,
@@ -135,14 +150,10 @@ impl ExactShapes {
         tmin: f64,
         tmax: f64,
     ) -> Option<(usize, ExactHit)> {
-        let mut best: Option<(usize, ExactHit)> = None;
-        for (k, shape) in self.shapes.iter().enumerate() {
-            let far = best.map_or(tmax, |(_, b)| b.t);
-            if let Some(hit) = shape.intersect(origin, dir, tmin, far) {
-                best = Some((k, hit));
-            }
+        match &self.tree {
+            Some(tree) => tree.nearest(&self.shapes, origin, dir, tmin, tmax),
+            None => nearest_in_turn(&self.shapes, origin, dir, tmin, tmax),
         }
-        best
     }
 
     /// What the ray `origin + t·dir`, t ∈ (tmin, tmax), sees first among
@@ -176,6 +187,106 @@ impl ExactShapes {
                 })
             }),
         }
+    }
+}
+
+/// [`ExactShapes::nearest`] among `shapes`, testing each in turn.
+fn nearest_in_turn(
+    shapes: &[ExactShape],
+    origin: DVec3,
+    dir: DVec3,
+    tmin: f64,
+    tmax: f64,
+) -> Option<(usize, ExactHit)> {
+    let mut best: Option<(usize, ExactHit)> = None;
+    for (k, shape) in shapes.iter().enumerate() {
+        let far = best.map_or(tmax, |(_, b)| b.t);
+        if let Some(hit) = shape.intersect(origin, dir, tmin, far) {
+            best = Some((k, hit));
+        }
+    }
+    best
+}
+
+/// A BVH over the curved shapes' boxes (obvhs' compressed wide BVH, as
+/// for the triangles in [`crate::geometry::visibility`]), in `f32`: it
+/// only culls. Each box is padded by [`BOX_PAD`] of the shapes' extent and
+/// rounded outwards; a ray is first clipped, in `f64`, to the box around
+/// all shapes, and its `f32` ray starts a slack behind that and overshoots
+/// its far end, so the `f32` traversal reaches every shape the exact test
+/// can hit, however far away the ray starts.
+#[derive(Debug, Clone)]
+struct ShapeTree {
+    bvh: CwBvh,
+    /// The box around all shapes' boxes.
+    lo: DVec3,
+    hi: DVec3,
+    /// How far (world units) the f32 ray starts behind the clipped ray.
+    slack: f64,
+}
+
+impl ShapeTree {
+    /// The tree over `shapes` (not empty).
+    fn new(shapes: &[ExactShape]) -> ShapeTree {
+        let (lo, hi) = (shapes.iter()).fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), s| (lo.min(s.lo), hi.max(s.hi)),
+        );
+        let scale = (lo.abs().max(hi.abs()).max_element()).max((hi - lo).max_element());
+        let pad = DVec3::splat(BOX_PAD * scale.max(f64::MIN_POSITIVE));
+        let boxes: Vec<_> = (shapes.iter())
+            .map(|s| f32_box(s.lo - pad, s.hi + pad))
+            .collect();
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &boxes,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        ShapeTree {
+            bvh,
+            lo,
+            hi,
+            slack: cull_slack(pad.x),
+        }
+    }
+
+    /// [`ExactShapes::nearest`] among `shapes`, the ones the tree was
+    /// built over: the same shape and hit as testing each in turn.
+    fn nearest(
+        &self,
+        shapes: &[ExactShape],
+        origin: DVec3,
+        dir: DVec3,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<(usize, ExactHit)> {
+        let len = dir.length();
+        if len == 0.0 || !len.is_finite() || !origin.is_finite() {
+            return nearest_in_turn(shapes, origin, dir, tmin, tmax);
+        }
+        // The part of the ray within the box around all shapes: every
+        // shape's box is inside it, so a ray that misses it meets none.
+        let (near, far) = box_span((self.lo, self.hi), origin, dir, (tmin, tmax))?;
+        let unit = dir / len;
+        let start = origin + near * dir - self.slack * unit;
+        let ray = f32_ray(start, unit, cull_distance((far - near) * len, self.slack));
+        let mut best: Option<(usize, ExactHit)> = None;
+        let mut found = obvhs::ray::RayHit::none();
+        self.bvh.ray_traverse(ray, &mut found, |_, slot| {
+            let k = self.bvh.primitive_indices[slot] as usize;
+            // Up to the best hit so far, included: of two shapes hit at
+            // the same t the first wins, whichever the tree reaches first.
+            let reach = best.map_or(tmax, |(_, b)| b.t.next_up());
+            if let Some(hit) = shapes[k].intersect(origin, dir, tmin, reach) {
+                if best.is_none_or(|(j, b)| (hit.t, k) < (b.t, j)) {
+                    best = Some((k, hit));
+                }
+            }
+            best.map_or(f32::INFINITY, |(_, b)| {
+                cull_distance((b.t - near) * len, self.slack)
+            })
+        });
+        best
     }
 }
 
@@ -327,18 +438,24 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> [Option<f64>; 2] {
 
 /// Whether `origin + t·dir`, t ∈ (tmin, tmax), crosses the box [lo, hi]
 /// (slab test).
-fn crosses_box(
+fn crosses_box(bounds: (DVec3, DVec3), origin: DVec3, dir: DVec3, range: (f64, f64)) -> bool {
+    box_span(bounds, origin, dir, range).is_some()
+}
+
+/// The parameters `(near, far)` between which `origin + t·dir`, t ∈ (tmin,
+/// tmax), is in the box [lo, hi] (slab test); `None` when it is not.
+fn box_span(
     (lo, hi): (DVec3, DVec3),
     origin: DVec3,
     dir: DVec3,
     (tmin, tmax): (f64, f64),
-) -> bool {
+) -> Option<(f64, f64)> {
     let (mut near, mut far) = (tmin, tmax);
     for axis in 0..3 {
         let (o, d) = (origin[axis], dir[axis]);
         if d == 0.0 {
             if o < lo[axis] || o > hi[axis] {
-                return false;
+                return None;
             }
             continue;
         }
@@ -346,14 +463,15 @@ fn crosses_box(
         near = near.max(a.min(b));
         far = far.min(a.max(b));
     }
-    near <= far
+    (near <= far).then_some((near, far))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
-    use crate::testing::grey;
+    use crate::sampling::hash2;
+    use crate::testing::{grey, scattered_shapes};
 
     fn shape(kind: ShapeKind, world_from_shape: DMat4, surfaces: Range<u32>) -> AnalyticShape {
         AnalyticShape {
@@ -511,6 +629,139 @@ mod tests {
         let corner = DVec3::new(0.9, 0.9, 5.0);
         let seen = tracer.trace_seen(corner, -DVec3::Z, 0.0, f64::INFINITY);
         assert!(matches!(seen, Some(SeenHit::Surface(h)) if h.surface != 6));
+    }
+
+    /// A uniform unit vector from two uniform numbers.
+    fn direction(u: glam::DVec2) -> DVec3 {
+        let (z, phi) = (2.0 * u.x - 1.0, std::f64::consts::TAU * u.y);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    /// Rays of every kind against `exact`'s shapes, placed by
+    /// `world_from_field` (a uniform scale and a translation) with the cube
+    /// [-1, 1]³ they are scattered over: from anywhere in and around the
+    /// cube (many from inside a shape) and from far away, of any length;
+    /// from each sphere's centre; grazing each sphere, just inside, on and
+    /// just outside its outline, from near and far; along the axes, with components ±0; each
+    /// between limits (random, or none), and again between limits at its
+    /// own nearest hit, which leave that hit out.
+    fn rays_of_every_kind(
+        exact: &ExactShapes,
+        world_from_field: DMat4,
+    ) -> Vec<(DVec3, DVec3, f64, f64)> {
+        let mut rays = Vec::new();
+        for i in 0..3000u64 {
+            let [a, b, c] = [0, 1, 2].map(|j| hash2(7, 3 * i + j));
+            let inside = DVec3::new(a.x, a.y, b.x) * 2.6 - DVec3::splat(1.3);
+            let length = [1.0, 0.01, 37.0][i as usize % 3];
+            // One in ten from far away (where f32 directions stray by more
+            // than the boxes' padding), aimed into the cube.
+            let (origin, dir) = if i % 10 == 0 {
+                let origin = 1e4 * inside;
+                (origin, (direction(c) - origin).normalize() * length)
+            } else {
+                (inside, direction(c) * length)
+            };
+            let limits = match i % 4 {
+                0 => (0.0, f64::INFINITY),
+                1 => (-0.5 * b.y, f64::INFINITY),
+                2 => (b.y, b.y + 3.0 * c.x),
+                _ => (0.0, 2.0 * c.x),
+            };
+            let (tmin, tmax) = (limits.0 / length, limits.1 / length);
+            rays.push((world_from_field.transform_point3(origin), dir, tmin, tmax));
+        }
+        for (i, shape) in exact.shapes.iter().enumerate() {
+            if shape.kind != ShapeKind::Sphere {
+                continue;
+            }
+            let centre = shape.world_from_shape.transform_point3(DVec3::ZERO);
+            let radius = shape.world_from_shape.transform_vector3(DVec3::X).length();
+            let [a, b] = [0, 1].map(|j| hash2(11, 2 * i as u64 + j));
+            let (dir, across) = (direction(a), direction(b));
+            let across = (across - across.dot(dir) * dir).normalize();
+            rays.push((centre, dir, 0.0, f64::INFINITY));
+            // Grazing it at a point of its outline, and at its pole +x
+            // where its box touches it, from near and from far.
+            let pole_dir = (dir - dir.x * DVec3::X).normalize();
+            for (dir, across) in [(dir, across), (pole_dir, DVec3::X)] {
+                for distance in [3.0 * radius, 1e4] {
+                    for factor in [1.0 - 1e-12, 1.0, 1.0 + 1e-12, 1.0 - 1e-6] {
+                        let origin = centre + factor * radius * across - distance * dir;
+                        rays.push((origin, dir, 0.0, f64::INFINITY));
+                    }
+                }
+            }
+        }
+        let axes = [DVec3::X, DVec3::Y, DVec3::Z, DVec3::new(-0.0, 0.0, -1.0)];
+        for i in 0..400u64 {
+            let [a, b] = [0, 1].map(|j| hash2(13, 2 * i + j));
+            let origin = DVec3::new(a.x, a.y, b.x) * 2.6 - DVec3::splat(1.3);
+            let dir = axes[i as usize % 4] * if b.y < 0.5 { 1.0 } else { -1.0 };
+            rays.push((
+                world_from_field.transform_point3(origin),
+                dir,
+                0.0,
+                f64::INFINITY,
+            ));
+        }
+        // Limits at the nearest hit: just past it, and just short of it.
+        let at_hits: Vec<_> = (rays.iter())
+            .filter_map(|&(o, d, tmin, tmax)| {
+                let (_, hit) = nearest_in_turn(&exact.shapes, o, d, tmin, tmax)?;
+                Some([(o, d, hit.t, tmax), (o, d, tmin, hit.t)])
+            })
+            .flatten()
+            .collect();
+        rays.extend(at_hits);
+        rays
+    }
+
+    #[test]
+    fn the_tree_finds_the_shape_and_hit_that_testing_each_in_turn_finds() {
+        let kinds = [ShapeKind::Sphere, ShapeKind::Disk, ShapeKind::Cylinder];
+        let fields = [
+            DMat4::IDENTITY,
+            // Small and far from the origin: the f32 tree's rounding is
+            // coarse next to the shapes.
+            DMat4::from_translation(DVec3::new(1e4, -3e3, 50.0))
+                * DMat4::from_scale(DVec3::splat(1e-2)),
+        ];
+        for world_from_field in fields {
+            let mut scene = scattered_shapes(400, &kinds, 3);
+            for shape in &mut scene.shapes {
+                shape.world_from_shape = world_from_field * shape.world_from_shape;
+            }
+            // Twins: a shape twice is hit twice at the same t, and the
+            // first is seen.
+            let twinned = [3, 4, 5, 200];
+            for k in twinned {
+                scene.shapes.push(scene.shapes[k].clone());
+            }
+            let exact = ExactShapes::new(&scene);
+            let tree = exact.tree.as_ref().expect("a tree over 404 shapes");
+            let rays = rays_of_every_kind(&exact, world_from_field);
+            let (mut hits, mut twins_hit) = (0, 0);
+            for &(origin, dir, tmin, tmax) in &rays {
+                let expected = nearest_in_turn(&exact.shapes, origin, dir, tmin, tmax);
+                let found = tree.nearest(&exact.shapes, origin, dir, tmin, tmax);
+                assert_eq!(found, expected, "{origin} {dir} ({tmin}, {tmax})");
+                hits += usize::from(found.is_some());
+                twins_hit += usize::from(found.is_some_and(|(k, _)| twinned.contains(&k)));
+            }
+            assert!(hits > rays.len() / 5, "{hits} hits of {} rays", rays.len());
+            assert!(twins_hit > 10, "{twins_hit}");
+        }
+    }
+
+    #[test]
+    fn a_few_shapes_are_tested_in_turn_and_many_through_the_tree() {
+        let kinds = [ShapeKind::Sphere];
+        for count in [0, 1, TREE_FROM - 1, TREE_FROM] {
+            let exact = ExactShapes::new(&scattered_shapes(count, &kinds, 5));
+            assert_eq!(exact.tree.is_some(), count >= TREE_FROM, "{count}");
+        }
     }
 
     #[test]

@@ -48,7 +48,7 @@ use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray, BvhBuildParams};
 pub const SEGMENT_EPSILON: f64 = 1e-6;
 
 /// Relative padding of the `f32` bounding boxes (times the scene's size).
-const BOX_PAD: f64 = 1e-5;
+pub(crate) const BOX_PAD: f64 = 1e-5;
 
 /// Contact distance relative to the scene's size
 /// ([`Occluder::contact_distance`]): far above the rounding of `f64`
@@ -175,7 +175,7 @@ impl Occluder {
             .map(|[a, b, c]| {
                 let mn = a.min(*b).min(*c) - DVec3::splat(pad);
                 let mx = a.max(*b).max(*c) + DVec3::splat(pad);
-                Aabb::new(to_f32_down(mn).into(), to_f32_up(mx).into())
+                f32_box(mn, mx)
             })
             .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
@@ -211,8 +211,7 @@ impl Occluder {
             boxes: Some(BoxTree(boxes)),
             slot_of,
             pad,
-            // obvhs skips boxes closer than 1e-4 along the (unit) f32 ray.
-            slack: 2e-4 + 4.0 * pad,
+            slack: cull_slack(pad),
             contact: CONTACT * scale.max(f64::MIN_POSITIVE),
         }
     }
@@ -289,10 +288,7 @@ impl Occluder {
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(*p), hi.max(*p)),
         );
-        let query = Aabb::new(
-            to_f32_down(lo - DVec3::splat(self.pad)).into(),
-            to_f32_up(hi + DVec3::splat(self.pad)).into(),
-        );
+        let query = f32_box(lo - DVec3::splat(self.pad), hi + DVec3::splat(self.pad));
         // Two edge directions per polygon (parallelograms have no more;
         // a triangle's third is their difference, covered by the cross
         // products below only in part, which is conservative).
@@ -362,7 +358,7 @@ impl Occluder {
         let Some(BoxTree(boxes)) = &self.boxes else {
             return Vec::new();
         };
-        let query = Aabb::new(to_f32_down(lo).into(), to_f32_up(hi).into());
+        let query = f32_box(lo, hi);
         let mut found = Vec::new();
         boxes.aabb_traverse(query, |bvh, node| {
             let node = &bvh.nodes[node as usize];
@@ -449,18 +445,7 @@ impl Occluder {
             return None;
         }
         let unit = dir / len;
-        let o = origin - unit * self.slack;
-        // obvhs picks a child box's near and far planes from the sign bit of
-        // each direction component but divides by it for the slab distances:
-        // a −0.0 component makes the two disagree and the ray misses boxes it
-        // lies in. Only the sign of a zero changes here.
-        let positive_zero = |x: f64| if x == 0.0 { 0.0 } else { x as f32 };
-        let ray = Ray::new(
-            [o.x as f32, o.y as f32, o.z as f32].into(),
-            unit.to_array().map(positive_zero).into(),
-            0.0,
-            self.cull_tmax(tmax, len),
-        );
+        let ray = f32_ray(origin - unit * self.slack, unit, self.cull_tmax(tmax, len));
         Some((ray, len))
     }
 
@@ -468,14 +453,52 @@ impl Occluder {
     /// f64 ray of length `len`.
     #[inline(always)]
     fn cull_tmax(&self, t: f64, len: f64) -> f32 {
-        let d = t * len + 2.0 * self.slack;
-        let d = d + d * 1e-5;
-        if d.is_finite() && d < f32::MAX as f64 {
-            d as f32
-        } else {
-            f32::INFINITY
-        }
+        cull_distance(t * len, self.slack)
     }
+}
+
+/// How far (world units) an f32 culling ray starts behind the real start of
+/// the f64 ray it stands for, around boxes padded by `pad`: beyond the
+/// padding, and beyond obvhs' node test, which skips boxes closer than 1e-4
+/// along the (unit) f32 ray.
+pub(crate) fn cull_slack(pad: f64) -> f64 {
+    2e-4 + 4.0 * pad
+}
+
+/// The f32 ray that obvhs traverses from `start` along the unit vector
+/// `unit`, up to parameter `tmax`.
+#[inline(always)]
+pub(crate) fn f32_ray(start: DVec3, unit: DVec3, tmax: f32) -> Ray {
+    // obvhs picks a child box's near and far planes from the sign bit of
+    // each direction component but divides by it for the slab distances:
+    // a −0.0 component makes the two disagree and the ray misses boxes it
+    // lies in. Only the sign of a zero changes here.
+    let positive_zero = |x: f64| if x == 0.0 { 0.0 } else { x as f32 };
+    Ray::new(
+        [start.x as f32, start.y as f32, start.z as f32].into(),
+        unit.to_array().map(positive_zero).into(),
+        0.0,
+        tmax,
+    )
+}
+
+/// The parameter, rounded generously up, of the f32 ray started `slack`
+/// behind the real start ([`cull_slack`]) at which it has passed the point
+/// `distance` (world units) along the real ray.
+#[inline(always)]
+pub(crate) fn cull_distance(distance: f64, slack: f64) -> f32 {
+    let d = distance + 2.0 * slack;
+    let d = d + d * 1e-5;
+    if d.is_finite() && d < f32::MAX as f64 {
+        d as f32
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The smallest f32 box holding the box [`lo`, `hi`].
+pub(crate) fn f32_box(lo: DVec3, hi: DVec3) -> Aabb {
+    Aabb::new(to_f32_down(lo).into(), to_f32_up(hi).into())
 }
 
 /// How far, relative to the boxes' padding, a triangle may reach into a
