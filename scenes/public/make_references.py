@@ -30,6 +30,13 @@ removed after loading); everything else is Mitsuba 3's own reading of the
 0.x file. Such files have fixed films (no <default>s), so their references
 are at the film's own resolution.
 
+Files without an <integrator>: Mitsuba 0.x gave such a scene a `direct`
+integrator (Mitsuba 0.6, src/librender/scene.cpp, Scene::configure: "Create
+a direct integrator by default"); Mitsuba 3 loads the file but refuses to
+render it without one. An entry with "default_integrator": "direct" is
+rendered with that integrator, as Mitsuba 0.6 would; the file is not
+changed. (wavrad solves every bounce whatever the integrator says.)
+
 Usage:
   python3 scenes/public/make_references.py                     # every scene, 4096 spp
   python3 scenes/public/make_references.py --scene veach-mis --spp 65536
@@ -88,14 +95,25 @@ def rgb(mi, np, image):
     return np.array(image, dtype=np.float64)[..., :3]
 
 
-def render_halves(mi, np, scene, spp, pass_spp):
+def default_integrator(mi, scene, entry):
+    """The integrator of an entry whose file has none (see above), else None."""
+    name = entry.get("default_integrator")
+    if name is None:
+        return None
+    if scene.integrator() is not None:
+        raise SystemExit(f"{entry['file']}: has an <integrator>; drop its default_integrator")
+    return mi.load_dict({"type": name})
+
+
+def render_halves(mi, np, scene, spp, pass_spp, integrator=None):
     passes = max(1, spp // (2 * pass_spp))
     halves = []
     for h in range(2):
         acc = 0.0
         for p in range(passes):
             seed = h * passes + p
-            acc = acc + rgb(mi, np, mi.render(scene, spp=pass_spp, seed=seed))
+            image = mi.render(scene, integrator=integrator, spp=pass_spp, seed=seed)
+            acc = acc + rgb(mi, np, image)
         halves.append(acc / passes)
     return halves, 2 * passes * pass_spp
 
@@ -111,7 +129,8 @@ def make_reference(mi, np, name, entry, spp, pass_spp):
     emitters = rgb(mi, np, mi.render(scene, integrator=direct, spp=EMITTER_SPP, seed=0))
     kept = emitters.max(axis=-1) <= 0.0
     t0 = time.time()
-    (a, b), total = render_halves(mi, np, scene, spp, pass_spp)
+    integrator = default_integrator(mi, scene, entry)
+    (a, b), total = render_halves(mi, np, scene, spp, pass_spp, integrator)
     seconds = time.time() - t0
     noise = {}
     for region, mask in (("all", np.ones_like(kept)), ("no-emitter", kept)):
