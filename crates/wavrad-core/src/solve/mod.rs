@@ -64,7 +64,7 @@ pub struct SolveSettings {
     /// the element seen from the glossy one (so never for broad lobes). Only the receiver splits there,
     /// which costs no ray queries, and a diffuse receiver's two-point links
     /// read the glossy surface's directional radiance at that resolution
-    /// ([`Interactions`](gather::Interactions)): a highlight's edges sharpen
+    /// ([`Interactions`]): a highlight's edges sharpen
     /// on the receiver for a few times the kernel time instead of the
     /// tenfold of one more level for all three elements (`docs/figure3.md`).
     pub three_point_receiver_levels: u32,
