@@ -792,3 +792,50 @@ fn mesh_vertex_normals_are_interpolated() {
         -DVec3::Z
     ));
 }
+
+/// A mesh file without normals is shaded smoothly, as Mitsuba shades it:
+/// at a vertex, the angle-weighted mean of its triangles' normals, made
+/// after `to_world`; `face_normals` keeps it flat.
+#[test]
+fn a_mesh_without_normals_gets_smooth_ones_unless_face_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    // Two triangles folded along the y axis at a right angle, facing +z
+    // and +x.
+    write(
+        dir.path(),
+        "fold.obj",
+        b"v 0 0 0\nv 0 1 0\nv -1 0 0\nv 0 0 -1\nf 1 2 3\nf 1 4 2\n",
+    );
+    let xml = r#"<scene version="3.0.0">
+        <shape type="obj"><string name="filename" value="fold.obj"/>
+            <transform name="to_world"><scale x="3"/></transform></shape>
+        <shape type="obj"><string name="filename" value="fold.obj"/>
+            <boolean name="face_normals" value="true"/></shape>
+    </scene>"#;
+    let s = load_scene_str(xml, dir.path(), "m.xml", &[]).unwrap().scene;
+    let (smooth, flat) = s.surfaces.split_at(2);
+    let (x_face, z_face) = (DVec3::new(0.0, 0.0, -1.0), DVec3::new(-3.0, 0.0, 0.0));
+    // The triangles' angles after the scale weigh their normals: 90° each
+    // at the origin; at (0 1 0), atan 3 on the stretched face and 45° on
+    // the other (45° each before it).
+    let top = DVec3::X * std::f64::consts::FRAC_PI_4 + DVec3::Z * 3f64.atan();
+    let expect = [
+        (DVec3::ZERO, DVec3::X + DVec3::Z),
+        (DVec3::Y, top),
+        (x_face, DVec3::X),
+        (z_face, DVec3::Z),
+    ];
+    let mut checked = 0;
+    for x in smooth {
+        for (vertex, normal) in expect {
+            if !x.patch.vertices().iter().any(|v| close(*v, vertex)) {
+                continue;
+            }
+            checked += 1;
+            let n = x.shading_normal(x.patch.param_of(vertex));
+            assert!((n - normal.normalize()).length() < 1e-6, "{n} at {vertex}");
+        }
+    }
+    assert_eq!(checked, 6);
+    assert!(flat.iter().all(|x| x.shading.is_none()));
+}

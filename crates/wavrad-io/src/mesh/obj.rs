@@ -1,13 +1,20 @@
 //! Wavefront OBJ through `tobj`: all objects and groups of the file merged
 //! into one mesh (as Mitsuba's `obj` shape does); materials are not read.
 //! Vertex normals (`vn`) and texture coordinates (`vt`) are each kept when
-//! every face vertex of the file has one.
+//! every face vertex of the file has one. Mitsuba makes one vertex of the
+//! face vertices with the same `v/vt` indices ([`Mesh::corners`]; `vn` too,
+//! but the vertices matter only without normals). tobj renumbers the
+//! vertices of each object (`o`, `g`, `usemtl`), so vertices are told apart
+//! by their numbers within an object and matched by value across objects:
+//! the k-th of an object's vertices at one position and texture coordinate
+//! is the k-th of another's (one, unless the file repeats a vertex).
 
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{DVec2, DVec3};
 
-use super::{push_fan, Mesh};
+use super::{fan, push_fan, Mesh};
 use crate::error::{Error, Result};
 
 /// Read every face of an OBJ file as triangles (polygons fan-triangulated),
@@ -33,6 +40,8 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
     .map_err(|e| Error::mesh(path, None, format!("invalid OBJ file: {e}")))?;
 
     let mut triangles = Vec::new();
+    let mut corners = Vec::new();
+    let mut welder = Welder::default();
     let mut normals = Some(Vec::new());
     let mut texcoords = Some(Vec::new());
     for model in &models {
@@ -93,6 +102,7 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
             mesh.face_arities.iter().map(|&a| a as usize).collect()
         };
         let mut start = 0usize;
+        let mut object_corners = Vec::new();
         for len in arities {
             let range = start..start + len;
             start += len;
@@ -102,8 +112,16 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
                     .map(|ix| ix.iter().map(|&i| i as usize).collect())
                     .ok_or_else(|| Error::mesh(path, None, "face list shorter than its arities"))
             };
-            push_fan(&positions, &polygon(&mesh.indices)?, &mut triangles)
+            let vertices = polygon(&mesh.indices)?;
+            push_fan(&positions, &vertices, &mut triangles)
                 .map_err(|i| out_of_range(i, "vertex", positions.len(), "vertices"))?;
+            let uvs = (mesh.texcoord_indices.len() == mesh.indices.len())
+                .then(|| polygon(&mesh.texcoord_indices))
+                .transpose()?;
+            let keyed: Vec<_> = (0..len)
+                .map(|k| (vertices[k], uvs.as_ref().map(|uvs| uvs[k])))
+                .collect();
+            object_corners.extend(fan(&keyed));
             if let Some(normals) = &mut normals {
                 push_fan(&model_normals, &polygon(&mesh.normal_indices)?, normals)
                     .map_err(|i| out_of_range(i, "normal", model_normals.len(), "normals"))?;
@@ -114,12 +132,63 @@ pub fn read_obj(path: &Path) -> Result<Mesh> {
                     .map_err(|i| out_of_range(i, "texture coordinate", count, "of them"))?;
             }
         }
+        corners.extend(
+            welder
+                .object(&positions, &model_texcoords, &object_corners)
+                .ok_or_else(|| Error::mesh(path, None, "more than 2^32 distinct vertices"))?,
+        );
     }
     Ok(Mesh {
         triangles,
         normals,
         texcoords,
+        corners,
     })
+}
+
+/// Numbers the vertices of an OBJ file as Mitsuba welds them, from one
+/// object at a time (see the module's documentation).
+#[derive(Default)]
+struct Welder {
+    /// The vertex of each (position, texture coordinate) value and how many
+    /// times an object has repeated it.
+    vertices: HashMap<([u64; 5], u32), u32>,
+}
+
+impl Welder {
+    /// The vertices of `corners`, given as an object's position and
+    /// texture coordinate indices (`None` without texture coordinates):
+    /// `positions[c.0]` (in range) and `texcoords[c.1]`. `None` past 2^32
+    /// vertices.
+    fn object(
+        &mut self,
+        positions: &[DVec3],
+        texcoords: &[DVec2],
+        corners: &[[(usize, Option<usize>); 3]],
+    ) -> Option<Vec<[u32; 3]>> {
+        // Which repeat of its value each of the object's vertices is.
+        let mut repeats: HashMap<(usize, Option<usize>), u32> = HashMap::new();
+        let mut seen: HashMap<[u64; 5], u32> = HashMap::new();
+        let mut vertex = |(p, t): (usize, Option<usize>)| -> Option<u32> {
+            let uv = t
+                .and_then(|t| texcoords.get(t))
+                .copied()
+                .unwrap_or_default();
+            let key =
+                [positions[p].x, positions[p].y, positions[p].z, uv.x, uv.y].map(f64::to_bits);
+            let repeat = *repeats.entry((p, t)).or_insert_with(|| {
+                let count = seen.entry(key).or_default();
+                *count += 1;
+                *count - 1
+            });
+            let next = u32::try_from(self.vertices.len()).ok()?;
+            Some(*self.vertices.entry((key, repeat)).or_insert(next))
+        };
+        corners
+            .iter()
+            .map(|c| Some([vertex(c[0])?, vertex(c[1])?, vertex(c[2])?]))
+            .collect()
+    }
 }
 
 /// What a face's vertex refers to: `v/vt/vn`.
@@ -207,6 +276,31 @@ mod tests {
         }
         // The normal is read as written, against the winding.
         assert_eq!(mesh.normals, Some(vec![[-DVec3::Z; 3]; 2]));
+    }
+
+    #[test]
+    fn corners_are_welded_by_position_and_texture_coordinate() {
+        // Two objects sharing the edge (1 0 0)-(0 1 0), each with its own
+        // copies of its vertices; the second's third vertex has two
+        // texture coordinates, so it is two vertices.
+        let f = obj_file(
+            "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
+             o b\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 4 5 6\n",
+        );
+        let mesh = read_obj(f.path()).unwrap();
+        assert_eq!(mesh.corners, vec![[0, 1, 2], [1, 3, 2]]);
+        // A vertex repeated within one object stays two, as in Mitsuba: a
+        // triangle soup is flat.
+        let f =
+            obj_file("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 4 6 5\n");
+        let mesh = read_obj(f.path()).unwrap();
+        assert_eq!(mesh.corners, vec![[0, 1, 2], [3, 4, 5]]);
+        let f = obj_file(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\n\
+             f 1/1 2/1 3/1\nf 2/1 4/1 3/2\n",
+        );
+        let mesh = read_obj(f.path()).unwrap();
+        assert_eq!(mesh.corners, vec![[0, 1, 2], [1, 3, 4]]);
     }
 
     #[test]

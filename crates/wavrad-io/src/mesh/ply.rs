@@ -13,7 +13,7 @@ use std::path::Path;
 
 use glam::{DVec2, DVec3};
 
-use super::{push_fan, Mesh};
+use super::{fan, push_fan, Mesh};
 use crate::error::{Error, Result};
 
 /// Read every face of a PLY file as triangles (polygons fan-triangulated),
@@ -121,6 +121,7 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
     let mut normals = with_normals.then(Vec::new);
     let with_texcoords = mesh.texcoords.len() == mesh.positions.len();
     let mut texcoords = with_texcoords.then(Vec::new);
+    let mut corners = Vec::new();
     for polygon in &mesh.polygons {
         push_fan(&mesh.positions, polygon, &mut triangles).map_err(|i| {
             (
@@ -131,6 +132,9 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
                 ),
             )
         })?;
+        // Indices below the vertex count (checked with the positions), which
+        // a file of at most MAX_MESH_FILE_BYTES keeps below 2^32.
+        corners.extend(fan(polygon).map(|c| c.map(|i| i as u32)));
         if let Some(normals) = &mut normals {
             push_fan(&mesh.normals, polygon, normals).expect("indices checked with positions");
         }
@@ -142,6 +146,7 @@ fn parse_ply(bytes: &[u8]) -> PlyResult<Mesh> {
         triangles,
         normals,
         texcoords,
+        corners,
     })
 }
 
@@ -490,6 +495,7 @@ mod tests {
             assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
         }
         assert_eq!(mesh.normals, None, "nx alone is no normal");
+        assert_eq!(mesh.corners, vec![[0, 1, 2], [0, 2, 3]]);
     }
 
     #[test]

@@ -207,6 +207,7 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
         .as_ref()
         .map(|_| Vec::with_capacity(triangles as usize));
     let mut triangles = Vec::with_capacity(triangles as usize);
+    let mut corners = Vec::with_capacity(triangles.capacity());
     let mut normals = vertex_normals
         .as_ref()
         .map(|_| Vec::with_capacity(triangles.capacity()));
@@ -220,6 +221,8 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
             ));
         }
         triangles.push(ijk.map(|i| positions[i]));
+        // Indices below the vertex count (a u32 count, checked above).
+        corners.push(ijk.map(|i| i as u32));
         if let (Some(normals), Some(vertex_normals)) = (&mut normals, &vertex_normals) {
             normals.push(ijk.map(|i| vertex_normals[i]));
         }
@@ -231,6 +234,7 @@ fn read_shape(compressed: &[u8], version: u16) -> SerializedResult<Mesh> {
         triangles,
         normals,
         texcoords,
+        corners,
     })
 }
 

@@ -23,13 +23,16 @@
 //! counter-clockwise around after `to_world` (so a mirroring transform turns
 //! the mesh inside out). The vertex normals, where kept, are also the
 //! triangle's shading normals ([`wavrad_core::scene::Surface::shading`]),
-//! interpolated over it as Mitsuba interpolates them. Triangles of zero area (collinear or repeated
+//! interpolated over it as Mitsuba interpolates them. A file without vertex
+//! normals gets smooth ones unless `face_normals` is true, as in Mitsuba:
+//! each vertex's is the angle-weighted mean of its triangles' normals
+//! ([`mesh::angle_weighted_normals`], in world space). Triangles of zero area (collinear or repeated
 //! vertices) are skipped, and a warning counts them; a mesh with no other
 //! triangle is an error. Texture coordinates are the file's (v turned to
 //! 1 − v when `flip_tex_coords`, as Mitsuba 3 does by default for OBJ), or
 //! without them each triangle's barycentric ones, as Mitsuba's.
 
-use glam::{DMat4, DVec2, Vec2};
+use glam::{DMat3, DMat4, DVec2, Vec2};
 use wavrad_core::scene::Patch;
 
 use super::super::document::Location;
@@ -121,11 +124,20 @@ impl MeshFile {
                 .error(format!("cannot load mesh of {describe}: {e}"))
         })?;
         let count = mesh.triangles.len();
-        let normals = mesh.normals.filter(|_| !self.face_normals);
-        // A triangle whose normals point against its winding is turned
-        // round, and so is every one when to_world mirrors (it reverses the
-        // winding but not the normals).
-        let mirrored = world_from_local.determinant() < 0.0;
+        let world: Vec<mesh::Triangle> = (mesh.triangles.iter())
+            .map(|t| t.map(|p| world_from_local.transform_point3(p)))
+            .collect();
+        // The shading normals at the corners in world space: the file's
+        // transformed as normals, or, for a file without any, smooth ones
+        // from the mesh's own triangles, as Mitsuba makes them.
+        let normals = match (&mesh.normals, self.face_normals) {
+            (_, true) => None,
+            (Some(normals), false) => {
+                let to_world = DMat3::from_mat4(*world_from_local).inverse().transpose();
+                Some(normals.iter().map(|n| n.map(|n| to_world * n)).collect())
+            }
+            (None, false) => Some(mesh::angle_weighted_normals(&world, &mesh.corners)),
+        };
         let texcoord = |uv: DVec2| {
             let v = if self.flip_tex_coords {
                 1.0 - uv.y
@@ -135,24 +147,24 @@ impl MeshFile {
             Vec2::new(uv.x as f32, v as f32)
         };
         let barycentric = [Vec2::ZERO, Vec2::X, Vec2::Y];
-        let patches: Vec<Placed> = mesh
-            .triangles
+        let patches: Vec<Placed> = world
             .iter()
             .enumerate()
-            .filter_map(|(i, t)| {
-                let p = Patch::Triangle(*t).transformed(world_from_local);
+            .filter_map(|(i, &t)| {
+                let p = Patch::Triangle(t);
                 if p.is_degenerate() {
                     return None;
                 }
                 let uv = (mesh.texcoords.as_ref()).map_or(barycentric, |uv| uv[i].map(texcoord));
+                let shading =
+                    (normals.as_ref()).and_then(|normals| ShadingNormals::new(normals[i]));
+                // A triangle whose normals point against its winding is
+                // turned round (a mirroring to_world reverses the winding
+                // but, transformed as normals, not the normals).
                 let turn = normals.as_ref().is_some_and(|normals| {
-                    let [a, b, c] = *t;
-                    let against = (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0;
-                    against != mirrored
+                    let [a, b, c] = t;
+                    (b - a).cross(c - a).dot(normals[i].iter().sum()) < 0.0
                 });
-                let shading = (normals.as_ref())
-                    .and_then(|normals| ShadingNormals::new(normals[i]))
-                    .and_then(|n| n.transformed(world_from_local));
                 let placed = (p, uv, shading);
                 Some(shading_to_front(if turn { flip(&placed) } else { placed }))
             })
