@@ -35,7 +35,7 @@ integrator (Mitsuba 0.6, src/librender/scene.cpp, Scene::configure: "Create
 a direct integrator by default"); Mitsuba 3 loads the file but refuses to
 render it without one. An entry with "default_integrator": "direct" is
 rendered with that integrator, as Mitsuba 0.6 would; the file is not
-changed. (wavrad solves every bounce whatever the integrator says.)
+changed; wavrad gives such a file the same default.
 
 Usage:
   python3 scenes/public/make_references.py                     # every scene, 4096 spp

@@ -69,11 +69,10 @@ fn open_scene_energy_balance_single_bounce() {
     assert!(first[1].iter().all(|f| *f == Rgb::ZERO));
 }
 
-/// With a reflecting emitter the receiver's radiance has a second bounce
-/// (receiver → emitter → receiver); its first bounce is still ρ · F · Le.
-#[test]
-fn first_bounce_is_the_light_straight_from_the_emitters() {
-    let scene = Scene::from_surfaces(vec![
+/// A unit square receiver (ρ 0.8) under an emitting one (Le 5, ρ 0.8) a
+/// unit above it, facing each other.
+fn receiver_under_a_reflecting_emitter() -> Scene {
+    Scene::from_surfaces(vec![
         Surface {
             name: "receiver".into(),
             patch: square(0.0, true),
@@ -90,7 +89,14 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
             texture: None,
             shading: None,
         },
-    ]);
+    ])
+}
+
+/// With a reflecting emitter the receiver's radiance has a second bounce
+/// (receiver → emitter → receiver); its first bounce is still ρ · F · Le.
+#[test]
+fn first_bounce_is_the_light_straight_from_the_emitters() {
+    let scene = receiver_under_a_reflecting_emitter();
     let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
     let first = solution.first_bounce().unwrap();
     let f = 0.199_825_3;
@@ -104,6 +110,42 @@ fn first_bounce_is_the_light_straight_from_the_emitters() {
     let second = all - first;
     assert!(second > 0.5 * 0.64 * f * f * first, "{second} of {all}");
     assert!(second < 2.0 * 0.64 * f * f * first, "{second} of {all}");
+}
+
+/// A scene whose integrator limits the path length holds the light of
+/// that many reflections less the final gather's: none at max_depth 2
+/// (direct lighting: the gather makes the only one), the first bounce at 3,
+/// and at 4 the emitter's reflection of it too, while the receiver, whose
+/// next light would be a third reflection, keeps only the first.
+#[test]
+fn a_limited_path_length_keeps_that_many_bounces() {
+    let mut scene = receiver_under_a_reflecting_emitter();
+    let solved = |scene: &Scene| solve(scene, &SolveSettings::default(), &Silent).unwrap();
+    let unlimited = solved(&scene);
+    let first = unlimited.first_bounce().unwrap();
+    let close = |a: &[Rgb], b: &[Rgb]| {
+        a.len() == b.len()
+            && a.iter()
+                .zip(b)
+                .all(|(a, b)| (*a - *b).map(f64::abs).max_channel() < 1e-12)
+    };
+    scene.hints.max_depth = Some(2);
+    let direct = solved(&scene);
+    assert!(direct.radiance[0].iter().all(|l| *l == Rgb::ZERO));
+    assert!(direct.radiance[1].iter().all(|l| *l == Rgb::splat(5.0)));
+    scene.hints.max_depth = Some(3);
+    let one = solved(&scene);
+    assert!(close(&one.radiance[0], &first[0]));
+    assert!(one.radiance[1].iter().all(|l| *l == Rgb::splat(5.0)));
+    scene.hints.max_depth = Some(4);
+    let two = solved(&scene);
+    assert!(close(&two.radiance[0], &first[0]));
+    let back = two.radiance[1][0][0] - 5.0;
+    assert!(
+        back > 0.0 && back < unlimited.radiance[1][0][0] - 5.0,
+        "{back}"
+    );
+    assert!(unlimited.radiance[0][0][0] > first[0][0][0] + 1e-6);
 }
 
 /// Refinement, solve and rendering give bit-identical results on 1 and 2

@@ -125,24 +125,56 @@ fn paths_are_searched_latest_first_for_meshes_and_includes() {
     assert!((s.surfaces[6].patch.area() - 2.0).abs() < 1e-12);
 }
 
+/// The longest path an integrator asks for is the scene's `max_depth`
+/// (`None`: no limit), without a warning; what wavrad does not honour warns
+/// once.
 #[test]
-fn unhonoured_integrator_settings_warn_once_each() {
-    let warnings = |integrator: &str| {
+fn the_longest_path_is_read_and_unhonoured_integrator_settings_warn_once_each() {
+    let load = |integrator: &str| {
         let xml =
             format!("<scene version=\"3.0.0\">\n{integrator}\n<shape type=\"cube\"/></scene>");
-        load_scene_str(&xml, Path::new("."), "i.xml", &[])
-            .unwrap_or_else(|e| panic!("{e}"))
-            .warnings
+        load_scene_str(&xml, Path::new("."), "i.xml", &[]).unwrap_or_else(|e| panic!("{e}"))
     };
-    for quiet in [
-        r#"<integrator type="path"/>"#,
-        r#"<integrator type="ptracer"><integer name="samples_per_pass" value="4"/><float name="timeout" value="60"/></integrator>"#,
-        r#"<integrator type="aov"><string name="aovs" value="dd.y:depth"/><integrator type="path" name="image"/></integrator>"#,
-        r#"<integrator type="path"><integer name="max_depth" value="-1"/></integrator>"#,
-        r#"<integrator type="volpath"><integer name="max_depth" value="65"/><integer name="rr_depth" value="5"/></integrator>"#,
-        r#"<integrator type="path"><boolean name="hide_emitters" value="false"/></integrator>"#,
+    for (quiet, max_depth) in [
+        (r#"<integrator type="path"/>"#, None),
+        (
+            r#"<integrator type="ptracer"><integer name="samples_per_pass" value="4"/><float name="timeout" value="60"/></integrator>"#,
+            None,
+        ),
+        (
+            r#"<integrator type="aov"><string name="aovs" value="dd.y:depth"/><integrator type="path" name="image"/></integrator>"#,
+            None,
+        ),
+        (
+            r#"<integrator type="path"><integer name="max_depth" value="-1"/></integrator>"#,
+            None,
+        ),
+        (
+            r#"<integrator type="volpath"><integer name="max_depth" value="65"/><integer name="rr_depth" value="5"/></integrator>"#,
+            None,
+        ),
+        (
+            r#"<integrator type="path"><boolean name="hide_emitters" value="false"/></integrator>"#,
+            None,
+        ),
+        (
+            r#"<integrator type="path"><integer name="max_depth" value="2"/></integrator>"#,
+            Some(2),
+        ),
+        (
+            r#"<integrator type="prb"><integer name="max_depth" value="8"/></integrator>"#,
+            Some(8),
+        ),
+        (r#"<integrator type="direct"/>"#, Some(2)),
+        // Nested integrators are read as integrators.
+        (
+            r#"<integrator type="aov"><integrator type="direct" name="image"/></integrator>"#,
+            Some(2),
+        ),
     ] {
-        assert_eq!(warnings(quiet), [], "{quiet}");
+        let loaded = load(quiet);
+        assert_eq!(loaded.warnings, [], "{quiet}");
+        assert_eq!(loaded.scene.hints.max_depth, max_depth, "{quiet}");
     }
     for (loud, needle) in [
         (
@@ -150,22 +182,12 @@ fn unhonoured_integrator_settings_warn_once_each() {
             "only the emitters",
         ),
         (
-            r#"<integrator type="path"><integer name="max_depth" value="2"/></integrator>"#,
-            "direct lighting only",
+            r#"<integrator type="path"><integer name="max_depth" value="0"/></integrator>"#,
+            "renders black",
         ),
-        (
-            r#"<integrator type="prb"><integer name="max_depth" value="8"/></integrator>"#,
-            "at most 7 bounces",
-        ),
-        (r#"<integrator type="direct"/>"#, "direct lighting only"),
         (
             r#"<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>"#,
             "hide_emitters",
-        ),
-        // Nested integrators are read as integrators.
-        (
-            r#"<integrator type="aov"><integrator type="direct" name="image"/></integrator>"#,
-            "direct lighting only",
         ),
         // A plugin Mitsuba 3 does not ship: its parameters go unchecked.
         (
@@ -173,11 +195,28 @@ fn unhonoured_integrator_settings_warn_once_each() {
             "not one of Mitsuba 3's",
         ),
     ] {
-        let w = warnings(loud);
+        let loaded = load(loud);
+        let w = loaded.warnings;
         assert_eq!(w.len(), 1, "{loud}: {w:?}");
         assert_eq!(w[0].line, 2);
         assert!(w[0].message.contains(needle), "{}", w[0]);
+        assert_eq!(loaded.scene.hints.max_depth, None, "{loud}");
     }
+    // No integrator: every bounce, but Mitsuba 0.x's default, direct, for
+    // a 0.x scene.
+    assert_eq!(load("").scene.hints.max_depth, None);
+    let legacy = load_scene_str(
+        "<scene version=\"0.5.0\">\n<shape type=\"cube\"/></scene>",
+        Path::new("."),
+        "l.xml",
+        &[],
+    )
+    .unwrap();
+    assert_eq!(legacy.scene.hints.max_depth, Some(2));
+    assert_eq!(legacy.warnings.len(), 1, "{:?}", legacy.warnings);
+    assert!(legacy.warnings[0]
+        .message
+        .contains("Mitsuba 0.x renders a scene without one"));
     let xml = "<scene version=\"3.0.0\">\n<integrator type=\"path\">\n<integer name=\"max_depth\" value=\"-2\"/></integrator></scene>";
     let msg = load_scene_str(xml, Path::new("."), "i.xml", &[])
         .unwrap_err()

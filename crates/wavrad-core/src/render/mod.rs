@@ -25,7 +25,7 @@ use crate::progress::{Progress, Silent};
 use crate::sampling::{seeded, Samples};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Camera, Film, RenderHints, Rgb, Scene};
-use crate::solve::Solution;
+use crate::solve::{bounces, Solution};
 use crate::{Error, Result};
 use cache::GatherCache;
 use enclosure::EnclosureRadiance;
@@ -299,6 +299,21 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         progress: &dyn Progress,
     ) -> Result<Image> {
         film.filter.validate()?;
+        if bounces(&self.solution().scene).is_some()
+            && matches!(
+                settings.estimator,
+                Estimator::Solution {
+                    direct_per_point: false,
+                    ..
+                }
+            )
+        {
+            progress.warn(
+                "the scene's integrator limits the path length: this mode shows the solution as \
+                 solved, which holds one reflection fewer than the longest path (modes gather \
+                 and direct make the last one per point)",
+            );
+        }
         let estimator = self.estimator_for(camera, settings, progress);
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),

@@ -11,7 +11,7 @@ use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::Rgb;
-use crate::solve::Solution;
+use crate::solve::{bounces, Solution};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -51,7 +51,10 @@ use rayon::prelude::*;
 /// `rest` is, per surface with a Lambertian lobe, its elements' radiance
 /// less their emission and first bounce ([`Solution::first_bounce`]): what
 /// a camera ray's final gather estimates beyond the light straight from the
-/// emitters, smooth where the solution is, its control variate.
+/// emitters, smooth where the solution is, its control variate. Where the
+/// scene limits the path length ([`bounces`]), it is the elements'
+/// reflection of the solution ([`Solution::reflection_of`]) less their
+/// first bounce: what that gather then estimates.
 pub(super) struct SolutionReader {
     pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
@@ -62,6 +65,10 @@ pub(super) struct SolutionReader {
     pub(super) caustic: Vec<bool>,
     links: LinkGuide,
     rest: Vec<Option<Vec<Rgb>>>,
+    /// Whether the scene limits the path length ([`bounces`]): gather rays
+    /// then read elements as solved, never a first bounce per point (the
+    /// solution may hold no first bounce at all).
+    limited: bool,
 }
 
 /// What a final gather finds at a point, in two parts: light that varies as
@@ -152,14 +159,25 @@ impl SolutionReader {
                 }
             })
             .collect();
+        // With a bounce limit the solution holds the light that reaches the
+        // visible points' gathers, and what they gather is one reflection
+        // of it: the elements' share of that is the rest's.
+        let limited = bounces(&solution.scene).is_some();
+        let reflected = match limited {
+            true => solution.reflection_of(&solution.radiance, &solution.directional),
+            false => None,
+        };
         let rest = match first {
             Some(first) => (first.into_par_iter().enumerate())
                 .map(|(s, first)| {
                     let emission = surfaces[s].emission;
-                    (!first.is_empty()).then(|| {
-                        (solution.radiance[s].iter().zip(first))
+                    (!first.is_empty()).then(|| match &reflected {
+                        Some(reflected) => (reflected[s].iter().zip(first))
+                            .map(|(&l, f)| l - f)
+                            .collect(),
+                        None => (solution.radiance[s].iter().zip(first))
                             .map(|(&l, f)| l - f - emission)
-                            .collect()
+                            .collect(),
                     })
                 })
                 .collect(),
@@ -179,6 +197,7 @@ impl SolutionReader {
                 false => LinkGuide::new(solution),
             },
             rest,
+            limited,
         }
     }
 
@@ -339,7 +358,8 @@ impl SolutionReader {
         }
         let near = (to.position - y).length_squared()
             < NEAR_ELEMENTS * NEAR_ELEMENTS * tree.nodes[leaf].patch.area();
-        let (true, Some(rest)) = (self.per_point[i] || near, self.rest(i)) else {
+        let per_point = (self.per_point[i] || near) && !self.limited;
+        let (true, Some(rest)) = (per_point, self.rest(i)) else {
             return element(&solution.radiance[i]);
         };
         let solved = element(rest) + surface.emission;

@@ -127,6 +127,10 @@ pub struct Camera {
 pub struct RenderHints {
     /// Samples per pixel asked for by the scene's sampler, if any.
     pub samples_per_pixel: Option<u32>,
+    /// The integrator's longest path, in Mitsuba's count of segments (2:
+    /// direct lighting only, 3: one bounce more, …), at least 2; `None`:
+    /// no limit. A solve honours it ([`crate::solve::solve`]).
+    pub max_depth: Option<u32>,
 }
 
 /// One sensor of a scene: where it looks from, its film, and what its

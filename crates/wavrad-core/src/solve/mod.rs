@@ -770,23 +770,31 @@ impl Solution {
     /// glossy surface, its Lambertian lobe's (empty without one); `None` while the solution's links are not
     /// arranged (a shooting step in progress).
     pub fn first_bounce(&self) -> Option<Vec<Vec<Rgb>>> {
+        let emission: Vec<Vec<Rgb>> = (self.scene.surfaces.iter())
+            .zip(&self.trees)
+            .map(|(s, t)| vec![s.emission; t.nodes.len()])
+            .collect();
+        let directional: Vec<Vec<Rgb>> = (self.interactions.directional.iter())
+            .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
+            .collect();
+        self.reflection_of(&emission, &directional)
+    }
+
+    /// The light every diffuse element reflects (eq. 12 with no emission
+    /// of its own) when the elements' radiance is `radiance` and the
+    /// directional structures' `directional`, and the lights that are not
+    /// surfaces shine: one gathering sweep, Jacobi's, read from those.
+    /// Shaped as [`Solution::first_bounce`], which is this of the emission.
+    pub fn reflection_of(
+        &self,
+        radiance: &[Vec<Rgb>],
+        directional: &[Vec<Rgb>],
+    ) -> Option<Vec<Vec<Rgb>>> {
         let scene = &self.scene;
         if self.interactions.incoming.len() != scene.surfaces.len() {
             return None;
         }
-        let emission: Vec<Vec<Rgb>> = scene
-            .surfaces
-            .iter()
-            .zip(&self.trees)
-            .map(|(s, t)| vec![s.emission; t.nodes.len()])
-            .collect();
-        let directional: Vec<Vec<Rgb>> = self
-            .interactions
-            .directional
-            .iter()
-            .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
-            .collect();
-        let far = self.interactions.clusters.far_field(&emission);
+        let far = self.interactions.clusters.far_field(radiance);
         let bounce = scene
             .surfaces
             .par_iter()
@@ -798,7 +806,7 @@ impl Solution {
                 let tree = &self.trees[p];
                 let mut gathered =
                     self.interactions
-                        .gather(p, rho, tree, (&emission, &directional), &far);
+                        .gather(p, rho, tree, (radiance, directional), &far);
                 self.interactions.gather_lights(p, rho, &mut gathered);
                 let exposure = Some(&self.interactions.exposure[p][..]);
                 let limit = Some(&self.interactions.limit[p][..]);
@@ -987,6 +995,13 @@ impl System {
     /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
     /// until no coarsest coefficient changes by more than the tolerance; an
     /// error when the changes keep growing ([`Divergence`]).
+    ///
+    /// A scene whose integrator limits the path length
+    /// ([`crate::scene::RenderHints::max_depth`]) is swept Jacobi's way
+    /// instead, each sweep reading the radiance of the one before, at most
+    /// [`bounces`] times: the radiance then holds exactly the
+    /// light of at most that many reflections, which the final gather's
+    /// reflection at the visible point completes to the longest path.
     fn solve(
         &mut self,
         scene: &Scene,
@@ -1012,16 +1027,23 @@ impl System {
         let mut divergence = Divergence::default();
         // Each surface's largest change in the last sweep.
         let mut changes = vec![0.0f64; scene.surfaces.len()];
-        progress.start("solving", u64::from(settings.max_iterations));
-        while iterations < settings.max_iterations
+        let bounces = bounces(scene);
+        let sweeps = bounces.map_or(settings.max_iterations, |b| b.min(settings.max_iterations));
+        progress.start("solving", u64::from(sweeps));
+        while iterations < sweeps
             && residual > settings.tolerance
             && !(iterations >= MIN_SWEEPS && progress.interrupted())
         {
             let far = interactions.clusters.far_field(radiance);
+            // With a bounce limit, the radiance before this sweep.
+            let before = bounces.map(|_| (radiance.clone(), directional.clone()));
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 changes[p] = 0.0;
                 if let Some(rho) = surface.brdf.lambertian() {
-                    let read = (&radiance[..], &directional[..]);
+                    let read = match &before {
+                        Some((r, d)) => (&r[..], &d[..]),
+                        None => (&radiance[..], &directional[..]),
+                    };
                     let mut gathered = interactions.gather(p, rho, &trees[p], read, &far);
                     interactions.gather_lights(p, rho, &mut gathered);
                     let exposure = Some(&interactions.exposure[p][..]);
@@ -1038,7 +1060,10 @@ impl System {
                     radiance[p] = updated;
                 }
                 for &s in &structures_of[p] {
-                    let gathered = interactions.gather_three_point(s, radiance, directional);
+                    let gathered = match &before {
+                        Some((r, d)) => interactions.gather_three_point(s, r, d),
+                        None => interactions.gather_three_point(s, radiance, directional),
+                    };
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
                     let updated =
@@ -1067,6 +1092,14 @@ impl System {
             residual,
         })
     }
+}
+
+/// The reflections a solution of `scene` holds, when its integrator's
+/// longest path is limited ([`crate::scene::RenderHints::max_depth`]): that
+/// many segments less the eye's and the last reflection, which the final
+/// gather makes at the visible point.
+pub fn bounces(scene: &Scene) -> Option<u32> {
+    scene.hints.max_depth.map(|d| d.saturating_sub(2))
 }
 
 /// Sweeps Gauss–Seidel makes even when the work is asked to stop

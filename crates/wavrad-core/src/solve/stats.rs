@@ -106,7 +106,8 @@ pub struct Stats {
     /// Largest change of a coarsest coefficient in the last sweep, relative
     /// to the brightest emitted radiance.
     pub residual: f64,
-    /// Whether the residual reached the tolerance.
+    /// Whether the residual reached the tolerance, or the sweeps the
+    /// scene's bounce limit allows were made ([`super::bounces`]).
     pub converged: bool,
     /// Time per phase.
     pub times: PhaseTimes,
@@ -228,7 +229,8 @@ impl Stats {
             kernel_pairs: 0,
             iterations: sweeps.iterations,
             residual: sweeps.residual,
-            converged: sweeps.residual <= settings.tolerance,
+            converged: sweeps.residual <= settings.tolerance
+                || super::bounces(scene).is_some_and(|b| sweeps.iterations >= b),
             times: PhaseTimes::default(),
             stopped: None,
             unrefined_items: 0,

@@ -228,6 +228,8 @@ pub(crate) struct Expanded {
     pub search: SearchPath,
     /// What was read, but not as written (a repeated `<default>`).
     pub warnings: Vec<Warning>,
+    /// Whether the scene file is a Mitsuba 0.x one (upgraded).
+    pub legacy: bool,
 }
 
 /// Parse the scene document `xml` and expand it. `own_path` (canonical) is
@@ -255,6 +257,7 @@ pub(crate) fn read_scene_document(
         xml_bytes: 0,
         search: SearchPath::new(dir),
         scene_at: None,
+        legacy: None,
         warnings: Vec::new(),
     };
     let elements = expander.document(xml, name, dir)?;
@@ -263,6 +266,7 @@ pub(crate) fn read_scene_document(
         elements,
         search: expander.search,
         warnings: expander.warnings,
+        legacy: expander.legacy.unwrap_or(false),
     })
 }
 
@@ -296,6 +300,8 @@ struct Expander {
     search: SearchPath,
     /// The scene file's `<scene>` element, once read.
     scene_at: Option<Location>,
+    /// Whether the scene file (the first document read) is Mitsuba 0.x's.
+    legacy: Option<bool>,
     /// Warnings so far.
     warnings: Vec<Warning>,
 }
@@ -346,6 +352,7 @@ impl Expander {
                 }
             }
         }
+        self.legacy.get_or_insert(legacy);
         let mut out = Vec::new();
         let source = Source {
             doc: &doc,

@@ -1,22 +1,25 @@
 //! The `integrator`: any of Mitsuba 3's plugins is accepted, since wavrad
-//! solves the scene its own way (every bounce, view-independent). Each
-//! plugin's parameters are checked as Mitsuba checks them: a name the
-//! plugin does not read is an error listing those it does, a value of the
-//! wrong type too. Its settings that would change Mitsuba's image are not
-//! honoured, and each one set is a warning:
+//! solves the scene its own way (view-independent). Each plugin's
+//! parameters are checked as Mitsuba checks them: a name the plugin does
+//! not read is an error listing those it does, a value of the wrong type
+//! too. Of its settings that change Mitsuba's image, the longest path is
+//! honoured and the rest are warnings:
 //!
 //! | parameter       | type        | Mitsuba's meaning                              | wavrad |
 //! |-----------------|-------------|------------------------------------------------|--------|
-//! | `max_depth`     | `<integer>` | longest path: 1 emitters seen directly, 2 direct lighting, … ; −1 no limit (default) | every bounce; a warning below [`UNLIMITED_DEPTH`] |
+//! | `max_depth`     | `<integer>` | longest path: 1 emitters seen directly, 2 direct lighting, … ; −1 no limit (default) | honoured from 2 to [`UNLIMITED_DEPTH`] − 1 ([`RenderHints::max_depth`](wavrad_core::scene::RenderHints::max_depth)); 0 and 1 a warning, solved as −1 |
 //! | `hide_emitters` | `<boolean>` | emitters seen directly are black               | shown; a warning when true |
 //!
-//! The `direct` integrator (direct lighting only, as `max_depth` 2) is a
-//! warning too. Every other parameter (`rr_depth`, `timeout`, sample counts
-//! of `direct`, …: [`PLUGINS`]) changes only the noise or the speed of
-//! Mitsuba's image and is ignored. The integrators that nest others (`aov`,
-//! `moment`, `stokes`) have theirs checked the same way. A plugin Mitsuba 3
-//! does not ship (one registered from Python, say) is a warning, its
-//! parameters unchecked.
+//! The `direct` integrator is direct lighting only, as `max_depth` 2; so is
+//! a Mitsuba 0.x scene without an integrator, as Mitsuba 0.x renders it
+//! (its default integrator is `direct`; Mitsuba 3 refuses to render a scene
+//! without one), with a warning. A Mitsuba 2 or 3 scene without one is
+//! solved for every bounce. Every other parameter (`rr_depth`, `timeout`, sample counts of `direct`,
+//! …: [`PLUGINS`]) changes only the noise or the speed of Mitsuba's image
+//! and is ignored. The integrators that nest others (`aov`, `moment`,
+//! `stokes`) have theirs checked the same way, and the first nested one's
+//! longest path is the scene's. A plugin Mitsuba 3 does not ship (one
+//! registered from Python, say) is a warning, its parameters unchecked.
 //!
 //! ```xml
 //! <integrator type="path">
@@ -24,15 +27,15 @@
 //! </integrator>
 //! ```
 //!
-//! Why not honour small depths: the solution is the radiance after every
-//! bounce at once (the radiance equation solved by Gauss–Seidel), not a sum
-//! of bounces that could be cut short; a depth limit would need a solve per
-//! bounce order.
+//! A solve honours the longest path by sweeping Jacobi's way a fixed
+//! number of times ([`wavrad_core::solve::bounces`]), so the radiance holds
+//! exactly the light of the reflections a path of that length makes.
 
+use super::document::Element;
 use super::params::{Document, Nested, Object};
 use crate::error::Result;
 
-/// The smallest `max_depth` read as "no limit" without a warning: paths of
+/// The smallest `max_depth` read as "no limit": paths of
 /// more bounces carry less than 4 % of the light even where every surface
 /// reflects 90 % (0.9³¹ ≈ 0.038), and less than 0.01 % at 60 %.
 pub(crate) const UNLIMITED_DEPTH: i64 = 32;
@@ -131,10 +134,11 @@ const PLUGINS: &[Plugin] = &[
     ),
 ];
 
-/// Read an `<integrator>`: an error for a parameter its plugin does not
-/// read, a value of the wrong type or a `max_depth` Mitsuba refuses; a
-/// warning in `doc` for each setting wavrad does not honour.
-pub(crate) fn check_integrator(integrator: Nested, doc: &Document) -> Result<()> {
+/// Read an `<integrator>`: its longest path ([`RenderHints::max_depth`](wavrad_core::scene::RenderHints::max_depth));
+/// an error for a parameter its plugin does not read, a value of the wrong
+/// type or a `max_depth` Mitsuba refuses; a warning in `doc` for each
+/// setting wavrad does not honour.
+pub(crate) fn check_integrator(integrator: Nested, doc: &Document) -> Result<Option<u32>> {
     let mut obj = Object::parse(integrator.element, doc)?;
     let Some(plugin) = PLUGINS.iter().find(|p| p.name == obj.plugin) else {
         let known: Vec<&str> = PLUGINS.iter().map(|p| p.name).collect();
@@ -144,7 +148,7 @@ pub(crate) fn check_integrator(integrator: Nested, doc: &Document) -> Result<()>
             obj.plugin,
             known.join(", ")
         )));
-        return Ok(());
+        return Ok(None);
     };
     for &(name, kind) in std::iter::once(INTEGRATOR)
         .chain(plugin.reads.iter().copied())
@@ -157,19 +161,23 @@ pub(crate) fn check_integrator(integrator: Nested, doc: &Document) -> Result<()>
             Text => obj.string(name).map(drop)?,
         }
     }
+    let mut nested_depth = None;
     for nested in &obj.nested {
         if !(plugin.nests && nested.tag() == "integrator") {
             return Err(obj.unexpected(nested));
         }
-        check_integrator(*nested, doc)?;
+        let depth = check_integrator(*nested, doc)?;
+        nested_depth = nested_depth.or(Some(depth));
     }
     obj.finish()?;
-    warn_unhonoured(&mut obj, doc)
+    let depth = longest_path(&mut obj, doc)?;
+    Ok(nested_depth.unwrap_or(depth))
 }
 
-/// The error for a `max_depth` Mitsuba refuses, and a warning for each
-/// setting of `obj` (its parameters checked) that wavrad does not honour.
-fn warn_unhonoured(obj: &mut Object, doc: &Document) -> Result<()> {
+/// The longest path `obj` (its parameters checked) asks for, `None` for no
+/// limit; the error for a `max_depth` Mitsuba refuses, and a warning for
+/// each setting wavrad does not honour.
+fn longest_path(obj: &mut Object, doc: &Document) -> Result<Option<u32>> {
     let max_depth = obj.integer("max_depth")?;
     let hide_emitters = obj.boolean("hide_emitters")?;
     let what = obj.describe();
@@ -179,31 +187,41 @@ fn warn_unhonoured(obj: &mut Object, doc: &Document) -> Result<()> {
                 "max_depth = {d} of {what}: must be -1 (no limit) or at least 0, as in Mitsuba"
             )))
         }
-        Some(d) if (0..UNLIMITED_DEPTH).contains(&d) => {
+        Some(d @ (0 | 1)) => {
             let mitsuba = match d {
-                0 => "renders black".to_string(),
-                1 => "shows only the emitters seen directly".to_string(),
-                2 => "renders direct lighting only".to_string(),
-                _ => format!("follows light over at most {} bounces", d - 1),
+                0 => "renders black",
+                _ => "shows only the emitters seen directly",
             };
             doc.warn(obj.location_of("max_depth").warning(format!(
                 "max_depth = {d} of {what} is not honoured: Mitsuba {mitsuba}, wavrad solves \
-                 for every bounce (as max_depth = -1), so its image is brighter where light \
-                 bounces more"
+                 for every bounce (as max_depth = -1)"
             )));
         }
         _ => {}
     }
-    if obj.plugin == "direct" {
-        doc.warn(obj.at().warning(
-            "integrator \"direct\" renders direct lighting only; wavrad solves for every bounce \
-             (as \"path\" with max_depth = -1), so its image is brighter where light bounces",
-        ));
-    }
+    let depth = match max_depth {
+        _ if obj.plugin == "direct" => Some(2),
+        Some(d) if (2..UNLIMITED_DEPTH).contains(&d) => u32::try_from(d).ok(),
+        _ => None,
+    };
     if hide_emitters == Some(true) {
         doc.warn(obj.location_of("hide_emitters").warning(format!(
             "hide_emitters of {what} is not honoured: wavrad shows the emitters seen directly"
         )));
     }
-    Ok(())
+    Ok(depth)
+}
+
+/// The longest path of a scene without an integrator, `root`: none for a
+/// Mitsuba 2 or 3 scene; for a `legacy` (0.x) one, 2, as Mitsuba 0.x's
+/// default integrator `direct` (its `Scene::configure`), with a warning.
+pub(crate) fn default_max_depth(legacy: bool, root: &Element, doc: &Document) -> Option<u32> {
+    if !legacy {
+        return None;
+    }
+    doc.warn(root.at.warning(
+        "the scene has no <integrator>: rendered with direct lighting only, as Mitsuba 0.x \
+         renders a scene without one (its default integrator \"direct\")",
+    ));
+    Some(2)
 }

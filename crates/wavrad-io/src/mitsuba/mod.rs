@@ -177,20 +177,22 @@ fn load(
     for warning in expanded.warnings {
         doc.warn(warning);
     }
-    let scene = build_scene(&root, &doc)?;
+    let scene = build_scene(&root, &doc, expanded.legacy)?;
     Ok(Loaded {
         scene,
         warnings: doc.into_warnings(),
     })
 }
 
-fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
+fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
     let scene = Object::parse(root, doc)?;
     scene.finish()?;
     let mut surfaces = Vec::new();
     let mut curved = Vec::new();
     let mut sensors = Vec::new();
     let mut top_level_samples = None;
+    // The integrator's longest path, once one is read.
+    let mut max_depth = None;
     let mut shape_index = 0;
     let mut top_level_emitters = Vec::new();
     let mut lights = Vec::new();
@@ -243,7 +245,10 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
                 let count = sensors::parse_sampler(*n, doc)?;
                 top_level_samples = top_level_samples.or(count);
             }
-            "integrator" => integrators::check_integrator(*n, doc)?,
+            "integrator" => {
+                let depth = integrators::check_integrator(*n, doc)?;
+                max_depth = max_depth.or(Some(depth));
+            }
             other => {
                 return Err(n.at.error(format!(
                     "<{other}> must be nested in {}",
@@ -265,6 +270,10 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
             ));
         }
     }
+    let max_depth = match max_depth {
+        Some(depth) => depth,
+        None => integrators::default_max_depth(legacy, root, doc),
+    };
     // The first sensor is the scene's camera; the others are views
     // `--sensor N` picks. A sensor's own sampler wins over the scene's.
     let mut sensors = sensors.into_iter().map(|s| SceneSensor {
@@ -272,6 +281,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         film: s.film,
         hints: RenderHints {
             samples_per_pixel: s.samples_per_pixel.or(top_level_samples),
+            max_depth,
         },
     });
     let first = sensors.next();
@@ -282,6 +292,7 @@ fn build_scene(root: &Element, doc: &Document) -> Result<Scene> {
         hints: first.map_or(
             RenderHints {
                 samples_per_pixel: top_level_samples,
+                max_depth,
             },
             |s| s.hints,
         ),
