@@ -11,8 +11,11 @@
 //! shape at its vertices) passes on, and one that meets the shape where the
 //! tessellation falls inside (mid-face) sees the shape.
 //!
-//! Only camera rays see the exact shapes: gathers and shadow rays stay on
-//! the tessellation, the geometry of the solve.
+//! Only camera rays see the exact shapes. The gathers and shadow rays of a
+//! camera ray's point on the convex side of one ([`ExactHit::convex_side`])
+//! start at the exact point and pass through the shape's own
+//! tessellation; every other shape occludes them as its tessellation, the
+//! geometry of the solve.
 //!
 //! Of more than a few shapes, a ray tests only those whose boxes it
 //! crosses, found by an obvhs BVH over the boxes (`ShapeTree`); like the
@@ -60,6 +63,11 @@ pub struct ExactHit {
     /// The exact shape's unit normal there, turned towards the ray's
     /// origin.
     pub normal: DVec3,
+    /// Whether the side seen bulges towards the ray (a sphere or a
+    /// cylinder seen from outside): a ray leaving the point into that side
+    /// never meets the shape again, nor its tessellation, which lies within
+    /// it, so rays may start at the exact point.
+    pub convex_side: bool,
     /// The point in the unit shape's space.
     local: DVec3,
 }
@@ -77,8 +85,9 @@ pub enum SeenHit {
         /// and the point of it under `hit`; `None` when no surface is on
         /// that side (a one-sided shape seen from behind).
         covering: Option<(u32, DVec3)>,
-        /// The first surface of its tessellation (a name for the shape).
-        first_surface: u32,
+        /// The surfaces of its tessellation, first and past the last (the
+        /// first names the shape).
+        surfaces: (u32, u32),
     },
 }
 
@@ -89,10 +98,8 @@ impl SeenHit {
         match *self {
             SeenHit::Surface(hit) => hit.surface,
             SeenHit::Exact {
-                covering,
-                first_surface,
-                ..
-            } => covering.map_or(first_surface, |(s, _)| s),
+                covering, surfaces, ..
+            } => covering.map_or(surfaces.0, |(s, _)| s),
         }
     }
 }
@@ -176,7 +183,7 @@ impl ExactShapes {
                 Some(SeenHit::Exact {
                     hit,
                     covering: shape.covering(&hit, occluder, &surface_of),
-                    first_surface: shape.surfaces.start,
+                    surfaces: (shape.surfaces.start, shape.surfaces.end),
                 })
             }
             None => triangle.map(|h| {
@@ -358,14 +365,12 @@ impl ExactShape {
         if normal == DVec3::ZERO {
             return None;
         }
+        let outward = normal.dot(dir) <= 0.0;
         Some(ExactHit {
             t,
             position: origin + t * dir,
-            normal: if normal.dot(dir) > 0.0 {
-                -normal
-            } else {
-                normal
-            },
+            normal: if outward { normal } else { -normal },
+            convex_side: outward && self.kind != ShapeKind::Disk,
             local,
         })
     }

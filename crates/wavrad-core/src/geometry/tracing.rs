@@ -139,8 +139,23 @@ impl SceneTracer {
     /// tmax); of surfaces in contact, the one facing the ray, then the one
     /// of lower index ([`Occluder::intersect`]).
     pub fn trace(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<SurfaceHit> {
+        self.trace_through(origin, dir, (tmin, tmax), |_| false)
+    }
+
+    /// [`SceneTracer::trace`] through the surfaces `passes` says a ray
+    /// passes (those of a curved shape it leaves from the exact shape's
+    /// convex side).
+    pub fn trace_through(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        (tmin, tmax): (f64, f64),
+        passes: impl Fn(u32) -> bool,
+    ) -> Option<SurfaceHit> {
         self.occluder
-            .intersect(origin, dir, tmin, tmax)
+            .intersect_except(origin, dir, tmin, tmax, |prim| {
+                passes(self.surface_of(prim))
+            })
             .map(|Hit { t, primitive, .. }| SurfaceHit {
                 surface: self.surface_of(primitive),
                 position: origin + t * dir,

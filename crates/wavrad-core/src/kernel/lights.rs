@@ -25,22 +25,27 @@ pub fn visible_incidents(
     f: impl FnMut(&Light, Incident),
 ) {
     let normal = scene.surfaces[surface as usize].patch.normal();
-    visible_incidents_shaded(scene, tracer, (surface, x, normal), sky, f);
+    let leaving = (normal, |_| false);
+    visible_incidents_shaded(scene, tracer, (surface, x, normal), leaving, sky, f);
 }
 
 /// [`visible_incidents`] at a point whose shading normal is `normal`
 /// ([`crate::scene::Surface::shading_normal`]): irradiance and the sky's
 /// directions are taken about it, and light from below the surface's own
 /// plane is left out (Mitsuba's convention for shading normals: nothing
-/// reaches a surface from behind it).
+/// reaches a surface from behind it). `leaving` is the point's geometric
+/// normal, `front` (the surface's, or the exact curved shape's where `x`
+/// lies on one), and the surfaces `passes` names, through which its
+/// shadow rays pass (those of that shape's tessellation:
+/// [`crate::render::gather::GatherPoint::on_shape`]).
 pub fn visible_incidents_shaded(
     scene: &Scene,
     tracer: &SceneTracer,
     (surface, x, normal): (u32, DVec3, DVec3),
+    (front, passes): (DVec3, impl Fn(u32) -> bool),
     sky: &[DVec2],
     mut f: impl FnMut(&Light, Incident),
 ) {
-    let front = scene.surfaces[surface as usize].patch.normal();
     for light in scene.lights.iter().filter(|l| !l.is_dark()) {
         let (samples, share) = match light.is_delta() {
             true => (&[DVec2::ZERO][..], 1.0),
@@ -53,7 +58,7 @@ pub fn visible_incidents_shaded(
             if front.dot(incident.direction) <= 0.0 {
                 continue;
             }
-            if sees(tracer, surface, x, &incident) {
+            if sees(tracer, (surface, &passes), x, &incident) {
                 f(
                     light,
                     Incident {
@@ -67,15 +72,17 @@ pub fn visible_incidents_shaded(
 }
 
 /// The irradiance at point `x` of `surface`, whose shading normal there is
-/// `normal`, from `scene`'s lights ([`visible_incidents_shaded`]).
+/// `normal`, from `scene`'s lights, its shadow rays leaving as `leaving`
+/// says ([`visible_incidents_shaded`]).
 pub fn irradiance(
     scene: &Scene,
     tracer: &SceneTracer,
     at: (u32, DVec3, DVec3),
+    leaving: (DVec3, impl Fn(u32) -> bool),
     sky: &[DVec2],
 ) -> Rgb {
     let mut e = Rgb::ZERO;
-    visible_incidents_shaded(scene, tracer, at, sky, |_, incident| {
+    visible_incidents_shaded(scene, tracer, at, leaving, sky, |_, incident| {
         e += incident.irradiance
     });
     e
@@ -111,11 +118,16 @@ pub fn reflected_towards(
     sum / (a.area() * b.area())
 }
 
-/// True when nothing but `surface` and the surfaces in its plane lies
-/// between `x` and the light of `incident`.
-fn sees(tracer: &SceneTracer, surface: u32, x: DVec3, incident: &Incident) -> bool {
+/// True when nothing but `surface`, the surfaces in its plane and those
+/// that `passes` names lies between `x` and the light of `incident`.
+fn sees(
+    tracer: &SceneTracer,
+    (surface, passes): (u32, &impl Fn(u32) -> bool),
+    x: DVec3,
+    incident: &Incident,
+) -> bool {
     let coplanar = tracer.coplanar(surface);
-    let skip = |s: u32| s == surface || coplanar.contains(&s);
+    let skip = |s: u32| s == surface || coplanar.contains(&s) || passes(s);
     if incident.distance.is_finite() {
         let to = x + incident.direction * incident.distance;
         return !(tracer.occluder).occluded_except(x, to, |prim| skip(tracer.surface_of(prim)));
@@ -163,13 +175,25 @@ mod tests {
         let tracer = SceneTracer::new(&scene);
         let under = DVec3::new(centre.x, centre.y, 0.0);
         assert_eq!(
-            irradiance(&scene, &tracer, (0, under, DVec3::Z), &[]),
+            irradiance(
+                &scene,
+                &tracer,
+                (0, under, DVec3::Z),
+                (DVec3::Z, |_| false),
+                &[]
+            ),
             Rgb::ZERO
         );
         let beside = DVec3::new(0.9, 0.9, 0.0);
         let d = position - beside;
         let expected = d.z / d.length().powi(3);
-        let e = irradiance(&scene, &tracer, (0, beside, DVec3::Z), &[]);
+        let e = irradiance(
+            &scene,
+            &tracer,
+            (0, beside, DVec3::Z),
+            (DVec3::Z, |_| false),
+            &[],
+        );
         assert!((e[0] - expected).abs() < 1e-12, "{e} vs {expected}");
     }
 
@@ -186,12 +210,14 @@ mod tests {
             &scene,
             &tracer,
             (0, DVec3::new(0.95, 0.95, 0.0), DVec3::Z),
+            (DVec3::Z, |_| false),
             &sky,
         );
         let near = irradiance(
             &scene,
             &tracer,
             (0, DVec3::new(0.1, 0.1, 0.0), DVec3::Z),
+            (DVec3::Z, |_| false),
             &sky,
         );
         assert!(far[0] > near[0] && near[0] > 0.0, "{far} {near}");

@@ -64,7 +64,13 @@ pub fn link_lights(ctx: &KernelContext, max_level: u32, progress: &dyn Progress)
         // The solve is on the patches: their own normal, not the shading one.
         let normal = patch.normal();
         for sample in patch.gauss_points(points) {
-            let e = irradiance(scene, ctx.tracer, (surface, sample.position, normal), &sky);
+            let e = irradiance(
+                scene,
+                ctx.tracer,
+                (surface, sample.position, normal),
+                (normal, |_| false),
+                &sky,
+            );
             sum += e * sample.weight;
         }
         sum / patch.area()
@@ -170,7 +176,15 @@ mod tests {
             .sum();
         let n = 200;
         let reference: f64 = crate::testing::unit_square_midpoints(n)
-            .map(|x| irradiance(&scene, &tracer, (0, x, DVec3::Z), &[])[0])
+            .map(|x| {
+                irradiance(
+                    &scene,
+                    &tracer,
+                    (0, x, DVec3::Z),
+                    (DVec3::Z, |_| false),
+                    &[],
+                )[0]
+            })
             .sum::<f64>()
             / (n * n) as f64;
         assert!(

@@ -126,6 +126,7 @@ impl GatherCache {
                     position,
                     normal: surface.shading_normal(uv),
                     samples: Samples::pixel(seeded((s as u64) << 40 ^ t as u64, settings.seed), 0),
+                    shape: None,
                 };
                 let budget = GatherBudget { rays, shadow_grid };
                 Some(reader.final_gather_parts(solution, &point, budget))

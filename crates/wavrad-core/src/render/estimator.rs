@@ -433,7 +433,10 @@ fn read_directional<S: Borrow<Solution> + Sync>(
         .contains(BrdfFlags::GLOSSY_REFLECTION)
     {
         false => own,
-        true => own + renderer.directional_towards(surface, position, hit.wo),
+        true => {
+            let passes = |s| hit.point.on_shape(s);
+            own + renderer.directional_towards(surface, position, hit.wo, passes)
+        }
     }
 }
 

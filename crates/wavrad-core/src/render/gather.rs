@@ -35,13 +35,19 @@ use glam::{DVec2, DVec3};
 pub struct GatherPoint {
     /// Surface the point is on.
     pub surface: u32,
-    /// The point.
+    /// The point, where its rays start: on the surface, or on the exact
+    /// curved shape the surface tessellates, above it
+    /// ([`crate::geometry::analytic::ExactHit::convex_side`]).
     pub position: DVec3,
     /// Shading normal of the surface at the point ([`crate::scene::Surface::shading_normal`];
     /// the front normal of a flat one).
     pub normal: DVec3,
     /// Where its estimates draw their sample points.
     pub samples: Samples,
+    /// For a point on the exact curved shape, the surfaces of its
+    /// tessellation (first, past the last), which its rays pass through
+    /// ([`GatherPoint::on_shape`]); `None` for a point of the surface.
+    pub shape: Option<(u32, u32)>,
 }
 
 impl GatherPoint {
@@ -54,6 +60,7 @@ impl GatherPoint {
             position,
             normal: s.shading_normal(s.patch.param_of(position)),
             samples,
+            shape: None,
         }
     }
 
@@ -64,9 +71,22 @@ impl GatherPoint {
         self.normal.dot(wi) > 0.0 && self.front(scene).dot(wi) > 0.0
     }
 
-    /// The front normal of the point's surface.
+    /// Whether surface `s` tessellates the curved shape the point lies on
+    /// exactly, on its convex side: the point's rays, leaving that side,
+    /// never meet the shape, and pass through its tessellation, which
+    /// reaches out past the shape at its vertices.
+    pub fn on_shape(&self, s: u32) -> bool {
+        self.shape
+            .is_some_and(|(first, end)| (first..end).contains(&s))
+    }
+
+    /// The geometric normal at the point: its surface's front, or the
+    /// exact shape's normal on a curved shape ([`GatherPoint::shape`]).
     fn front(&self, scene: &Scene) -> DVec3 {
-        scene.surfaces[self.surface as usize].patch.normal()
+        match self.shape {
+            Some(_) => self.normal,
+            None => scene.surfaces[self.surface as usize].patch.normal(),
+        }
     }
 }
 
@@ -111,6 +131,7 @@ pub fn direct_radiance(
         position: x,
         normal,
         samples,
+        ..
     } = *point;
     let rho = lambertian_albedo(scene, surface, x);
     let n = grid * grid;
@@ -128,7 +149,7 @@ pub fn direct_radiance(
         }
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
-            s == e || s == surface
+            s == e || s == surface || point.on_shape(s)
         };
         // The point-to-area kernel cosθ_x cosθ_y / (π r²) of light the
         // point receives (none from behind its planes).
@@ -167,7 +188,9 @@ pub fn direct_radiance(
         let sky: Vec<DVec2> = (0..rays)
             .map(|k| samples.point(Stream::Shadow, rays, k))
             .collect();
-        let e = lights::irradiance(scene, tracer, (surface, x, normal), &sky);
+        let at = (surface, x, normal);
+        let leaving = (point.front(scene), |s| point.on_shape(s));
+        let e = lights::irradiance(scene, tracer, at, leaving, &sky);
         out += rho * e * std::f64::consts::FRAC_1_PI;
     }
     out
@@ -213,7 +236,7 @@ pub fn emitters_seen(
         }
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
-            s == e || s == point.surface
+            s == e || s == point.surface || point.on_shape(s)
         };
         for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
             let y = light
@@ -315,6 +338,7 @@ pub fn indirect_radiance(
         position: x,
         normal,
         samples,
+        ..
     } = *point;
     let GatherSources {
         bright,
@@ -390,7 +414,8 @@ pub fn indirect_radiance(
         if !point.receives(scene, dir) {
             continue; // below the surface: no light, and no ray into it
         }
-        let Some(hit) = tracer.trace(x, dir, 1e-7, f64::INFINITY) else {
+        let Some(hit) = tracer.trace_through(x, dir, (1e-7, f64::INFINITY), |s| point.on_shape(s))
+        else {
             continue;
         };
         inverse_distances += 1.0 / hit.distance;
@@ -443,7 +468,7 @@ fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVe
     let x = point.position;
     let skip = |prim: u32| {
         let h = tracer.surface_of(prim);
-        h == q || h == point.surface
+        h == q || h == point.surface || point.on_shape(h)
     };
     point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
 }
@@ -500,7 +525,9 @@ pub fn glossy_radiance(
     }
     // The delta lights, exactly.
     let at = (surface, x, point.normal);
-    lights::visible_incidents_shaded(scene, tracer, at, &[], |_, incident| {
+    let passes = |s| point.on_shape(s);
+    let leaving = (point.front(scene), passes);
+    lights::visible_incidents_shaded(scene, tracer, at, leaving, &[], |_, incident| {
         out += brdf.eval(wo_local, frame.to_local(incident.direction)) * incident.irradiance;
     });
     // BRDF sampling: emitters (weighted against light sampling) and the rest
@@ -515,7 +542,7 @@ pub fn glossy_radiance(
         if !point.receives(scene, wi) {
             continue; // below the surface: no light, and no ray into it
         }
-        let Some(hit) = tracer.trace(x, wi, 1e-7, f64::INFINITY) else {
+        let Some(hit) = tracer.trace_through(x, wi, (1e-7, f64::INFINITY), passes) else {
             out += sample.weight * scene.sky_radiance(wi) / n;
             continue;
         };
@@ -602,6 +629,7 @@ mod tests {
             position: x,
             normal: n,
             samples: Samples::Hashed(3),
+            shape: None,
         };
         let sources = GatherSources {
             bright: &SurfaceDistribution::default(),
@@ -677,6 +705,7 @@ mod tests {
                     position: x,
                     normal,
                     samples: Samples::Hashed(seed),
+                    shape: None,
                 };
                 let v =
                     indirect_radiance(&scene, &tracer, &point, 16, sources, outgoing).radiance[0];
@@ -899,6 +928,7 @@ mod tests {
                 position: DVec3::new(x.0, x.1, 1.0 - 1e-9),
                 normal: DVec3::Z,
                 samples: Samples::Hashed(k as u64),
+                shape: None,
             };
             assert_eq!(
                 direct_radiance(&scene, &tracer, &emitters, &point, 2),
@@ -1072,6 +1102,7 @@ mod tests {
             position: x,
             normal: DVec3::Z,
             samples,
+            shape: None,
         }
     }
 

@@ -322,6 +322,7 @@ mod tests {
                     position: x,
                     normal,
                     samples: Samples::Hashed(seed),
+                    shape: None,
                 };
                 let gather = GatherSources {
                     bright: &none,

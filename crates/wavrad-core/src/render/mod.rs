@@ -372,15 +372,19 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let uv = patch.clamp_param(patch.param_of(y));
         let (tree, radiance) = (&solution.trees[p as usize], &solution.radiance[p as usize]);
         let own = radiance_at(tree, radiance, uv, Reconstruction::Smooth);
-        own + self.directional_towards(p, y, d)
+        own + self.directional_towards(p, y, d, |_| false)
     }
 
     /// The directional part of [`Renderer::glossy_radiance_towards`]: the
     /// radiance L_{p→q} towards the surface q that `d` meets from `y`, or
-    /// the enclosure's.
-    fn directional_towards(&self, p: u32, y: DVec3, d: DVec3) -> Rgb {
+    /// the enclosure's; the ray passes through the surfaces `passes` names
+    /// ([`GatherPoint::on_shape`]).
+    fn directional_towards(&self, p: u32, y: DVec3, d: DVec3, passes: impl Fn(u32) -> bool) -> Rgb {
         let solution = self.solution();
-        match solution.tracer.trace(y, d, 1e-7, f64::INFINITY) {
+        match solution
+            .tracer
+            .trace_through(y, d, (1e-7, f64::INFINITY), passes)
+        {
             Some(hit) if hit.surface != p => {
                 reconstruct::directional_radiance(solution, p, y, hit.surface, hit.position)
             }
@@ -444,9 +448,13 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// position `(x, y)` (in pixels), meets the front of a surface (a
     /// one-sided surface is black from behind, as Mitsuba's diffuse is).
     /// Where it meets a curved shape ([`crate::geometry::tracing::SceneTracer::trace_seen`]), the
-    /// point is that of the tessellation's surface under the exact point,
-    /// where the solution is read and from which gathers and shadow rays
-    /// start, and the shading normal is the exact shape's. `seed` scrambles
+    /// solution is read on the tessellation's surface under the exact
+    /// point, and the shading normal is the exact shape's; gathers and
+    /// shadow rays start at the exact point where the side seen is convex
+    /// ([`crate::geometry::analytic::ExactHit::convex_side`]), so that
+    /// shadows and the terminator are the shape's, else at the point under
+    /// it (a ray from the concave side of a cylinder would meet its
+    /// tessellation at once). `seed` scrambles
     /// the pixel's samples ([`RenderSettings::seed`]).
     fn camera_hit(
         &self,
@@ -461,7 +469,9 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
         let seen = (solution.tracer).trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
         let surfaces = &solution.scene.surfaces;
-        let (s, position, exact_normal) = match seen {
+        // The surface and point where the solution is read, and the
+        // exact point rays start from and its normal, on a curved shape.
+        let (s, position, exact) = match seen {
             SeenHit::Surface(hit) => {
                 let front = surfaces[hit.surface as usize].patch.normal();
                 if front.dot(ray.direction) >= 0.0 {
@@ -470,9 +480,13 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 (hit.surface, hit.position, None)
             }
             // The covering surface's front is the side seen.
-            SeenHit::Exact { hit, covering, .. } => {
+            SeenHit::Exact {
+                hit,
+                covering,
+                surfaces,
+            } => {
                 let (s, position) = covering?;
-                (s, position, Some(hit.normal))
+                (s, position, Some((hit, surfaces)))
             }
         };
         let surface = &surfaces[s as usize];
@@ -481,12 +495,18 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         // The pixel's estimates of one kind stratify their samples jointly:
         // each takes its own block of the pixel's sequences.
         let pixel = (y.floor() * w + x.floor()) as u64;
+        // Rays leave the convex side of a curved shape from its exact point.
+        let (position, shape) = match exact {
+            Some((hit, shape)) if hit.convex_side => (hit.position, Some(shape)),
+            _ => (position, None),
+        };
         Some(CameraHit {
             point: GatherPoint {
                 surface: s,
                 position,
-                normal: exact_normal.unwrap_or_else(|| surface.shading_normal(uv)),
+                normal: exact.map_or_else(|| surface.shading_normal(uv), |(hit, _)| hit.normal),
                 samples: Samples::pixel(seeded(pixel, seed), k as u32),
+                shape,
             },
             uv,
             wo: -ray.direction,
