@@ -802,14 +802,18 @@ fn report(solution: &Solution, output: Option<&Path>, progress: &Reporter) {
     if progress.show == Show::Nothing {
         return report_warnings(solution);
     }
+    // A bounce limit stops the sweeps where it says, not at a residual.
+    let ended = match wavrad_core::solve::bounces(&solution.scene) {
+        Some(limit) => format!("the scene's bounce limit {limit}"),
+        None => format!("residual {:.2e}", s.residual),
+    };
     eprintln!(
-        "wavrad: {} surfaces, {} two-point nodes, {} two-point interactions; {} iterations (residual {:.2e}); \
+        "wavrad: {} surfaces, {} two-point nodes, {} two-point interactions; {} iterations ({ended}); \
          kernels {:.2}s, solve {:.2}s, render {:.2}s",
         s.surfaces,
         s.two_point_nodes,
         s.two_point_interactions,
         s.iterations,
-        s.residual,
         t.kernels_s,
         t.solve_s,
         t.render_s

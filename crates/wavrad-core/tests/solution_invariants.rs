@@ -133,6 +133,9 @@ fn a_limited_path_length_keeps_that_many_bounces() {
     let direct = solved(&scene);
     assert!(direct.radiance[0].iter().all(|l| *l == Rgb::ZERO));
     assert!(direct.radiance[1].iter().all(|l| *l == Rgb::splat(5.0)));
+    // Direct lighting needs no links between surfaces.
+    assert_eq!(direct.stats.two_point_interactions, 0);
+    assert!(unlimited.stats.two_point_interactions > 0);
     scene.hints.max_depth = Some(3);
     let one = solved(&scene);
     assert!(close(&one.radiance[0], &first[0]));

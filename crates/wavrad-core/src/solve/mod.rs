@@ -282,12 +282,17 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     let clock = Instant::now();
     let ctx = projector.kernel_context();
     let clusters = ClusterTree::build(scene);
-    let linking = link_from_root(
-        &ctx,
-        &clusters,
-        settings.clusters(),
-        &projector.budgeted(progress),
-    );
+    // Direct lighting only (the longest path two segments): the solution
+    // holds the emission alone, and nothing is linked.
+    let linking = match bounces(scene) {
+        Some(0) => Linking::default(),
+        _ => link_from_root(
+            &ctx,
+            &clusters,
+            settings.clusters(),
+            &projector.budgeted(progress),
+        ),
+    };
     times.kernels_s += clock.elapsed().as_secs_f64();
     // Linking is the plan's first budgeted work: every pair linked coarse
     // so far is its own.
