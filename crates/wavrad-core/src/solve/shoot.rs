@@ -122,8 +122,9 @@ pub type OnStep<'a> = &'a mut dyn FnMut(&Solution, &Step) -> ControlFlow<()>;
 /// result is the same for any number of threads.
 ///
 /// # Errors
-/// [`Error::InvalidSetting`] for a scene with a glossy or textured surface, for the
-/// importance oracle, or for bad settings; [`Error::EmptyScene`],
+/// [`Error::InvalidSetting`] for a scene with a glossy or textured surface
+/// or a path length limit ([`crate::scene::RenderHints::max_depth`]), for
+/// the importance oracle, or for bad settings; [`Error::EmptyScene`],
 /// [`Error::TooManySurfaces`], [`Error::NoLight`] and [`Error::Diverged`]
 /// as [`super::solve`].
 pub fn solve_shooting(
@@ -175,6 +176,12 @@ pub fn solve_shooting(
         return Err(Error::InvalidSetting(
             "the shooting solver supports the kernel and power oracles for now".into(),
         ));
+    }
+    if let Some(depth) = scene.hints.max_depth {
+        return Err(Error::InvalidSetting(format!(
+            "the shooting solver solves for every bounce, but the scene's integrator limits \
+             paths to max_depth {depth} (use the gather solver, which honours it)"
+        )));
     }
     let mut times = PhaseTimes::default();
     let clock = Instant::now();
@@ -705,7 +712,7 @@ mod tests {
     }
 
     #[test]
-    fn glossy_or_textured_scenes_and_the_importance_oracle_are_clear_errors() {
+    fn glossy_textured_or_depth_limited_scenes_and_the_importance_oracle_are_clear_errors() {
         let mut scene = open_box();
         let err = shoot_err(&scene, Oracle::Importance);
         assert!(err.contains("kernel and power"), "{err}");
@@ -719,6 +726,10 @@ mod tests {
         });
         let err = shoot_err(&scene, Oracle::Power);
         assert!(err.contains("untextured scenes"), "{err}");
+        let mut scene = open_box();
+        scene.hints.max_depth = Some(3);
+        let err = shoot_err(&scene, Oracle::Power);
+        assert!(err.contains("max_depth 3"), "{err}");
     }
 
     fn shoot_err(scene: &Scene, oracle: Oracle) -> String {
