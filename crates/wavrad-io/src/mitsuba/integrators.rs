@@ -14,12 +14,13 @@
 //! a Mitsuba 0.x scene without an integrator, as Mitsuba 0.x renders it
 //! (its default integrator is `direct`; Mitsuba 3 refuses to render a scene
 //! without one), with a warning. A Mitsuba 2 or 3 scene without one is
-//! solved for every bounce. Every other parameter (`rr_depth`, `timeout`, sample counts of `direct`,
-//! …: [`PLUGINS`]) changes only the noise or the speed of Mitsuba's image
-//! and is ignored. The integrators that nest others (`aov`, `moment`,
-//! `stokes`) have theirs checked the same way, and the first nested one's
-//! longest path is the scene's. A plugin Mitsuba 3 does not ship (one
-//! registered from Python, say) is a warning, its parameters unchecked.
+//! solved for every bounce. Every other parameter (`rr_depth`, `timeout`,
+//! sample counts of `direct`, …: [`PLUGINS`]) changes only the noise or the
+//! speed of Mitsuba's image and is ignored. The integrators that nest
+//! others (`aov`, `moment`, `stokes`) have theirs checked the same way, and
+//! the first nested one's longest path is the scene's. A plugin Mitsuba 3
+//! does not ship (one registered from Python, say) is a warning, its
+//! parameters unchecked.
 //!
 //! ```xml
 //! <integrator type="path">
