@@ -23,23 +23,39 @@ const IRRADIANCE: f64 = 2.0;
 const ALBEDO: f64 = 0.6;
 
 fn lone_sphere() -> Scene {
+    let light = format!(
+        r#"<emitter type="directional">
+            <vector name="direction" x="{}" y="{}" z="{}"/>
+            <rgb name="irradiance" value="{IRRADIANCE}"/>
+        </emitter>"#,
+        TRAVEL.x, TRAVEL.y, TRAVEL.z
+    );
+    let sphere = format!(r#"<float name="radius" value="{RADIUS}"/>"#);
+    sphere_scene(("0, 0, 3", 40, 32, 16), &light, &sphere)
+}
+
+/// A scene seen by a camera at `origin` looking at the origin (field of
+/// view `fov`°, `res`² pixels, `spp` camera rays, box filter), lit by the
+/// `light` element, holding one diffuse sphere of albedo [`ALBEDO`] with
+/// the parameters `sphere`.
+fn sphere_scene(
+    (origin, fov, res, spp): (&str, u32, u32, u32),
+    light: &str,
+    sphere: &str,
+) -> Scene {
     let xml = format!(
         r#"<scene version="3.0.0">
         <sensor type="perspective">
-            <float name="fov" value="40"/>
-            <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
-            <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-            <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/>
+            <float name="fov" value="{fov}"/>
+            <transform name="to_world"><lookat origin="{origin}" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+            <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
                 <rfilter type="box"/></film>
         </sensor>
-        <emitter type="directional">
-            <vector name="direction" x="{}" y="{}" z="{}"/>
-            <rgb name="irradiance" value="{IRRADIANCE}"/>
-        </emitter>
-        <shape type="sphere"><float name="radius" value="{RADIUS}"/>
+        {light}
+        <shape type="sphere">{sphere}
             <bsdf type="diffuse"><rgb name="reflectance" value="{ALBEDO}"/></bsdf></shape>
-    </scene>"#,
-        TRAVEL.x, TRAVEL.y, TRAVEL.z
+    </scene>"#
     );
     wavrad_io::load_scene_str(&xml, Path::new("."), "sphere.xml", &[])
         .unwrap()
@@ -147,26 +163,16 @@ fn the_exact_sphere_is_lit_up_to_its_terminator() {
 #[test]
 fn a_point_light_over_a_large_sphere_lights_the_exact_sphere() {
     let (centre, radius, light, intensity) = (DVec3::new(0.0, 0.0, -100.0), 100.0, DVec3::Z, 3.0);
-    let xml = format!(
-        r#"<scene version="3.0.0">
-        <sensor type="perspective">
-            <float name="fov" value="60"/>
-            <transform name="to_world"><lookat origin="0, -0.5, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
-            <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
-            <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/>
-                <rfilter type="box"/></film>
-        </sensor>
-        <emitter type="point"><point name="position" x="{}" y="{}" z="{}"/>
-            <rgb name="intensity" value="{intensity}"/></emitter>
-        <shape type="sphere"><point name="center" x="{}" y="{}" z="{}"/>
-            <float name="radius" value="{radius}"/>
-            <bsdf type="diffuse"><rgb name="reflectance" value="{ALBEDO}"/></bsdf></shape>
-    </scene>"#,
-        light.x, light.y, light.z, centre.x, centre.y, centre.z
+    let point = format!(
+        r#"<emitter type="point"><point name="position" x="{}" y="{}" z="{}"/>
+            <rgb name="intensity" value="{intensity}"/></emitter>"#,
+        light.x, light.y, light.z
     );
-    let scene = wavrad_io::load_scene_str(&xml, Path::new("."), "ground.xml", &[])
-        .unwrap()
-        .scene;
+    let sphere = format!(
+        r#"<point name="center" x="{}" y="{}" z="{}"/><float name="radius" value="{radius}"/>"#,
+        centre.x, centre.y, centre.z
+    );
+    let scene = sphere_scene(("0, -0.5, 2", 60, 24, 4), &point, &sphere);
     let error = error_against(&scene, (centre, radius), |point, normal| {
         let d = light - point;
         let cos = normal.dot(d.normalize());

@@ -71,6 +71,12 @@ impl GatherPoint {
         self.normal.dot(wi) > 0.0 && self.front(scene).dot(wi) > 0.0
     }
 
+    /// Whether a shadow ray from the point passes through surface `s`: its
+    /// own, or one of the curved shape's it lies on ([`GatherPoint::on_shape`]).
+    fn passes(&self, s: u32) -> bool {
+        s == self.surface || self.on_shape(s)
+    }
+
     /// Whether surface `s` tessellates the curved shape the point lies on
     /// exactly, on its convex side: the point's rays, leaving that side,
     /// never meet the shape, and pass through its tessellation, which
@@ -149,7 +155,7 @@ pub fn direct_radiance(
         }
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
-            s == e || s == surface || point.on_shape(s)
+            s == e || point.passes(s)
         };
         // The point-to-area kernel cosθ_x cosθ_y / (π r²) of light the
         // point receives (none from behind its planes).
@@ -236,7 +242,7 @@ pub fn emitters_seen(
         }
         let skip = |prim: u32| {
             let s = tracer.surface_of(prim);
-            s == e || s == point.surface || point.on_shape(s)
+            s == e || point.passes(s)
         };
         for (u, v) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)] {
             let y = light
@@ -468,7 +474,7 @@ fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVe
     let x = point.position;
     let skip = |prim: u32| {
         let h = tracer.surface_of(prim);
-        h == q || h == point.surface || point.on_shape(h)
+        h == q || point.passes(h)
     };
     point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
 }
