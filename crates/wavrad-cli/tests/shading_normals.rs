@@ -181,3 +181,31 @@ fn a_point_light_over_a_large_sphere_lights_the_exact_sphere() {
     eprintln!("relRMSE on the large sphere: {error:.4}");
     assert!(error < 0.01, "relRMSE {error}");
 }
+
+/// A small sphere light (radius 0.05, as far as 3.2 radii of the lit
+/// sphere) lights the sphere as its closed form says: a point that sees
+/// all of it above its horizon receives E = π L (r/d)² cos θ. Its shadow
+/// rays are drawn over the cone it subtends, not among its facets, most of
+/// which face away: drawn facet by facet, the same render was 0.8 % off
+/// (0.15 % now).
+#[test]
+fn a_small_sphere_light_lights_as_its_closed_form() {
+    let (centre, radius, radiance) = (DVec3::splat(1.5), 0.05, 400.0);
+    let light = format!(
+        r#"<shape type="sphere"><point name="center" x="{0}" y="{0}" z="{0}"/>
+            <float name="radius" value="{radius}"/>
+            <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf></shape>"#,
+        centre.x
+    );
+    let sphere = format!(r#"<float name="radius" value="{RADIUS}"/>"#);
+    let scene = sphere_scene(("0, 0, 3", 40, 48, 4), &light, &sphere);
+    let error = error_against(&scene, (DVec3::ZERO, RADIUS), |point, normal| {
+        let d = centre - point;
+        let cos = normal.dot(d.normalize());
+        let e = std::f64::consts::PI * radiance * (radius * radius / d.length_squared()) * cos;
+        (cos > 0.26).then(|| ALBEDO / std::f64::consts::PI * e)
+    });
+    eprintln!("relRMSE under the sphere light: {error:.4}");
+    assert!(error < 0.004, "relRMSE {error}");
+}

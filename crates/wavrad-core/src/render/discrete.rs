@@ -72,6 +72,24 @@ impl DiscreteDistribution {
         }
     }
 
+    /// The probability that a draw leaving out the members `excluded`
+    /// picks one of the members `members`.
+    pub fn run_probability(&self, members: Range<usize>, excluded: Range<usize>) -> f64 {
+        let Some(n) = self.cdf.len().checked_sub(1) else {
+            return 0.0;
+        };
+        let kept = self.kept(excluded.clone());
+        if kept <= 0.0 {
+            return 0.0;
+        }
+        let mass = |r: Range<usize>| {
+            let start = r.start.min(n);
+            self.cdf[r.end.clamp(start, n)] - self.cdf[start]
+        };
+        let overlap = members.start.max(excluded.start)..members.end.min(excluded.end);
+        (mass(members) - mass(overlap)).max(0.0) / kept
+    }
+
     /// The member that `u` ∈ \[0,1) picks, leaving out the members
     /// `excluded`: `None` where every member with weight is left out.
     pub fn sample(&self, u: f64, excluded: Range<usize>) -> Option<Drawn> {
@@ -164,6 +182,14 @@ impl SurfaceDistribution {
         }
     }
 
+    /// The probability that [`SurfaceDistribution::sample`], leaving out
+    /// `excluded`, picks one of the surfaces `run`.
+    pub fn run_probability(&self, run: Range<u32>, excluded: u32) -> f64 {
+        let members = self.surfaces.partition_point(|&t| t < run.start)
+            ..self.surfaces.partition_point(|&t| t < run.end);
+        self.choice.run_probability(members, self.position(excluded))
+    }
+
     /// Where surface `s` is among them: one position or none.
     fn position(&self, s: u32) -> Range<usize> {
         let i = self.surfaces.partition_point(|&t| t < s);
@@ -220,6 +246,9 @@ mod tests {
                 assert!((c as f64 - expect).abs() <= 1.0, "{excluded:?} {i}: {c}");
             }
         }
+        assert_eq!(d.run_probability(0..5, 1..3), 1.0);
+        assert!((d.run_probability(1..4, 0..2) - 5.0 / 7.0).abs() < 1e-12);
+        assert_eq!(d.run_probability(0..1, 0..5), 0.0);
         assert_eq!(d.sample(0.3, 0..5), None);
         assert_eq!(d.probability(1, 0..5), 0.0);
     }
@@ -272,6 +301,9 @@ mod tests {
             assert_eq!((uv.y, p), (0.25, d.probability(q, 5)));
         }
         assert_eq!((counts[2], counts[5], counts[9]), (667, 0, 333));
+        assert_eq!(d.run_probability(2..6, u32::MAX), 0.75);
+        assert!((d.run_probability(3..10, 5) - 1.0 / 3.0).abs() < 1e-12);
+        assert_eq!(d.run_probability(3..5, 2), 0.0);
         let alone = SurfaceDistribution::new(vec![(3, 1.0)]);
         assert_eq!(alone.sample(DVec2::splat(0.5), 3), None);
     }

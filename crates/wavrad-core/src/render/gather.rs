@@ -23,6 +23,7 @@ use crate::geometry::tracing::SceneTracer;
 use crate::kernel::form_factor::{front_part, point_to_polygon};
 use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
+use crate::render::emitters::{Emitter, Emitters, SphereEmitter};
 use crate::render::link_guide::LinkedSources;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Bilinear, Samples, Stream};
@@ -128,7 +129,7 @@ pub const SKY_RAYS_PER_SHADOW_RAY: u32 = 4;
 pub fn direct_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &SurfaceDistribution,
+    emitters: &Emitters,
     point: &GatherPoint,
     grid: u32,
 ) -> Rgb {
@@ -141,13 +142,23 @@ pub fn direct_radiance(
     } = *point;
     let rho = lambertian_albedo(scene, surface, x);
     let n = grid * grid;
-    let mut drawn: Vec<(u32, DVec2, f64)> = (0..n)
+    let mut drawn: Vec<(Emitter, DVec2, f64)> = (0..n)
         .filter_map(|k| emitters.sample(samples.point(Stream::Shadow, n, k), surface))
         .collect();
     drawn.sort_unstable_by_key(|&(e, ..)| e);
     let mut out = Rgb::ZERO;
     for rays in drawn.chunk_by(|a, b| a.0 == b.0) {
-        let (e, _, chosen) = rays[0];
+        let (emitter, _, chosen) = rays[0];
+        let share = rays.len() as f64 / (f64::from(n) * chosen);
+        let e = match emitter {
+            Emitter::Surface(e) => e,
+            Emitter::Sphere(k) => {
+                let sphere = emitters.sphere(k);
+                let uv = rays.iter().map(|&(_, uv, _)| uv);
+                out += rho * sphere.emission * (sphere_factor(scene, tracer, point, sphere, uv) * share);
+                continue;
+            }
+        };
         let light = &scene.surfaces[e as usize];
         let on_light = |uv: DVec2| light.patch.point_at(light.patch.square_to_param(uv));
         if !lit_by(tracer, &light.patch, x) {
@@ -186,7 +197,6 @@ pub fn direct_radiance(
             .sum();
         let unoccluded = shaded_factor(x, (normal, point.front(scene)), &light.patch);
         let light_from = unoccluded - hidden * light.patch.area() / rays.len() as f64;
-        let share = rays.len() as f64 / (f64::from(n) * chosen);
         out += rho * light.emission * (light_from * share);
     }
     if !scene.lights.is_empty() {
@@ -200,6 +210,28 @@ pub fn direct_radiance(
         out += rho * e * std::f64::consts::FRAC_1_PI;
     }
     out
+}
+
+/// The form factor of the emitting `sphere` at `point`, the integral of
+/// `V cosθ / π` over the solid angle it subtends, estimated from one cone
+/// sample ([`SphereEmitter::sample`]) per `uv`: each sample that the point
+/// receives and sees counts `cosθ / (π pdf)`. A shadow ray passes through
+/// the sphere's own tessellation, which the exact sphere's near side
+/// hides.
+fn sphere_factor(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    point: &GatherPoint,
+    sphere: &SphereEmitter,
+    uv: impl ExactSizeIterator<Item = DVec2>,
+) -> f64 {
+    let count = uv.len().max(1) as f64;
+    let seen: f64 = uv
+        .filter_map(|uv| sphere.sample(point.position, uv))
+        .filter(|sample| sees_sphere(scene, tracer, point, sphere, sample.position))
+        .map(|sample| point.normal.dot(sample.direction) / (std::f64::consts::PI * sample.pdf))
+        .sum();
+    seen / count
 }
 
 /// How much of the emitters' light a point receives unoccluded
@@ -228,7 +260,7 @@ pub const MAX_EMITTERS_SEEN: usize = 8;
 pub fn emitters_seen(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &SurfaceDistribution,
+    emitters: &Emitters,
     point: &GatherPoint,
 ) -> Option<EmittersSeen> {
     if !scene.lights.is_empty() || emitters.surfaces().len() > MAX_EMITTERS_SEEN {
@@ -479,6 +511,23 @@ fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVe
     point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
 }
 
+/// Whether `point` sees the point `y` of the emitting `sphere` in front
+/// of itself (the shadow ray passes through the sphere's tessellation).
+fn sees_sphere(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    point: &GatherPoint,
+    sphere: &SphereEmitter,
+    y: DVec3,
+) -> bool {
+    let x = point.position;
+    let skip = |prim: u32| {
+        let s = tracer.surface_of(prim);
+        sphere.surfaces.contains(&s) || point.passes(s)
+    };
+    point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
+}
+
 /// Radiance the BRDF `brdf` reflects at the glossy point `point` towards the
 /// world direction `wo` (its surface's BRDF, or only some of its lobes;
 /// emission not included): light straight from the `emitters` by light
@@ -493,7 +542,7 @@ fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVe
 pub fn glossy_radiance(
     scene: &Scene,
     tracer: &SceneTracer,
-    emitters: &SurfaceDistribution,
+    emitters: &Emitters,
     point: &GatherPoint,
     (brdf, wo): (&Brdf, DVec3),
     grid: u32,
@@ -516,18 +565,28 @@ pub fn glossy_radiance(
     // Light sampling.
     for k in 0..samples {
         let u = sample_points.point(Stream::Light, samples, k);
-        let Some((e, uv, chosen)) = emitters.sample(u, surface) else {
+        let Some((emitter, uv, chosen)) = emitters.sample(u, surface) else {
             break;
         };
-        let Some((wi, _, p_area)) = area_sample(scene, tracer, point, e, uv) else {
+        let seen = match emitter {
+            Emitter::Surface(e) => area_sample(scene, tracer, point, e, uv)
+                .map(|(wi, _, p)| (wi, p, scene.surfaces[e as usize].emission)),
+            Emitter::Sphere(k) => {
+                let sphere = emitters.sphere(k);
+                (sphere.sample(x, uv))
+                    .filter(|sample| sees_sphere(scene, tracer, point, sphere, sample.position))
+                    .map(|sample| (sample.direction, sample.pdf, sphere.emission))
+            }
+        };
+        let Some((wi, p_solid_angle, emission)) = seen else {
             continue;
         };
-        let p_light = chosen * p_area;
+        let p_light = chosen * p_solid_angle;
         let wi_local = frame.to_local(wi);
         let f = brdf.eval(wo_local, wi_local);
         let p_brdf = brdf.pdf(wo_local, wi_local);
         let w = p_light / (p_light + p_brdf) * wi_local.z / p_light / n;
-        out += f * w * scene.surfaces[e as usize].emission;
+        out += f * w * emission;
     }
     // The delta lights, exactly.
     let at = (surface, x, point.normal);
@@ -557,9 +616,14 @@ pub fn glossy_radiance(
             continue; // itself, or the back of a one-sided surface: black
         }
         let l = outgoing(hit.surface, hit.position);
-        let chosen = emitters.probability(hit.surface, surface);
+        let emitter = emitters.of_surface(hit.surface);
+        let chosen = emitters.probability(emitter, surface);
         let emitted_weight = if chosen > 0.0 {
-            let p_light = chosen * area_pdf(&q.patch, wi, (hit.position - x).length_squared());
+            let p_solid_angle = match emitter {
+                Emitter::Surface(_) => area_pdf(&q.patch, wi, (hit.position - x).length_squared()),
+                Emitter::Sphere(k) => emitters.sphere(k).pdf(x, wi),
+            };
+            let p_light = chosen * p_solid_angle;
             sample.pdf / (p_light + sample.pdf)
         } else {
             1.0
@@ -806,7 +870,7 @@ mod tests {
         let estimate = |samples: Samples| {
             let ceiling = |q: u32, _| Rgb::splat(if q == 1 { 1.0 } else { 0.0 });
             let brdf = (&floor.brdf, wo);
-            let no_emitters = &SurfaceDistribution::default();
+            let no_emitters = &Emitters::default();
             let point = on_floor(x, samples);
             glossy_radiance(&scene, &tracer, no_emitters, &point, brdf, 2, ceiling)[0]
         };
@@ -865,7 +929,7 @@ mod tests {
         let expect = 0.5 * (2.0 / s * (1.0 / s).atan()) / (2.0 * std::f64::consts::PI);
         // Nothing hides the light: the closed form, exactly.
         let tracer = SceneTracer::new(&scene);
-        let light = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let light = Emitters::new(&scene, vec![(1, 1.0)]);
         let l = direct_radiance(
             &scene,
             &tracer,
@@ -927,7 +991,7 @@ mod tests {
         };
         let scene = floor_lit_by(light, Some(back));
         let tracer = SceneTracer::new(&scene);
-        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let emitters = Emitters::new(&scene, vec![(1, 1.0)]);
         for (k, x) in [(0.1, 0.2), (-0.3, 0.4)].into_iter().enumerate() {
             let point = GatherPoint {
                 surface: 2,
@@ -952,7 +1016,7 @@ mod tests {
         // light, far to its left none, under the edge part.
         let mut scene = floor_under_a_wall_edge();
         let tracer = SceneTracer::new(&scene);
-        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let emitters = Emitters::new(&scene, vec![(1, 1.0)]);
         let seen = |scene: &Scene, x: f64| {
             let point = on_floor(DVec3::new(x, 0.0, 0.0), Samples::Hashed(0));
             emitters_seen(scene, &tracer, &emitters, &point)
@@ -1054,7 +1118,7 @@ mod tests {
     /// the lone emitter.
     fn direct_estimates(scene: &Scene, x: DVec3, grid: u32) -> (f64, f64) {
         let tracer = SceneTracer::new(scene);
-        let emitters = SurfaceDistribution::new(vec![(1, 1.0)]);
+        let emitters = Emitters::new(scene, vec![(1, 1.0)]);
         mean_and_error(
             (0..4000)
                 .map(|k| {
@@ -1126,8 +1190,8 @@ mod tests {
             let s = &scene.surfaces[e as usize];
             s.emission[0] * s.patch.area()
         };
-        let emitters =
-            SurfaceDistribution::new(vec![(0, 1.0), (1, power(1)), (2, power(2)), (3, power(3))]);
+        let weights = vec![(0, 1.0), (1, power(1)), (2, power(2)), (3, power(3))];
+        let emitters = Emitters::new(&scene, weights);
         let expect: f64 = (1..4)
             .map(|e| {
                 let light = &scene.surfaces[e].patch;
@@ -1180,7 +1244,7 @@ mod tests {
                 reflected += f * light.emission[0] * wi.z * cos_y / r2 * cell;
             }
         }
-        let emitters = SurfaceDistribution::new(vec![(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0)]);
+        let emitters = Emitters::new(&scene, vec![(0, 1.0), (1, 1.0), (2, 2.0), (3, 1.0)]);
         let emission = |q: u32, _| scene.surfaces[q as usize].emission;
         let (mean, error) = mean_and_error(
             (0..4000)

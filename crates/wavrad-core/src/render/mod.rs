@@ -8,6 +8,7 @@
 pub mod cache;
 pub mod camera;
 pub mod discrete;
+pub mod emitters;
 pub mod enclosure;
 pub mod estimator;
 pub mod eye;

@@ -2,6 +2,7 @@
 //! per solution by its [`super::Renderer`], and the final gather over it.
 
 use super::discrete::SurfaceDistribution;
+use super::emitters::Emitters;
 use super::gather::{self, GatherPoint};
 use super::link_guide::LinkGuide;
 use super::mirror::MirrorImages;
@@ -59,7 +60,7 @@ pub(super) struct SolutionReader {
     pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
     per_point: Vec<bool>,
-    pub(super) emitters: SurfaceDistribution,
+    pub(super) emitters: Emitters,
     pub(super) bright: SurfaceDistribution,
     mirrors: MirrorImages,
     pub(super) caustic: Vec<bool>,
@@ -118,7 +119,8 @@ impl SolutionReader {
     pub(super) fn new(solution: &Solution) -> SolutionReader {
         let surfaces = &solution.scene.surfaces;
         // Emitters by power: emission (mean of the channels) times area.
-        let emitters = SurfaceDistribution::new(
+        let emitters = Emitters::new(
+            &solution.scene,
             (surfaces.iter().enumerate())
                 .filter(|(_, s)| s.is_emitter())
                 .map(|(e, s)| (e as u32, s.emission.average() * s.patch.area()))
