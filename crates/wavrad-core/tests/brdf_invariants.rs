@@ -9,6 +9,7 @@ mod support {
 use glam::{DVec2, DVec3};
 use support::chi2::{chi2_test, Rng};
 use wavrad_core::scene::brdf::fresnel::conductor_ior;
+use wavrad_core::scene::brdf::principled::{Principled, PrincipledParams};
 use wavrad_core::scene::brdf::{
     Brdf, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams,
     Ward, WardVariant,
@@ -75,6 +76,15 @@ fn models() -> Vec<(String, Brdf)> {
         ));
         v.push((format!("plastic {kind} 0.25"), plastic(kind, 0.25, 0.8)));
     }
+    v.push((
+        "principled 0.3 metallic 0.2".to_string(),
+        Brdf::Principled(Principled::new(PrincipledParams {
+            base_color: Rgb([0.8, 0.6, 0.4]),
+            roughness: 0.3,
+            metallic: 0.2,
+            ..PrincipledParams::default()
+        })),
+    ));
     v
 }
 
@@ -231,14 +241,19 @@ fn brdf_sample_weight_is_f_cos_over_pdf() {
 #[test]
 fn brdf_is_its_lambertian_lobe_plus_the_rest() {
     // The solvers carry ρ/π of `lambertian()` through two-point links and
-    // `without_lambertian()` through three-point links: together they must
-    // be the whole BRDF, and the rest must have no Lambertian lobe left.
+    // `without_lambertian()` through three-point links, and shade with
+    // `shading_rest()` besides the Lambertian lobe: that and the Lambertian
+    // lobe must be the whole BRDF, and neither rest may have a Lambertian
+    // lobe left. Only principled's Burley lobe makes the two rests differ.
     let mut rng = Rng::new(11);
     for (name, model) in models() {
-        let rest = model.without_lambertian();
+        let rest = model.shading_rest();
         assert_eq!(rest.lambertian().unwrap_or(Rgb::ZERO), Rgb::ZERO, "{name}");
+        let carried = model.without_lambertian();
+        assert_eq!(carried.lambertian().unwrap_or(Rgb::ZERO), Rgb::ZERO, "{name}");
+        assert_eq!(carried == rest, !name.starts_with("principled"), "{name}");
         let rho = model.lambertian().unwrap_or(Rgb::ZERO);
-        let lambertian_models = ["diffuse", "ward"];
+        let lambertian_models = ["diffuse", "ward", "principled"];
         assert_eq!(
             model.lambertian().is_some(),
             lambertian_models.iter().any(|m| name.starts_with(m)),
@@ -250,7 +265,7 @@ fn brdf_is_its_lambertian_lobe_plus_the_rest() {
             for c in 0..3 {
                 let sum = rho[c] * std::f64::consts::FRAC_1_PI + g[c];
                 assert!(
-                    (f[c] - sum).abs() <= 1e-12 * f[c],
+                    (f[c] - sum).abs() <= 1e-12 * f[c].max(1e-3),
                     "{name}: f = {f:?}, lobes {rho:?}/π + {g:?}"
                 );
             }

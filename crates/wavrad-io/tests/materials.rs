@@ -115,7 +115,10 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
             r#"<bsdf type="roughdielectric"/>"#,
             "bsdf \"roughdielectric\"",
         ),
-        (r#"<bsdf type="principled"/>"#, "bsdf \"principled\""),
+        (
+            r#"<bsdf type="principled"><float name="clearcoat" value="0.5"/></bsdf>"#,
+            "bsdf \"principled\" with clearcoat",
+        ),
         (
             r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
             "bsdf \"normalmap\"",
@@ -149,6 +152,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
                <shape type="rectangle"><bsdf type="principled">
                    <rgb name="base_color" value="0.8, 0.1, 0.1"/>
                    <float name="roughness" value="0.3"/>
+                   <float name="sheen" value="0.2"/>
                </bsdf></shape>
                <shape type="rectangle"><bsdf type="bumpmap">
                    <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
@@ -162,7 +166,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     for plugin in [
         "bsdf \"dielectric\": left out",
         "bsdf \"thindielectric\"",
-        "bsdf \"principled\": its reflection: a Lambertian lobe",
+        "bsdf \"principled\" with sheen: its reflection without them",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
         assert!(
@@ -171,9 +175,9 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         );
     }
     let s = loaded.scene;
-    // Glass is left out; principled is a red Lambertian lobe (Burley's
-    // albedo at roughness 0.3) under a GGX lobe of α = 0.3²; the bump map's
-    // nested diffuse stays.
+    // Glass is left out; principled without its sheen is a red Burley lobe,
+    // carried as a Lambertian lobe of its albedo at roughness 0.3, under a
+    // GGX lobe of α = 0.3²; the bump map's nested diffuse stays.
     let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
     assert!(matches!(&s.surfaces[0].brdf,
         Brdf::Principled(p) if p.diffuse_reflectance == Rgb([0.8, 0.1, 0.1]).map(|c| c * burley)
@@ -184,6 +188,40 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         Some(Rgb([0.8, 0.1, 0.1]).map(|c| c * burley))
     );
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
+}
+
+/// Without transmission, clearcoat, sheen or flatness, `principled` is
+/// read as it is, with no warning, whatever the tints, gloss and sampling
+/// rates of the lobes that are off; a parameter it does not have is an
+/// error at its line.
+#[test]
+fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
+    let loaded = load(
+        r#"<shape type="rectangle"><bsdf type="principled">
+               <rgb name="base_color" value="0.8, 0.8, 0.8"/>
+               <float name="roughness" value="0.4"/>
+               <float name="spec_trans" value="0"/>
+               <float name="clearcoat" value="0"/>
+               <float name="clearcoat_gloss" value="0.17"/>
+               <float name="sheen_tint" value="0.5"/>
+               <float name="diffuse_reflectance_sampling_rate" value="2"/>
+           </bsdf></shape>"#,
+        false,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let Brdf::Principled(p) = &loaded.scene.surfaces[0].brdf else {
+        panic!("{:?}", loaded.scene.surfaces[0].brdf)
+    };
+    assert_eq!((p.burley, p.roughness), (Rgb::splat(0.8), 0.4));
+    let e = load(
+        r#"<shape type="rectangle">
+           <bsdf type="principled"><float name="glossiness" value="0.5"/></bsdf></shape>"#,
+        false,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("scene.xml:3") && e.contains("glossiness"), "{e}");
 }
 
 #[test]

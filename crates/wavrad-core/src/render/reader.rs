@@ -156,7 +156,7 @@ impl SolutionReader {
                     !s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION),
                     s.brdf.lambertian(),
                 ) {
-                    (false, Some(_)) => Some(s.brdf.without_lambertian()),
+                    (false, Some(_)) => Some(s.brdf.shading_rest()),
                     _ => None,
                 }
             })

@@ -1,5 +1,6 @@
 //! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `conductor`,
-//! `roughplastic`, `plastic`, `twosided` and `mask`. Colours are `<rgb>`,
+//! `roughplastic`, `plastic`, `principled` (its reflection), `twosided`
+//! and `mask`. Colours are `<rgb>`,
 //! `<float>` or `<spectrum value>`; reflectances must lie in [0, 1]. A
 //! `diffuse` reflectance may be a texture (`checkerboard`, `bitmap`:
 //! `mitsuba/textures.rs`).
@@ -22,6 +23,9 @@
 //! |                  | `specular_reflectance`, `diffuse_reflectance`    | colour               | 1, 0.5          |
 //! |                  | `nonlinear`                                      | `<boolean>`          | false           |
 //! | `plastic`        | `int_ior`, `ext_ior`, `specular_reflectance`, `diffuse_reflectance`, `nonlinear` | as above | as above |
+//! | `principled`     | `base_color`                                     | colour               | 0.5             |
+//! |                  | `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`), `spec_tint` | `<float>` | 0.5, 0, 0, 0.5, 0 |
+//! |                  | `spec_trans`, `clearcoat`, `sheen`, `flatness`: 0 (see below) | `<float>` | 0       |
 //! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
 //! | `mask`           | `opacity` 1 and one nested BSDF                  | `<float>`            | 1               |
 //!
@@ -47,7 +51,7 @@
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
 //! | `dielectric`, `thindielectric`, `roughdielectric` | nothing: the shape is left out (fully transparent)     |
-//! | `principled`                                    | its reflection ([`Principled`]): a Lambertian lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) with Burley's albedo, plus its GGX lobe; transmission, clearcoat, sheen dropped |
+//! | `principled` with `spec_trans`, `clearcoat`, `sheen` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
 //! | a texture on another parameter                  | the texture's mean                                       |
@@ -114,12 +118,33 @@ const SUPPORTED: &str =
 const GLASS: &str =
     "left out: the shape is fully transparent (no reflection, refraction or shadow)";
 
-/// What `--approximate` puts in place of `principled`.
+/// What `--approximate` puts in place of a `principled` with the parts
+/// wavrad does not model.
 const PRINCIPLED: &str =
-    "its reflection: a Lambertian lobe of base_color·(1−metallic)·(1−spec_trans) \
-     (Burley's diffuse, with its albedo but not its angular shape) plus its GGX specular lobe \
-     (roughness, anisotropic, metallic, specular or eta, spec_tint as Mitsuba); its specular \
-     transmission, clearcoat, sheen and flatness dropped";
+    "its reflection without them: Burley's diffuse lobe of base_color·(1−metallic)·(1−spec_trans) \
+     plus its GGX specular lobe (roughness, anisotropic, metallic, specular or eta, spec_tint as \
+     Mitsuba)";
+
+/// The parameters of `principled` that [`Principled`] does not model, each
+/// with what it adds where it is above 0.
+const PRINCIPLED_UNMODELLED: [(&str, &str); 4] = [
+    ("spec_trans", "specular transmission"),
+    ("clearcoat", "clearcoat"),
+    ("sheen", "sheen"),
+    ("flatness", "flatness (fake subsurface)"),
+];
+
+/// Parameters of `principled` that change nothing wavrad computes: the
+/// tints and gloss of the unmodelled lobes, which are off, and sampling
+/// rates, which change the noise of Mitsuba's estimate, not its value.
+const PRINCIPLED_IGNORED: [&str; 6] = [
+    "sheen_tint",
+    "clearcoat_gloss",
+    "diffuse_reflectance_sampling_rate",
+    "specular_reflectance_sampling_rate",
+    "spec_trans_sampling_rate",
+    "clearcoat_sampling_rate",
+];
 
 /// Read the BSDF `bsdf` (a `<bsdf>` element, possibly reached by `<ref>`).
 pub(crate) fn parse_bsdf(bsdf: Nested, doc: &Document) -> Result<Material> {
@@ -243,9 +268,11 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             Ok(Material::Transparent)
         }
         "principled" => {
-            doc.approximate(obj.at(), &plugin, PRINCIPLED)?;
-            let material = approximate_principled(&mut obj, doc)?;
-            obj.ignore_all();
+            let material = principled(&mut obj, doc)?;
+            if let Some(n) = obj.nested.first() {
+                return Err(obj.unexpected(n));
+            }
+            obj.finish()?;
             Ok(material)
         }
         other => {
@@ -275,12 +302,21 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
     }
 }
 
-/// Mitsuba 3's `principled` as the nearest supported model: its
-/// reflection as [`Principled`] (a Lambertian lobe for Burley's diffuse, its
-/// GGX specular lobe as Mitsuba evaluates it), from `base_color`,
-/// `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`),
-/// `spec_tint` and `spec_trans`; a texture on any of them becomes its mean.
-fn approximate_principled(obj: &mut Object, doc: &Document) -> Result<Material> {
+/// Mitsuba 3's `principled`: its reflection as [`Principled`] (Burley's
+/// diffuse lobe and its GGX specular lobe as Mitsuba evaluates them), from
+/// `base_color`, `roughness`, `anisotropic`, `metallic`, `specular` (or
+/// `eta`), `spec_tint` and `spec_trans`; a texture on any of them becomes
+/// its mean (with `--approximate`). Where `spec_trans`, `clearcoat`, `sheen`
+/// or `flatness` is above 0, the parts they add are dropped (with
+/// `--approximate`; an error naming them without).
+fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
+    let mut unmodelled = Vec::new();
+    for (name, what) in PRINCIPLED_UNMODELLED {
+        if name != "spec_trans" && constant_float(obj, name, 0.0, doc)? > 0.0 {
+            unmodelled.push(what);
+        }
+    }
+    obj.ignore(&PRINCIPLED_IGNORED);
     let defaults = PrincipledParams::default();
     let eta = match obj.has("eta") {
         true => Some(constant_float(obj, "eta", 1.5, doc)?),
@@ -301,7 +337,13 @@ fn approximate_principled(obj: &mut Object, doc: &Document) -> Result<Material> 
         spec_tint: constant_float(obj, "spec_tint", defaults.spec_tint, doc)?,
         spec_trans: constant_float(obj, "spec_trans", defaults.spec_trans, doc)?,
     };
-    obj.nested.clear();
+    if params.spec_trans > 0.0 {
+        unmodelled.insert(0, PRINCIPLED_UNMODELLED[0].1);
+    }
+    if !unmodelled.is_empty() {
+        let plugin = format!("bsdf \"principled\" with {}", unmodelled.join(", "));
+        doc.approximate(obj.at(), &plugin, PRINCIPLED)?;
+    }
     Ok(Material::opaque(Brdf::Principled(Principled::new(params))))
 }
 

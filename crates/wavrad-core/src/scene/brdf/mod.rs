@@ -214,9 +214,29 @@ impl Brdf {
             }),
             Brdf::Principled(p) => Brdf::Principled(Principled {
                 diffuse_reflectance: Rgb::ZERO,
+                burley: Rgb::ZERO,
                 ..*p
             }),
             other => other.clone(),
+        }
+    }
+
+    /// The BRDF less its Lambertian lobe as a point shaded in the final
+    /// gather reflects it: together with ρ/π of [`Brdf::lambertian`], the
+    /// whole BRDF. For all but `principled` this is
+    /// [`Brdf::without_lambertian`]; `principled`'s diffuse lobe is
+    /// Burley's, which the solution carries as a Lambertian lobe of the
+    /// same albedo, so its rest here also holds the signed difference
+    /// between Burley's lobe and that Lambertian one (its angular shape:
+    /// darker at grazing angles, retro-reflective when rough).
+    pub fn shading_rest(&self) -> Brdf {
+        match self {
+            Brdf::Principled(p) => Brdf::Principled(Principled {
+                diffuse_reflectance: Rgb::ZERO,
+                lambertian_removed: p.diffuse_reflectance,
+                ..*p
+            }),
+            other => other.without_lambertian(),
         }
     }
 

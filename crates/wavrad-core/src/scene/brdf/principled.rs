@@ -44,11 +44,24 @@ use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
 use std::f64::consts::FRAC_1_PI;
 
-/// Lambertian plus GGX reflection of a `principled` surface.
+/// Burley's diffuse plus GGX reflection of a `principled` surface, with
+/// the Lambertian lobe the solution carries for the diffuse one.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Principled {
-    /// Albedo ρ_d of the Lambertian lobe.
+    /// Albedo ρ_d of the Lambertian lobe the solution's two-point links
+    /// carry ([`super::Brdf::lambertian`]); zero in the BRDF less it.
     pub diffuse_reflectance: Rgb,
+    /// The weight base (1 − m)(1 − spec_trans) of Burley's diffuse lobe,
+    /// which [`BrdfModel::eval`] evaluates; zero where the diffuse lobe is
+    /// left out ([`super::Brdf::without_lambertian`]).
+    pub burley: Rgb,
+    /// `roughness`: Burley's retro-reflection grows with it.
+    pub roughness: f64,
+    /// The Lambertian albedo taken out of Burley's lobe
+    /// ([`super::Brdf::shading_rest`]): [`BrdfModel::eval`] subtracts its
+    /// ρ/π, leaving the signed difference between Burley's lobe and the
+    /// Lambertian one, with no bihemispherical albedo.
+    pub lambertian_removed: Rgb,
     /// `base_color`: the metallic Fresnel's normal reflectance and the tint.
     pub base_color: Rgb,
     /// `metallic`, in [0, 1].
@@ -116,9 +129,13 @@ impl Principled {
             (alpha * aspect).max(1e-3),
         );
         let base_color = p.base_color.map(unit);
-        let weight = (1.0 - metallic) * (1.0 - spec_trans) * burley_albedo(unit(p.roughness));
+        let burley = base_color.map(|c| c * (1.0 - metallic) * (1.0 - spec_trans));
+        let roughness = unit(p.roughness);
         Principled {
-            diffuse_reflectance: base_color.map(|c| c * weight),
+            diffuse_reflectance: burley.map(|c| c * burley_albedo(roughness)),
+            burley,
+            roughness,
+            lambertian_removed: Rgb::ZERO,
             base_color,
             metallic,
             spec_tint,
@@ -164,15 +181,22 @@ impl Principled {
         self.fresnel(wo.dot(h)).map(|f| f * value)
     }
 
+    /// Burley's diffuse lobe (Mitsuba's `f_diff + f_retro` times
+    /// base/π, without `flatness`) less the Lambertian lobe removed.
+    fn diffuse(&self, wo: DVec3, wi: DVec3) -> Rgb {
+        if self.burley == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let shape = burley_shape(wo, wi, self.roughness);
+        (self.burley.map(|b| b * shape) - self.lambertian_removed).map(|r| r * FRAC_1_PI)
+    }
+
     /// Probability of sampling the specular lobe.
     fn specular_probability(&self) -> f64 {
         if fresnel_dielectric(1.0, self.eta).0 <= 0.0 {
             return 0.0;
         }
-        let (s, d) = (
-            self.fresnel(1.0).average(),
-            self.diffuse_reflectance.average(),
-        );
+        let (s, d) = (self.fresnel(1.0).average(), self.burley.average());
         if s + d > 0.0 {
             s / (s + d)
         } else {
@@ -204,25 +228,32 @@ fn schlick(r0: f64, cos_theta: f64, eta: f64) -> f64 {
 /// the lobe separates, and growing with roughness (retro-reflection).
 pub fn burley_albedo(roughness: f64) -> f64 {
     const N: usize = 32;
-    let weight = |x: f64| (1.0 - x).clamp(0.0, 1.0).powi(5);
     let mut sum = 0.0;
     for i in 0..N {
         let wi = cosine_hemisphere(DVec2::new((i as f64 + 0.5) / N as f64, 0.0));
-        let fi = weight(wi.z);
         for j in 0..N {
             for k in 0..N {
                 let u = DVec2::new((j as f64 + 0.5) / N as f64, (k as f64 + 0.5) / N as f64);
-                let wo = cosine_hemisphere(u);
-                let fo = weight(wo.z);
-                let cos_d = (wi + wo).normalize().dot(wo);
-                let rr = 2.0 * roughness * cos_d * cos_d;
-                let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
-                let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-                sum += f_diff + f_retro;
+                sum += burley_shape(cosine_hemisphere(u), wi, roughness);
             }
         }
     }
     sum / (N * N * N) as f64
+}
+
+/// Burley's diffuse lobe of a white base over a Lambertian one's, π f: the
+/// `f_diff + f_retro` of Mitsuba's `principled.cpp`, with F = (1 − cos)⁵
+/// (`schlick_weight`) at each direction, f_diff = (1 − F_i/2)(1 − F_o/2),
+/// R_r = 2 roughness cos²θ_d (θ_d between either direction and the half
+/// vector) and f_retro = R_r (F_o + F_i + F_o F_i (R_r − 1)).
+fn burley_shape(wo: DVec3, wi: DVec3, roughness: f64) -> f64 {
+    let weight = |x: f64| (1.0 - x).clamp(0.0, 1.0).powi(5);
+    let (fo, fi) = (weight(wo.z), weight(wi.z));
+    let cos_d = (wi + wo).normalize_or_zero().dot(wo);
+    let rr = 2.0 * roughness * cos_d * cos_d;
+    let f_diff = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
+    let f_retro = rr * (fo + fi + fo * fi * (rr - 1.0));
+    f_diff + f_retro
 }
 
 impl BrdfModel for Principled {
@@ -230,7 +261,7 @@ impl BrdfModel for Principled {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.diffuse_reflectance.map(|r| r * FRAC_1_PI) + self.specular(wo, wi)
+        self.diffuse(wo, wi) + self.specular(wo, wi)
     }
 
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
@@ -281,6 +312,57 @@ mod tests {
         assert!(burley_albedo(1.0) > 1.05 && burley_albedo(0.4) < 1.01);
     }
 
+    /// The whole BRDF is Mitsuba 3's: values of its `principled` (3.9.1,
+    /// `scalar_rgb`, base_color 0.8 0.5 0.3, roughness 0.6, metallic 0.2,
+    /// the rest defaults), its `eval` divided by the light's cosine, for
+    /// the view at (θ, φ) and the light at (θ', φ'); the last pair is near
+    /// the mirror direction at grazing incidence, where the GGX lobe
+    /// dominates.
+    #[test]
+    fn eval_is_mitsubas_principled() {
+        let p = Principled::new(PrincipledParams {
+            base_color: Rgb([0.8, 0.5, 0.3]),
+            roughness: 0.6,
+            metallic: 0.2,
+            ..PrincipledParams::default()
+        });
+        let at = |theta: f64, phi: f64| {
+            DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+        };
+        let mitsuba = [
+            ((0.3, 0.0), (0.5, 3.0), [0.324676066, 0.210555947, 0.134475873]),
+            ((1.2, 0.4), (1.3, 0.5), [0.266359597, 0.167457286, 0.101522421]),
+            ((0.1, 1.0), (1.45, 2.0), [0.253829711, 0.160621535, 0.098482757]),
+            ((1.4, 0.0), (1.4, 3.14159), [3.942530015, 3.610171640, 3.388599390]),
+        ];
+        for ((view, light, expect), k) in mitsuba.into_iter().zip(0..) {
+            let f = p.eval(at(view.0, view.1), at(light.0, light.1));
+            for c in 0..3 {
+                // Mitsuba computes in single precision.
+                let e = expect[c];
+                assert!((f.0[c] - e).abs() < 2e-5 * e, "pair {k}: {f:?} vs {expect:?}");
+            }
+        }
+    }
+
+    /// Less the Lambertian lobe the solution carries, the diffuse lobe is
+    /// a signed difference with no bihemispherical albedo: added back, it
+    /// is the whole BRDF again.
+    #[test]
+    fn shading_rest_and_the_lambertian_lobe_are_the_whole_brdf() {
+        let brdf = super::super::Brdf::Principled(Principled::new(PrincipledParams {
+            roughness: 0.8,
+            ..PrincipledParams::default()
+        }));
+        let (rho, rest) = (brdf.lambertian().unwrap(), brdf.shading_rest());
+        let (wo, wi) = (DVec3::new(0.6, 0.0, 0.8), DVec3::new(-0.96, 0.0, 0.28));
+        let (f, g) = (brdf.eval(wo, wi), rest.eval(wo, wi));
+        for c in 0..3 {
+            assert!((f.0[c] - rho.0[c] * FRAC_1_PI - g.0[c]).abs() < 1e-12);
+        }
+        assert_eq!(rest.lambertian(), None);
+    }
+
     #[test]
     fn dielectric_lobe_is_a_rough_conductor_of_real_index() {
         // metallic 0, spec_tint 0: F is the dielectric Fresnel, which a
@@ -299,7 +381,7 @@ mod tests {
             DVec3::new(0.3, 0.1, 0.9).normalize(),
             DVec3::new(-0.5, 0.05, 0.6).normalize(),
         );
-        let lambert = p.diffuse_reflectance.map(|r| r * FRAC_1_PI);
+        let lambert = p.diffuse(wo, wi);
         let (f, c) = (p.eval(wo, wi), conductor.eval(wo, wi));
         for ch in 0..3 {
             let spec = f.0[ch] - lambert.0[ch];
