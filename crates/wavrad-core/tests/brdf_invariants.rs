@@ -250,7 +250,11 @@ fn brdf_is_its_lambertian_lobe_plus_the_rest() {
         let rest = model.shading_rest();
         assert_eq!(rest.lambertian().unwrap_or(Rgb::ZERO), Rgb::ZERO, "{name}");
         let carried = model.without_lambertian();
-        assert_eq!(carried.lambertian().unwrap_or(Rgb::ZERO), Rgb::ZERO, "{name}");
+        assert_eq!(
+            carried.lambertian().unwrap_or(Rgb::ZERO),
+            Rgb::ZERO,
+            "{name}"
+        );
         assert_eq!(carried == rest, !name.starts_with("principled"), "{name}");
         let rho = model.lambertian().unwrap_or(Rgb::ZERO);
         let lambertian_models = ["diffuse", "ward", "principled"];

@@ -187,7 +187,8 @@ impl SurfaceDistribution {
     pub fn run_probability(&self, run: Range<u32>, excluded: u32) -> f64 {
         let members = self.surfaces.partition_point(|&t| t < run.start)
             ..self.surfaces.partition_point(|&t| t < run.end);
-        self.choice.run_probability(members, self.position(excluded))
+        self.choice
+            .run_probability(members, self.position(excluded))
     }
 
     /// Where surface `s` is among them: one position or none.

@@ -125,16 +125,22 @@ impl SphereEmitter {
         let axes = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate());
         let radius = axes[0].length();
         let round = radius > 0.0
-            && axes.iter().all(|c| (c.length() - radius).abs() <= 1e-9 * radius)
+            && axes
+                .iter()
+                .all(|c| (c.length() - radius).abs() <= 1e-9 * radius)
             && (0..3).all(|i| axes[i].dot(axes[(i + 1) % 3]).abs() <= 1e-9 * radius * radius);
         let center = m.w_axis.truncate();
-        let surfaces = scene.surfaces.get(shape.surfaces.start as usize..shape.surfaces.end as usize)?;
+        let surfaces = scene
+            .surfaces
+            .get(shape.surfaces.start as usize..shape.surfaces.end as usize)?;
         let mut emission = None;
         for s in surfaces {
             let vertices = s.patch.vertices();
             let middle = vertices.iter().sum::<DVec3>() / vertices.len() as f64;
             let outwards = s.patch.normal().dot(middle - center) > 0.0;
-            if outwards != s.is_emitter() || (outwards && *emission.get_or_insert(s.emission) != s.emission) {
+            if outwards != s.is_emitter()
+                || (outwards && *emission.get_or_insert(s.emission) != s.emission)
+            {
                 return None;
             }
         }
@@ -168,7 +174,14 @@ impl Emitters {
         let spheres: Vec<SphereEmitter> = (scene.shapes.iter())
             .filter_map(|shape| SphereEmitter::of_shape(scene, shape))
             .collect();
-        let mut sphere_of = vec![None; if spheres.is_empty() { 0 } else { scene.surfaces.len() }];
+        let mut sphere_of = vec![
+            None;
+            if spheres.is_empty() {
+                0
+            } else {
+                scene.surfaces.len()
+            }
+        ];
         for (k, sphere) in spheres.iter().enumerate() {
             for s in sphere.surfaces.clone() {
                 sphere_of[s as usize] = Some(k as u32);

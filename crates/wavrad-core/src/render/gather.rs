@@ -155,7 +155,9 @@ pub fn direct_radiance(
             Emitter::Sphere(k) => {
                 let sphere = emitters.sphere(k);
                 let uv = rays.iter().map(|&(_, uv, _)| uv);
-                out += rho * sphere.emission * (sphere_factor(scene, tracer, point, sphere, uv) * share);
+                out += rho
+                    * sphere.emission
+                    * (sphere_factor(scene, tracer, point, sphere, uv) * share);
                 continue;
             }
         };

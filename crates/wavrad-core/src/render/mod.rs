@@ -597,6 +597,32 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         )
     }
 
+    /// Whether the probe ray along `dir` that meets `hit` sees an emitter
+    /// mirrored there: where `hit` is on a sharply glossy surface
+    /// ([`Brdf::is_sharp`](crate::scene::brdf::Brdf::is_sharp)) and the
+    /// ray's mirror direction about its shading normal meets an emitter.
+    /// Such a reflection is as sharp and as bright as the emitter, so its
+    /// outline needs an emitter outline's camera rays, though the probes
+    /// all meet the one glossy surface.
+    fn mirrors_an_emitter(&self, hit: &SeenHit, dir: DVec3) -> bool {
+        let solution = self.solution();
+        let surface = &solution.scene.surfaces[hit.surface() as usize];
+        if !surface.brdf.is_sharp() {
+            return false;
+        }
+        let (position, normal) = match *hit {
+            SeenHit::Surface(h) => {
+                let param = surface.patch.param_of(h.position);
+                (h.position, surface.shading_normal(param))
+            }
+            SeenHit::Exact { hit, .. } => (hit.position, hit.normal),
+        };
+        let mirror = dir - 2.0 * dir.dot(normal) * normal;
+        (solution.tracer)
+            .trace(position, mirror, 1e-7, f64::INFINITY)
+            .is_some_and(|h| solution.scene.surfaces[h.surface as usize].is_emitter())
+    }
+
     /// What 4×4 probe rays through each pixel of `film` meet; `glaring`
     /// per surface: emitters, and diffuse surfaces among the bright ones
     /// (the final gather's secondary sources). With `direct`, also how much
@@ -618,13 +644,17 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .into_par_iter()
             .map(|pixel| {
                 let (px, py) = ((pixel % w) as f64, (pixel / w) as f64);
-                let seen: Vec<Option<SeenHit>> = (0..16)
+                let rays: Vec<_> = (0..16)
                     .map(|k| {
                         let at = DVec2::new(
                             (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
                             (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
                         );
-                        let ray = camera.ray(at, aspect);
+                        camera.ray(at, aspect)
+                    })
+                    .collect();
+                let seen: Vec<Option<SeenHit>> = (rays.iter())
+                    .map(|ray| {
                         (solution.tracer).trace_seen(
                             ray.origin,
                             ray.direction,
@@ -634,10 +664,16 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                     })
                     .collect();
                 let hits: Vec<Option<u32>> = seen.iter().map(|h| h.map(|h| h.surface())).collect();
-                let one = hits.iter().all(|&s| s == hits[0]);
+                let mirrored: Vec<bool> = (seen.iter().zip(&rays))
+                    .map(|(hit, ray)| {
+                        hit.is_some_and(|hit| self.mirrors_an_emitter(&hit, ray.direction))
+                    })
+                    .collect();
+                let one = (hits.iter().zip(&mirrored)).all(|p| p == (&hits[0], &mirrored[0]));
                 PixelProbe {
                     surface: if one { hits[0] } else { None },
-                    glaring: hits.iter().any(|s| s.is_some_and(|s| glaring[s as usize])),
+                    glaring: hits.iter().any(|s| s.is_some_and(|s| glaring[s as usize]))
+                        || mirrored.iter().any(|&m| m),
                     emitters: match seen[10] {
                         Some(SeenHit::Surface(hit)) if direct => self.emitters_seen(&hit),
                         _ => None,
@@ -651,9 +687,11 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
 /// What the probe rays through a pixel meet.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct PixelProbe {
-    /// The surface all of them meet, if they meet one.
+    /// The surface all of them meet, if they meet one and all or none of
+    /// them see an emitter mirrored there.
     surface: Option<u32>,
-    /// Some meet an emitter or a strongly lit diffuse surface.
+    /// Some meet an emitter or a strongly lit diffuse surface, or see an
+    /// emitter mirrored in a sharply glossy one.
     glaring: bool,
     /// How much of the emitters the point nearest the centre sees, where
     /// it is on a diffuse untextured surface and that is known
@@ -777,6 +815,56 @@ mod tests {
             settings.gathers_among(settings.quiet_samples_per_pixel() as usize),
             settings.gather_samples_per_pixel
         );
+    }
+
+    /// A near-mirror floor under a square light, seen from under the light
+    /// looking down at the light's mirror image: the probes see only the
+    /// floor, but the pixels at the image's outline get an emitter
+    /// outline's camera rays; the same floor made diffuse has no such
+    /// pixels.
+    #[test]
+    fn an_emitter_mirrored_in_a_sharp_surface_has_an_outline() {
+        let outline = |sharp: bool| {
+            let mut scene = crate::testing::mirror_floor_and_light();
+            if !sharp {
+                scene.surfaces[0].brdf = crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5));
+            }
+            scene.film = Film {
+                width: 16,
+                height: 16,
+                filter: crate::scene::PixelFilter::Box,
+            };
+            let camera = Camera {
+                world_from_camera: Camera::look_at(
+                    DVec3::new(0.45, 0.1, 0.5),
+                    DVec3::new(0.45, 0.5, -1.0),
+                    DVec3::Y,
+                )
+                .unwrap(),
+                projection: crate::scene::Projection::Perspective {
+                    fov_x_degrees: 30.0,
+                    fov_axis: crate::scene::FovAxis::X,
+                },
+                near_clip: 1e-3,
+                far_clip: 100.0,
+            };
+            let solution =
+                crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap();
+            let probes = Renderer::new(&solution).probe(&camera, &scene.film, false);
+            let settings = RenderSettings::default();
+            let rays: Vec<u32> = (0..16 * 16)
+                .map(|p| camera_rays(&probes, &scene.film, (p % 16, p / 16), &settings))
+                .collect();
+            let edge = settings.emitter_edge_samples_per_pixel();
+            let split = probes.iter().filter(|p| p.surface.is_none()).count();
+            (rays.iter().filter(|&&r| r == edge).count(), split)
+        };
+        let (mirrored, split) = outline(true);
+        assert!(
+            mirrored > 16 && split > 8,
+            "{mirrored} outline pixels, {split} split"
+        );
+        assert_eq!(outline(false), (0, 0));
     }
 
     /// A lit floor seen from above on a `side`² film, solved.
