@@ -12,6 +12,7 @@ use std::path::Path;
 use glam::{DVec2, DVec3};
 use wavrad_core::progress::Silent;
 use wavrad_core::render::{RenderSettings, Renderer};
+use wavrad_core::scene::brdf::BrdfModel;
 use wavrad_core::scene::Scene;
 use wavrad_core::solve::{solve, SolveSettings};
 
@@ -31,17 +32,22 @@ fn lone_sphere() -> Scene {
         TRAVEL.x, TRAVEL.y, TRAVEL.z
     );
     let sphere = format!(r#"<float name="radius" value="{RADIUS}"/>"#);
-    sphere_scene(("0, 0, 3", 40, 32, 16), &light, &sphere)
+    sphere_scene(("0, 0, 3", 40, 32, 16), &light, (&sphere, &diffuse()))
+}
+
+/// The receiving sphere's BSDF in most tests: diffuse of albedo [`ALBEDO`].
+fn diffuse() -> String {
+    format!(r#"<bsdf type="diffuse"><rgb name="reflectance" value="{ALBEDO}"/></bsdf>"#)
 }
 
 /// A scene seen by a camera at `origin` looking at the origin (field of
 /// view `fov`°, `res`² pixels, `spp` camera rays, box filter), lit by the
-/// `light` element, holding one diffuse sphere of albedo [`ALBEDO`] with
-/// the parameters `sphere`.
+/// `light` element, holding one sphere with the parameters `sphere` and
+/// the BSDF `bsdf`.
 fn sphere_scene(
     (origin, fov, res, spp): (&str, u32, u32, u32),
     light: &str,
-    sphere: &str,
+    (sphere, bsdf): (&str, &str),
 ) -> Scene {
     let xml = format!(
         r#"<scene version="3.0.0">
@@ -53,8 +59,7 @@ fn sphere_scene(
                 <rfilter type="box"/></film>
         </sensor>
         {light}
-        <shape type="sphere">{sphere}
-            <bsdf type="diffuse"><rgb name="reflectance" value="{ALBEDO}"/></bsdf></shape>
+        <shape type="sphere">{sphere}{bsdf}</shape>
     </scene>"#
     );
     wavrad_io::load_scene_str(&xml, Path::new("."), "sphere.xml", &[])
@@ -172,7 +177,7 @@ fn a_point_light_over_a_large_sphere_lights_the_exact_sphere() {
         r#"<point name="center" x="{}" y="{}" z="{}"/><float name="radius" value="{radius}"/>"#,
         centre.x, centre.y, centre.z
     );
-    let scene = sphere_scene(("0, -0.5, 2", 60, 24, 4), &point, &sphere);
+    let scene = sphere_scene(("0, -0.5, 2", 60, 24, 4), &point, (&sphere, &diffuse()));
     let error = error_against(&scene, (centre, radius), |point, normal| {
         let d = light - point;
         let cos = normal.dot(d.normalize());
@@ -199,7 +204,7 @@ fn a_small_sphere_light_lights_as_its_closed_form() {
         centre.x
     );
     let sphere = format!(r#"<float name="radius" value="{RADIUS}"/>"#);
-    let scene = sphere_scene(("0, 0, 3", 40, 48, 4), &light, &sphere);
+    let scene = sphere_scene(("0, 0, 3", 40, 48, 4), &light, (&sphere, &diffuse()));
     let error = error_against(&scene, (DVec3::ZERO, RADIUS), |point, normal| {
         let d = centre - point;
         let cos = normal.dot(d.normalize());
@@ -208,4 +213,56 @@ fn a_small_sphere_light_lights_as_its_closed_form() {
     });
     eprintln!("relRMSE under the sphere light: {error:.4}");
     assert!(error < 0.004, "relRMSE {error}");
+}
+
+/// A glossy sphere (rough GGX conductor, α 0.3) under a sphere light
+/// (radius 0.2): each pixel within a few per cent of the integral of
+/// f L cos θ over the cone the light subtends (by a 48 × 48 midpoint rule
+/// over it), where light samples drawn over the cone and BRDF samples that
+/// meet the exact sphere are weighed against each other: 1.3 %, against
+/// 5.8 % when both drew on the light's tessellation.
+#[test]
+fn a_sphere_light_on_a_glossy_sphere_is_its_reflection_integral() {
+    let (centre, radius, radiance) = (DVec3::new(1.2, 1.5, 1.8), 0.2, 40.0);
+    let light = format!(
+        r#"<shape type="sphere"><point name="center" x="{}" y="{}" z="{}"/>
+            <float name="radius" value="{radius}"/>
+            <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf></shape>"#,
+        centre.x, centre.y, centre.z
+    );
+    let glossy = r#"<bsdf type="roughconductor"><string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.3"/></bsdf>"#;
+    let sphere = format!(r#"<float name="radius" value="{RADIUS}"/>"#);
+    let scene = sphere_scene(("0, 0, 3", 40, 48, 16), &light, (&sphere, glossy));
+    let receiver = scene.shapes[1].surfaces.start as usize;
+    let brdf = scene.surfaces[receiver].brdf.clone();
+    let eye = DVec3::new(0.0, 0.0, 3.0);
+    let error = error_against(&scene, (DVec3::ZERO, RADIUS), |point, normal| {
+        let frame = wavrad_core::scene::brdf::Frame::new(normal, normal.any_orthonormal_vector());
+        let wo = frame.to_local((eye - point).normalize());
+        let axis = (centre - point).normalize();
+        let (a, b) = axis.any_orthonormal_pair();
+        let sin2 = radius * radius / (centre - point).length_squared();
+        let one_minus_cos = sin2 / (1.0 + (1.0 - sin2).sqrt());
+        let n = 48;
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let h = (i as f64 + 0.5) / n as f64 * one_minus_cos;
+                let phi = (j as f64 + 0.5) / n as f64 * std::f64::consts::TAU;
+                let sin = (h * (2.0 - h)).sqrt();
+                let wi = axis * (1.0 - h) + (a * phi.cos() + b * phi.sin()) * sin;
+                let local = frame.to_local(wi);
+                if local.z > 0.0 {
+                    sum += brdf.eval(wo, local)[0] * local.z;
+                }
+            }
+        }
+        let solid_angle = std::f64::consts::TAU * one_minus_cos;
+        let value = radiance * sum * solid_angle / (n * n) as f64;
+        (normal.dot(axis) > 0.3).then_some(value)
+    });
+    eprintln!("relRMSE of the glossy sphere under the sphere light: {error:.4}");
+    assert!(error < 0.03, "relRMSE {error}");
 }

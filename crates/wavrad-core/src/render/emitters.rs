@@ -225,6 +225,25 @@ impl Emitters {
         Some((emitter, uv, chosen))
     }
 
+    /// The emitting sphere that the ray `x + t·dir` (unit `dir`) meets
+    /// first, at t ∈ (0, `far`), other than one surface `from` is on: the
+    /// exact sphere, where its cone samples lie.
+    pub fn sphere_met(&self, x: DVec3, dir: DVec3, far: f64, from: u32) -> Option<u32> {
+        let own = self.of_surface(from);
+        (0..self.spheres.len() as u32)
+            .filter(|&k| Emitter::Sphere(k) != own)
+            .filter_map(|k| {
+                let sphere = self.sphere(k);
+                let to_center = sphere.center - x;
+                let along = dir.dot(to_center);
+                let disc = along * along - (to_center.length_squared() - sphere.radius.powi(2));
+                let t = along - disc.sqrt();
+                (disc >= 0.0 && t > 0.0 && t < far).then_some((k, t))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
+
     /// The probability that [`Emitters::sample`], leaving out `excluded`,
     /// picks `emitter`.
     pub fn probability(&self, emitter: Emitter, excluded: u32) -> f64 {

@@ -19,7 +19,7 @@
 //! left out, and no ray starts into the surface, so that shading normals
 //! never let light leak through it.
 
-use crate::geometry::tracing::SceneTracer;
+use crate::geometry::tracing::{SceneTracer, SurfaceHit};
 use crate::kernel::form_factor::{front_part, point_to_polygon};
 use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
@@ -609,8 +609,33 @@ pub fn glossy_radiance(
         if !point.receives(scene, wi) {
             continue; // below the surface: no light, and no ray into it
         }
-        let Some(hit) = tracer.trace_through(x, wi, (1e-7, f64::INFINITY), passes) else {
-            out += sample.weight * scene.sky_radiance(wi) / n;
+        let hit = tracer.trace_through(x, wi, (1e-7, f64::INFINITY), passes);
+        // A sphere light is met where its exact sphere is, as its light
+        // samples are: before what else the ray meets, or where it meets
+        // its tessellation (whose vertices reach outside it); a ray that
+        // meets the tessellation alone passes the sphere by.
+        let on_sphere =
+            |h: &SurfaceHit| matches!(emitters.of_surface(h.surface), Emitter::Sphere(_));
+        let far = hit
+            .filter(|h| !on_sphere(h))
+            .map_or(f64::INFINITY, |h| h.distance);
+        if let Some(k) = emitters.sphere_met(x, wi, far, surface) {
+            let sphere = emitters.sphere(k);
+            let p_light = emitters.probability(Emitter::Sphere(k), surface) * sphere.pdf(x, wi);
+            let reflected = match hit {
+                Some(h) if emitters.of_surface(h.surface) == Emitter::Sphere(k) => {
+                    (outgoing(h.surface, h.position) - sphere.emission).map(|x| x.max(0.0))
+                }
+                _ => Rgb::ZERO,
+            };
+            let emitted = sphere.emission * (sample.pdf / (p_light + sample.pdf));
+            out += sample.weight * (emitted + reflected) / n;
+            continue;
+        }
+        let Some(hit) = hit.filter(|h| !on_sphere(h)) else {
+            if hit.is_none() {
+                out += sample.weight * scene.sky_radiance(wi) / n;
+            }
             continue;
         };
         let q = &scene.surfaces[hit.surface as usize];
@@ -618,14 +643,9 @@ pub fn glossy_radiance(
             continue; // itself, or the back of a one-sided surface: black
         }
         let l = outgoing(hit.surface, hit.position);
-        let emitter = emitters.of_surface(hit.surface);
-        let chosen = emitters.probability(emitter, surface);
+        let chosen = emitters.probability(Emitter::Surface(hit.surface), surface);
         let emitted_weight = if chosen > 0.0 {
-            let p_solid_angle = match emitter {
-                Emitter::Surface(_) => area_pdf(&q.patch, wi, (hit.position - x).length_squared()),
-                Emitter::Sphere(k) => emitters.sphere(k).pdf(x, wi),
-            };
-            let p_light = chosen * p_solid_angle;
+            let p_light = chosen * area_pdf(&q.patch, wi, (hit.position - x).length_squared());
             sample.pdf / (p_light + sample.pdf)
         } else {
             1.0
