@@ -3,7 +3,7 @@
 
 use glam::{DVec2, DVec3};
 use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
-use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel};
+use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Principled};
 use wavrad_core::scene::texture::Texture;
 use wavrad_core::scene::{Patch, Rgb, Scene};
 use wavrad_io::Loaded;
@@ -190,29 +190,34 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
 }
 
+/// The `principled` BRDF of a rectangle whose BSDF has the parameters
+/// `params`, and the load's warnings.
+fn principled(params: &str, approximate: bool) -> (Principled, Vec<String>) {
+    let xml = format!(r#"<shape type="rectangle"><bsdf type="principled">{params}</bsdf></shape>"#);
+    let loaded = load(&xml, approximate).unwrap_or_else(|e| panic!("{e}"));
+    let Brdf::Principled(p) = loaded.scene.surfaces[0].brdf else {
+        panic!("{:?}", loaded.scene.surfaces[0].brdf)
+    };
+    (p, loaded.warnings.iter().map(|w| w.to_string()).collect())
+}
+
 /// Without transmission, clearcoat, sheen or flatness, `principled` is
 /// read as it is, with no warning, whatever the tints, gloss and sampling
 /// rates of the lobes that are off; a parameter it does not have is an
 /// error at its line.
 #[test]
 fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
-    let loaded = load(
-        r#"<shape type="rectangle"><bsdf type="principled">
-               <rgb name="base_color" value="0.8, 0.8, 0.8"/>
-               <float name="roughness" value="0.4"/>
-               <float name="spec_trans" value="0"/>
-               <float name="clearcoat" value="0"/>
-               <float name="clearcoat_gloss" value="0.17"/>
-               <float name="sheen_tint" value="0.5"/>
-               <float name="diffuse_reflectance_sampling_rate" value="2"/>
-           </bsdf></shape>"#,
+    let (p, warnings) = principled(
+        r#"<rgb name="base_color" value="0.8, 0.8, 0.8"/>
+           <float name="roughness" value="0.4"/>
+           <float name="spec_trans" value="0"/>
+           <float name="clearcoat" value="0"/>
+           <float name="clearcoat_gloss" value="0.17"/>
+           <float name="sheen_tint" value="0.5"/>
+           <float name="diffuse_reflectance_sampling_rate" value="2"/>"#,
         false,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
-    let Brdf::Principled(p) = &loaded.scene.surfaces[0].brdf else {
-        panic!("{:?}", loaded.scene.surfaces[0].brdf)
-    };
+    );
+    assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!((p.burley, p.roughness), (Rgb::splat(0.8), 0.4));
     let e = load(
         r#"<shape type="rectangle">
@@ -226,21 +231,15 @@ fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
 
 #[test]
 fn approximate_principled_keeps_metallic_eta_and_the_diffuse_weight() {
-    let loaded = load(
-        r#"<shape type="rectangle"><bsdf type="principled">
-               <rgb name="base_color" value="0.9, 0.6, 0.2"/>
-               <float name="metallic" value="0.25"/>
-               <float name="spec_trans" value="0.5"/>
-               <float name="eta" value="1.33"/>
-               <float name="anisotropic" value="0.5"/>
-               <float name="clearcoat" value="0.7"/>
-           </bsdf></shape>"#,
+    let (p, _) = principled(
+        r#"<rgb name="base_color" value="0.9, 0.6, 0.2"/>
+           <float name="metallic" value="0.25"/>
+           <float name="spec_trans" value="0.5"/>
+           <float name="eta" value="1.33"/>
+           <float name="anisotropic" value="0.5"/>
+           <float name="clearcoat" value="0.7"/>"#,
         true,
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let Brdf::Principled(p) = &loaded.scene.surfaces[0].brdf else {
-        panic!("{:?}", loaded.scene.surfaces[0].brdf)
-    };
+    );
     // base (1 − metallic)(1 − spec_trans), times Burley's albedo at the
     // default roughness 0.5; η as given; α = 0.25 stretched by √(1 − 0.45).
     let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.5);

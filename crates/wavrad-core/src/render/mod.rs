@@ -834,20 +834,7 @@ mod tests {
                 height: 16,
                 filter: crate::scene::PixelFilter::Box,
             };
-            let camera = Camera {
-                world_from_camera: Camera::look_at(
-                    DVec3::new(0.45, 0.1, 0.5),
-                    DVec3::new(0.45, 0.5, -1.0),
-                    DVec3::Y,
-                )
-                .unwrap(),
-                projection: crate::scene::Projection::Perspective {
-                    fov_x_degrees: 30.0,
-                    fov_axis: crate::scene::FovAxis::X,
-                },
-                near_clip: 1e-3,
-                far_clip: 100.0,
-            };
+            let camera = camera_at(DVec3::new(0.45, 0.1, 0.5), DVec3::new(0.45, 0.5, -1.0));
             let solution =
                 crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap();
             let probes = Renderer::new(&solution).probe(&camera, &scene.film, false);
@@ -875,21 +862,24 @@ mod tests {
             height: side,
             filter: crate::scene::PixelFilter::Box,
         };
-        scene.camera = Some(Camera {
-            world_from_camera: Camera::look_at(
-                DVec3::new(0.5, 0.5, 2.0),
-                DVec3::new(0.5, 0.5, 0.0),
-                DVec3::Y,
-            )
-            .unwrap(),
+        scene.camera = Some(camera_at(
+            DVec3::new(0.5, 0.5, 2.0),
+            DVec3::new(0.5, 0.5, 0.0),
+        ));
+        crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap()
+    }
+
+    /// A pinhole camera at `origin` looking at `target`, 30° wide.
+    fn camera_at(origin: DVec3, target: DVec3) -> Camera {
+        Camera {
+            world_from_camera: Camera::look_at(origin, target, DVec3::Y).unwrap(),
             projection: crate::scene::Projection::Perspective {
                 fov_x_degrees: 30.0,
                 fov_axis: crate::scene::FovAxis::X,
             },
             near_clip: 1e-3,
             far_clip: 100.0,
-        });
-        crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap()
+        }
     }
 
     #[test]
