@@ -319,6 +319,7 @@ mod tests {
     /// the mirror direction at grazing incidence, where the GGX lobe
     /// dominates.
     #[test]
+    #[allow(clippy::approx_constant)] // φ = 3.14159 as Mitsuba was given it
     fn eval_is_mitsubas_principled() {
         let p = Principled::new(PrincipledParams {
             base_color: Rgb([0.8, 0.5, 0.3]),
