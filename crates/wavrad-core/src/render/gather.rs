@@ -230,7 +230,15 @@ fn sphere_factor(
     let count = uv.len().max(1) as f64;
     let seen: f64 = uv
         .filter_map(|uv| sphere.sample(point.position, uv))
-        .filter(|sample| sees_sphere(scene, tracer, point, sphere, sample.position))
+        .filter(|sample| {
+            sees_past(
+                scene,
+                tracer,
+                point,
+                sphere.surfaces.clone(),
+                sample.position,
+            )
+        })
         .map(|sample| point.normal.dot(sample.direction) / (std::f64::consts::PI * sample.pdf))
         .sum();
     seen / count
@@ -505,27 +513,22 @@ fn area_sample(
 /// Whether `point` sees the point `y` of surface `q` in front of itself
 /// (the shadow ray ignores both surfaces).
 fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVec3) -> bool {
-    let x = point.position;
-    let skip = |prim: u32| {
-        let h = tracer.surface_of(prim);
-        h == q || point.passes(h)
-    };
-    point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
+    sees_past(scene, tracer, point, q..q + 1, y)
 }
 
-/// Whether `point` sees the point `y` of the emitting `sphere` in front
-/// of itself (the shadow ray passes through the sphere's tessellation).
-fn sees_sphere(
+/// Whether `point` sees `y` in front of itself, the shadow ray passing
+/// through the surfaces `past` and the point's own.
+fn sees_past(
     scene: &Scene,
     tracer: &SceneTracer,
     point: &GatherPoint,
-    sphere: &SphereEmitter,
+    past: std::ops::Range<u32>,
     y: DVec3,
 ) -> bool {
     let x = point.position;
     let skip = |prim: u32| {
         let s = tracer.surface_of(prim);
-        sphere.surfaces.contains(&s) || point.passes(s)
+        past.contains(&s) || point.passes(s)
     };
     point.receives(scene, y - x) && !tracer.occluder.occluded_except(x, y, skip)
 }
@@ -576,7 +579,15 @@ pub fn glossy_radiance(
             Emitter::Sphere(k) => {
                 let sphere = emitters.sphere(k);
                 (sphere.sample(x, uv))
-                    .filter(|sample| sees_sphere(scene, tracer, point, sphere, sample.position))
+                    .filter(|sample| {
+                        sees_past(
+                            scene,
+                            tracer,
+                            point,
+                            sphere.surfaces.clone(),
+                            sample.position,
+                        )
+                    })
                     .map(|sample| (sample.direction, sample.pdf, sphere.emission))
             }
         };
