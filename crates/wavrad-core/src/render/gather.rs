@@ -23,7 +23,7 @@ use crate::geometry::tracing::{SceneTracer, SurfaceHit};
 use crate::kernel::form_factor::{front_part, point_to_polygon};
 use crate::kernel::lights;
 use crate::render::discrete::SurfaceDistribution;
-use crate::render::emitters::{Emitter, Emitters, SphereEmitter};
+use crate::render::emitters::{ConeSample, Emitter, Emitters, SphereEmitter};
 use crate::render::link_guide::LinkedSources;
 use crate::render::mirror::MirrorImages;
 use crate::sampling::{Bilinear, Samples, Stream};
@@ -229,16 +229,7 @@ fn sphere_factor(
 ) -> f64 {
     let count = uv.len().max(1) as f64;
     let seen: f64 = uv
-        .filter_map(|uv| sphere.sample(point.position, uv))
-        .filter(|sample| {
-            sees_past(
-                scene,
-                tracer,
-                point,
-                sphere.surfaces.clone(),
-                sample.position,
-            )
-        })
+        .filter_map(|uv| seen_on_sphere(scene, tracer, point, sphere, uv))
         .map(|sample| point.normal.dot(sample.direction) / (std::f64::consts::PI * sample.pdf))
         .sum();
     seen / count
@@ -516,6 +507,21 @@ fn sees(scene: &Scene, tracer: &SceneTracer, point: &GatherPoint, q: u32, y: DVe
     sees_past(scene, tracer, point, q..q + 1, y)
 }
 
+/// The cone sample of the emitting `sphere` that `uv` picks from `point`
+/// ([`SphereEmitter::sample`]), if the point sees it in front of itself
+/// (the shadow ray passing through the sphere's tessellation).
+fn seen_on_sphere(
+    scene: &Scene,
+    tracer: &SceneTracer,
+    point: &GatherPoint,
+    sphere: &SphereEmitter,
+    uv: DVec2,
+) -> Option<ConeSample> {
+    let sample = sphere.sample(point.position, uv)?;
+    let past = sphere.surfaces.clone();
+    sees_past(scene, tracer, point, past, sample.position).then_some(sample)
+}
+
 /// Whether `point` sees `y` in front of itself, the shadow ray passing
 /// through the surfaces `past` and the point's own.
 fn sees_past(
@@ -578,16 +584,7 @@ pub fn glossy_radiance(
                 .map(|(wi, _, p)| (wi, p, scene.surfaces[e as usize].emission)),
             Emitter::Sphere(k) => {
                 let sphere = emitters.sphere(k);
-                (sphere.sample(x, uv))
-                    .filter(|sample| {
-                        sees_past(
-                            scene,
-                            tracer,
-                            point,
-                            sphere.surfaces.clone(),
-                            sample.position,
-                        )
-                    })
+                seen_on_sphere(scene, tracer, point, sphere, uv)
                     .map(|sample| (sample.direction, sample.pdf, sphere.emission))
             }
         };
