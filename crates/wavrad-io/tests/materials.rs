@@ -229,6 +229,51 @@ fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
     assert!(e.contains("scene.xml:3") && e.contains("glossiness"), "{e}");
 }
 
+/// A texture on `base_color` of a `principled` without metallic or tint
+/// is its diffuse lobe's albedo texture, scaled by Burley's albedo as the
+/// lobe is, its mean the Lambertian lobe; where the base also tints the
+/// specular lobe, the texture is its mean, with `--approximate` only.
+#[test]
+fn principled_base_color_texture_is_its_diffuse_lobes() {
+    let checker = r#"<texture type="checkerboard" name="base_color">
+            <rgb name="color0" value="0.8"/><rgb name="color1" value="0.2"/></texture>
+        <float name="roughness" value="0.7"/>"#;
+    let xml =
+        format!(r#"<shape type="rectangle"><bsdf type="principled">{checker}</bsdf></shape>"#);
+    let loaded = load(&xml, false).unwrap_or_else(|e| panic!("{e}"));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let s = &loaded.scene;
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.7);
+    let Some(mapping) = s.surfaces[0].texture else {
+        panic!("no texture")
+    };
+    let texture = &s.textures[mapping.texture as usize];
+    for (uv, v) in [(DVec2::new(0.1, 0.1), 0.8), (DVec2::new(0.6, 0.1), 0.2)] {
+        assert!((texture.eval(uv)[0] - v * burley).abs() < 1e-6, "{uv}");
+    }
+    let rho = s.surfaces[0].brdf.lambertian().unwrap();
+    assert!((rho[0] - 0.5 * burley).abs() < 1e-9, "{rho:?}");
+    assert!(
+        matches!(&s.surfaces[0].brdf, Brdf::Principled(p) if (p.burley[0] - 0.5).abs() < 1e-9),
+        "{:?}",
+        s.surfaces[0].brdf
+    );
+    let metallic = format!(
+        r#"<shape type="rectangle"><bsdf type="principled">{checker}
+           <float name="metallic" value="0.5"/></bsdf></shape>"#
+    );
+    let e = load(&metallic, false).unwrap_err().to_string();
+    assert!(e.contains("scene.xml:2") && e.contains("base_color"), "{e}");
+    let approximated = load(&metallic, true).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(approximated.scene.surfaces[0].texture, None);
+    assert_eq!(
+        approximated.warnings.len(),
+        1,
+        "{:?}",
+        approximated.warnings
+    );
+}
+
 #[test]
 fn approximate_principled_keeps_metallic_eta_and_the_diffuse_weight() {
     let (p, _) = principled(

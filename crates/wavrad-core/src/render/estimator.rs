@@ -258,13 +258,19 @@ fn final_gather<S: Borrow<Solution> + Sync>(
     if !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
         return lambertian_gather(renderer, hit, cache, settings);
     }
-    let (brdf, base, grid) = match &reader.non_lambertian[s] {
-        Some(rest) => (
+    // A texture makes the Lambertian lobe's albedo, and so the rest of
+    // principled's diffuse lobe, vary over the surface.
+    let textured = (surface.texture.is_some())
+        .then(|| solution.scene.lambertian_at(s, hit.uv))
+        .flatten()
+        .map(|rho| surface.brdf.shading_rest_at(rho));
+    let (brdf, base, grid) = match (&textured, &reader.non_lambertian[s]) {
+        (Some(rest), Some(_)) | (None, Some(rest)) => (
             rest,
             lambertian_gather(renderer, hit, cache, settings),
             GLOSSY_GRID,
         ),
-        None => (
+        (_, None) => (
             &surface.brdf,
             surface.emission,
             settings.glossy_grid_among(hit.rays.1),

@@ -299,8 +299,10 @@ impl SolutionReader {
     /// exactly, the rest from the solution, `grid` × `grid` samples of
     /// each; [`gather::glossy_radiance`]), because a highlight's
     /// sharp edge, and the light near a contact line, are finer than the
-    /// pair tree's elements. `seed`, the gather's, is decorrelated per
-    /// point `from`.
+    /// pair tree's elements; under a bounce limit ([`bounces`]) only where
+    /// the solution holds one reflection, the source then reflecting only
+    /// the emitters, and elsewhere the solution's, as on a diffuse surface.
+    /// `seed`, the gather's, is decorrelated per point `from`.
     pub(super) fn radiance_leaving(
         &self,
         solution: &Solution,
@@ -314,7 +316,13 @@ impl SolutionReader {
         // Decorrelated per point y: every ray of one gather has its own.
         let bits = y.x.to_bits() ^ y.y.to_bits().rotate_left(21) ^ y.z.to_bits().rotate_left(42);
         let seed = seed.rotate_left(17) ^ u64::from(q) ^ bits;
-        if !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
+        // Under a bounce limit, a glossy source's light evaluated per point
+        // is its reflection of the solution, one more than the solution
+        // holds: exact where the solution holds one reflection (then the
+        // source reflects only the emitters), the solution's own elsewhere.
+        let limit = bounces(&solution.scene);
+        let glossy = source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION);
+        if !glossy || limit.is_some_and(|b| b != 1) {
             return self.outgoing_radiance(solution, from, to, seed);
         }
         let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
@@ -330,7 +338,10 @@ impl SolutionReader {
                     surface: h,
                     position: z,
                 };
-                self.outgoing_radiance(solution, hit, from, seed ^ u64::from(h) << 40)
+                match limit {
+                    Some(_) => solution.scene.surfaces[h as usize].emission,
+                    None => self.outgoing_radiance(solution, hit, from, seed ^ u64::from(h) << 40),
+                }
             },
         );
         source.emission + reflected

@@ -191,6 +191,28 @@ impl Texture {
         }
     }
 
+    /// The texture times `factor`, channel by channel (a reflectance that
+    /// a lobe's albedo scales).
+    pub fn scaled(&self, factor: Rgb) -> Texture {
+        match self {
+            Texture::Checkerboard {
+                color0,
+                color1,
+                to_uv,
+            } => Texture::Checkerboard {
+                color0: *color0 * factor,
+                color1: *color1 * factor,
+                to_uv: *to_uv,
+            },
+            Texture::Bitmap(b) => Texture::Bitmap(Bitmap {
+                texels: (b.texels.iter())
+                    .map(|t| [0, 1, 2].map(|c| (f64::from(t[c]) * factor[c]) as f32))
+                    .collect(),
+                ..b.clone()
+            }),
+        }
+    }
+
     /// The largest value in each channel anywhere.
     pub fn max(&self) -> Rgb {
         let max = |a: Rgb, b: Rgb| Rgb([0, 1, 2].map(|c| a[c].max(b[c])));

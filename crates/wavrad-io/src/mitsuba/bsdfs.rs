@@ -2,7 +2,8 @@
 //! `roughplastic`, `plastic`, `principled` (its reflection), `twosided`
 //! and `mask`. Colours are `<rgb>`,
 //! `<float>` or `<spectrum value>`; reflectances must lie in [0, 1]. A
-//! `diffuse` reflectance may be a texture (`checkerboard`, `bitmap`:
+//! `diffuse` reflectance, and the `base_color` of a `principled` without
+//! `metallic` and `spec_tint`, may be a texture (`checkerboard`, `bitmap`:
 //! `mitsuba/textures.rs`).
 //!
 //! | plugin           | parameter                                        | type                 | default         |
@@ -45,7 +46,8 @@
 //!
 //! Without `twosided` a surface reflects on its front side only, as in
 //! Mitsuba. Every other plugin, and a texture anywhere but on a `diffuse`
-//! reflectance, is an error naming it and its line; with `--approximate`
+//! reflectance or the `base_color` of a `principled` without `metallic` and
+//! `spec_tint`, is an error naming it and its line; with `--approximate`
 //! ([`crate::LoadOptions`]) each is replaced, with one warning per plugin:
 //!
 //! | plugin                                          | replaced by                                              |
@@ -59,6 +61,7 @@
 //! | any other BSDF                                  | `diffuse` 0.5 (Mitsuba's default BSDF)                   |
 
 use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior, CONDUCTORS, DIELECTRICS};
+use wavrad_core::scene::brdf::principled::burley_albedo;
 use wavrad_core::scene::brdf::{
     Brdf, Microfacet, MicrofacetType, Principled, PrincipledParams, RoughConductor, RoughPlastic,
     RoughPlasticParams, Ward, WardVariant,
@@ -305,7 +308,9 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
 /// Mitsuba 3's `principled`: its reflection as [`Principled`] (Burley's
 /// diffuse lobe and its GGX specular lobe as Mitsuba evaluates them), from
 /// `base_color`, `roughness`, `anisotropic`, `metallic`, `specular` (or
-/// `eta`), `spec_tint` and `spec_trans`; a texture on any of them becomes
+/// `eta`), `spec_tint` and `spec_trans`. A texture on `base_color` of a
+/// surface without `metallic` and `spec_tint` is the texture of its diffuse
+/// lobe's albedo (as on a `diffuse` reflectance); any other texture becomes
 /// its mean (with `--approximate`). Where `spec_trans`, `clearcoat`, `sheen`
 /// or `flatness` is above 0, the parts they add are dropped (with
 /// `--approximate`; an error naming them without).
@@ -327,8 +332,15 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
             "eta of bsdf \"principled\" must be positive, not {eta}"
         )));
     }
+    let base_at = (obj.nested.iter())
+        .find(|n| n.name == Some("base_color"))
+        .map_or(obj.at(), |n| n.at);
+    let base = albedo(obj, "base_color", 0.5, doc)?;
     let params = PrincipledParams {
-        base_color: constant_color(obj, "base_color", 0.5, doc)?,
+        base_color: match base {
+            Albedo::Constant(c) => c,
+            Albedo::Texture(index) => doc.with_texture(index, texture_mean),
+        },
         roughness: constant_float(obj, "roughness", defaults.roughness, doc)?,
         anisotropic: constant_float(obj, "anisotropic", defaults.anisotropic, doc)?,
         metallic: constant_float(obj, "metallic", defaults.metallic, doc)?,
@@ -344,7 +356,30 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         let plugin = format!("bsdf \"principled\" with {}", unmodelled.join(", "));
         doc.approximate(obj.at(), &plugin, PRINCIPLED)?;
     }
-    Ok(Material::opaque(Brdf::Principled(Principled::new(params))))
+    let principled = Principled::new(params);
+    let texture = match base {
+        Albedo::Constant(_) => None,
+        // Without metallic and spec_tint the base colours only the diffuse
+        // lobe: its texture is that lobe's albedo, scaled as the lobe is.
+        Albedo::Texture(index) if principled.metallic == 0.0 && principled.spec_tint == 0.0 => {
+            let weight = (1.0 - params.spec_trans.clamp(0.0, 1.0))
+                * burley_albedo(params.roughness.clamp(0.0, 1.0));
+            let scaled = doc.with_texture(index, |t| t.scaled(Rgb::splat(weight)));
+            Some(doc.add_texture(scaled))
+        }
+        Albedo::Texture(_) => {
+            let what = "a texture on base_color of a metallic or tinted bsdf \"principled\"";
+            doc.approximate(base_at, what, "its mean value")?;
+            None
+        }
+    };
+    Ok(Material::Opaque {
+        front: Side {
+            brdf: Brdf::Principled(principled),
+            texture,
+        },
+        back: None,
+    })
 }
 
 /// A reflectance given as a colour or as a texture.

@@ -118,6 +118,14 @@ impl<'a> Document<'a> {
         f(&self.textures.borrow().0[index as usize])
     }
 
+    /// The index of `texture`, made here rather than read (a texture
+    /// read, scaled).
+    pub fn add_texture(&self, texture: Texture) -> u32 {
+        let mut textures = self.textures.borrow_mut();
+        textures.0.push(texture);
+        (textures.0.len() - 1) as u32
+    }
+
     /// Every texture read, in the order of their indices.
     pub fn take_textures(&self) -> Vec<Texture> {
         std::mem::take(&mut self.textures.borrow_mut().0)

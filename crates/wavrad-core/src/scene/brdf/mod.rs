@@ -203,6 +203,28 @@ impl Brdf {
         }
     }
 
+    /// The BRDF with its Lambertian lobe's albedo `rho` (a texture's
+    /// average over a surface): `diffuse`'s reflectance; `principled`'s
+    /// Burley lobe scaled to that albedo. A BRDF without such a lobe is
+    /// as it is.
+    pub fn with_lambertian(&self, rho: Rgb) -> Brdf {
+        match self {
+            Brdf::Diffuse(_) => Brdf::diffuse(rho),
+            Brdf::Principled(p) => {
+                let scale = Rgb([0, 1, 2].map(|c| match p.diffuse_reflectance[c] > 0.0 {
+                    true => rho[c] / p.diffuse_reflectance[c],
+                    false => 0.0,
+                }));
+                Brdf::Principled(Principled {
+                    diffuse_reflectance: rho,
+                    burley: p.burley * scale,
+                    ..*p
+                })
+            }
+            other => other.clone(),
+        }
+    }
+
     /// The BRDF less its Lambertian lobe ([`Brdf::lambertian`]): what the
     /// three-point kernel (the paper's eq. 13) projects.
     pub fn without_lambertian(&self) -> Brdf {
@@ -230,12 +252,23 @@ impl Brdf {
     /// between Burley's lobe and that Lambertian one (its angular shape:
     /// darker at grazing angles, retro-reflective when rough).
     pub fn shading_rest(&self) -> Brdf {
+        self.shading_rest_at(self.lambertian().unwrap_or(Rgb::ZERO))
+    }
+
+    /// [`Brdf::shading_rest`] at a point where a texture makes the
+    /// Lambertian lobe's albedo `rho` ([`crate::scene::Scene::lambertian_at`]):
+    /// `principled`'s difference between Burley's lobe and the Lambertian
+    /// one scales with that albedo.
+    pub fn shading_rest_at(&self, rho: Rgb) -> Brdf {
         match self {
-            Brdf::Principled(p) => Brdf::Principled(Principled {
-                diffuse_reflectance: Rgb::ZERO,
-                lambertian_removed: p.diffuse_reflectance,
-                ..*p
-            }),
+            Brdf::Principled(_) => match self.with_lambertian(rho) {
+                Brdf::Principled(p) => Brdf::Principled(Principled {
+                    diffuse_reflectance: Rgb::ZERO,
+                    lambertian_removed: rho,
+                    ..p
+                }),
+                other => other,
+            },
             other => other.without_lambertian(),
         }
     }

@@ -39,7 +39,6 @@ mod tessellation;
 
 use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::analytic::{AnalyticShape, ShapeKind};
-use wavrad_core::scene::brdf::Brdf;
 use wavrad_core::scene::shading::ShadingNormals;
 use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
 use wavrad_core::scene::{Patch, Rgb, Surface};
@@ -417,7 +416,7 @@ fn textured(side: &Side, (patch, uv, shading): Placed, doc: &Document) -> Surfac
     if let Some(index) = side.texture {
         let mapping = TextureMapping { texture: index, uv };
         let average = doc.with_texture(index, |t| mapping.average(t, &patch, &patch));
-        surface.brdf = Brdf::diffuse(average);
+        surface.brdf = side.brdf.with_lambertian(average);
         surface.texture = Some(mapping);
     }
     surface
