@@ -32,6 +32,10 @@ overridable with --spp/--res/--pass-spp/--integrator):
   sphere-cornell-box  scenes/sphere-cornell-box/scene.xml -> reference.exr
                       path, 64x64, 65536 spp (the small box replaced by a
                       white diffuse sphere: shading normals)
+  principled-floor    scenes/principled-floor/scene.xml -> reference.exr
+                      path, 64x64, 65536 spp (a principled floor with a
+                      checkerboard base_color, a principled cube, a point
+                      light; max_depth 3)
   figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
                       ptracer (light tracer), 64x64, 1048576 spp
                       (the receiver is lit only via the glossy reflector, a
@@ -94,6 +98,9 @@ SCENES = {
     "sphere-cornell-box": (os.path.join(HERE, "sphere-cornell-box", "scene.xml"),
                            os.path.join(HERE, "sphere-cornell-box", "reference.exr"),
                            64, 65536, 1024, "path"),
+    "principled-floor": (os.path.join(HERE, "principled-floor", "scene.xml"),
+                         os.path.join(HERE, "principled-floor", "reference.exr"),
+                         64, 65536, 1024, "path"),
     "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),
