@@ -36,6 +36,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
                       path, 64x64, 65536 spp (a principled floor with a
                       checkerboard base_color, a principled cube, a point
                       light; max_depth 3)
+  glass-cornell-box   scenes/glass-cornell-box/scene.xml -> reference.exr
+                      path, 64x64, 65536 spp (the small box replaced by a
+                      solid glass sphere, dielectric)
   figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
                       ptracer (light tracer), 64x64, 1048576 spp
                       (the receiver is lit only via the glossy reflector, a
@@ -101,6 +104,9 @@ SCENES = {
     "principled-floor": (os.path.join(HERE, "principled-floor", "scene.xml"),
                          os.path.join(HERE, "principled-floor", "reference.exr"),
                          64, 65536, 1024, "path"),
+    "glass-cornell-box": (os.path.join(HERE, "glass-cornell-box", "scene.xml"),
+                          os.path.join(HERE, "glass-cornell-box", "reference.exr"),
+                          64, 65536, 1024, "path"),
     "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),

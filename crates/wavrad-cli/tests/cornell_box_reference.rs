@@ -257,6 +257,69 @@ fn sphere_cornell_box_matches_mitsuba_path_tracer() {
     assert!(sphere < 0.021, "relRMSE on the sphere {sphere}");
 }
 
+/// The Cornell box with a solid glass sphere for its small box
+/// (`scenes/glass-cornell-box/`): camera rays refract through the sphere as
+/// Mitsuba's do, so the sphere shows the room as Mitsuba shows it; the
+/// solve lets light through the glass, so the sphere's caustic and shadow
+/// on the floor below it are missing, and the error is measured apart
+/// from them (the floor within 0.5 of the sphere's foot).
+#[test]
+fn glass_cornell_box_matches_mitsuba_path_tracer_away_from_the_caustic() {
+    let dir = repo().join("scenes/glass-cornell-box");
+    let scene = wavrad_io::load_scene_with(&dir.join("scene.xml"), &[("res".into(), "64".into())])
+        .unwrap()
+        .scene;
+    assert_eq!(scene.glass.len(), 1);
+    let (w, _, reference) = wavrad_io::read_exr_rgb(&dir.join("reference.exr")).unwrap();
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    let image = Renderer::new(solution)
+        .render(&RenderSettings::for_scene(&scene))
+        .unwrap();
+    let camera = scene.camera.unwrap();
+    let (centre, radius) = (glam::DVec3::new(0.335, -0.69, 0.38), 0.3);
+    let n = w as usize;
+    // Squared error and reference sum per region: the sphere, the floor
+    // under it, the rest without the light.
+    let mut regions = [(0.0, 0.0, 0usize); 3];
+    for k in 0..n * n {
+        let film = glam::DVec2::new((k % n) as f64 + 0.5, (k / n) as f64 + 0.5) / n as f64;
+        let ray = camera.ray(film, 1.0);
+        let to = ray.origin - centre;
+        let b = to.dot(ray.direction);
+        let on_sphere = b * b - (to.length_squared() - radius * radius) > 0.0;
+        let floor = ray.origin + ray.direction * (-1.0 - ray.origin.y) / ray.direction.y;
+        let foot = glam::DVec2::new(floor.x - centre.x, floor.z - centre.z).length();
+        let region = if on_sphere {
+            0
+        } else if ray.direction.y < 0.0 && foot < 0.5 {
+            1
+        } else if reference[3 * k..][..3].iter().all(|&v| v < 2.0) {
+            2
+        } else {
+            continue;
+        };
+        let (sq, sum, count) = &mut regions[region];
+        for (&r, &v) in reference[3 * k..][..3].iter().zip(&image.rgb[3 * k..]) {
+            *sq += (f64::from(v) - f64::from(r)).powi(2);
+            *sum += f64::from(r);
+            *count += 1;
+        }
+    }
+    let mean = reference.iter().map(|&v| f64::from(v)).sum::<f64>() / reference.len() as f64;
+    let [sphere, under, rest] = regions.map(|(sq, _, count)| (sq / count as f64).sqrt() / mean);
+    let all = wavrad_io::relative_rmse(&image.rgb, &reference);
+    eprintln!(
+        "glass box: relRMSE {all:.4}; relative to the image's mean: on the sphere ({} px) \
+         {sphere:.4}, on the floor under it ({} px) {under:.4}, elsewhere away from the light \
+         {rest:.4}",
+        regions[0].2 / 3,
+        regions[1].2 / 3,
+    );
+    // The sphere's lowest pixels show the missing caustic through it.
+    assert!(sphere < 0.2, "relRMSE on the sphere {sphere}");
+    assert!(rest < 0.03, "relRMSE elsewhere {rest}");
+}
+
 /// The paper's Figure 3 scenes (`scenes/figure3/`): the receiver gets light
 /// only by way of the reflector, so the image's total is the reflector's
 /// transport, diffuse and glossy (Ward 1992 rolled aluminium), against

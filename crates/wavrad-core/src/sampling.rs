@@ -42,6 +42,9 @@ pub enum Stream {
     /// A glossy point's BRDF samples (a direction, and with
     /// [`Samples::third`] a lobe).
     Brdf,
+    /// A camera ray's choice between reflection and transmission where it
+    /// meets glass, one per interface ([`Samples::interface`]).
+    Interface,
 }
 
 impl Stream {
@@ -55,6 +58,7 @@ impl Stream {
             Stream::Cosine => 0x5bd1_e995,
             Stream::Light => 0x2545_f491,
             Stream::Brdf => 0x9e37_79b9,
+            Stream::Interface => 0x510e_527f,
         }
     }
 }
@@ -147,6 +151,23 @@ impl Samples {
                 sobol(block.wrapping_mul(len).wrapping_add(j), scramble ^ kind, 2)
             }
         }
+    }
+
+    /// The number in [0, 1) that chooses between reflection and
+    /// transmission at the `depth`-th glass interface a camera ray meets
+    /// (0 the first): each depth draws from a sequence of its own, so that
+    /// a pixel's camera rays stratify their choices at every depth.
+    pub fn interface(self, depth: u32) -> f64 {
+        let level = u64::from(depth + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        match self {
+            Samples::Hashed(seed) => Samples::Hashed(seed ^ level),
+            Samples::Pixel { scramble, block } => Samples::Pixel {
+                scramble: scramble ^ level,
+                block,
+            },
+        }
+        .point(Stream::Interface, 1, 0)
+        .x
     }
 
     /// A seed for the estimates nested in this one (light leaving a point

@@ -110,7 +110,6 @@ fn plastic_and_conductor_are_their_rough_models_smooth_limits() {
 #[test]
 fn unsupported_plugins_name_their_line_and_suggest_approximate() {
     for (body, plugin) in [
-        (r#"<bsdf type="dielectric"/>"#, "bsdf \"dielectric\""),
         (
             r#"<bsdf type="roughdielectric"/>"#,
             "bsdf \"roughdielectric\"",
@@ -146,9 +145,9 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
 #[test]
 fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     let loaded = load(
-        r#"<shape type="rectangle"><bsdf type="dielectric"/></shape>
+        r#"<shape type="rectangle"><bsdf type="roughdielectric"/></shape>
                <shape type="cube"><bsdf type="thindielectric"/></shape>
-               <shape type="rectangle"><bsdf type="dielectric"/></shape>
+               <shape type="rectangle"><bsdf type="roughdielectric"/></shape>
                <shape type="rectangle"><bsdf type="principled">
                    <rgb name="base_color" value="0.8, 0.1, 0.1"/>
                    <float name="roughness" value="0.3"/>
@@ -162,10 +161,9 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let messages: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
-    assert_eq!(messages.len(), 4, "{messages:#?}");
+    assert_eq!(messages.len(), 3, "{messages:#?}");
     for plugin in [
-        "bsdf \"dielectric\": left out",
-        "bsdf \"thindielectric\"",
+        "bsdf \"roughdielectric\": smooth glass",
         "bsdf \"principled\" with sheen: its reflection without them",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
@@ -175,7 +173,8 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         );
     }
     let s = loaded.scene;
-    // Glass is left out; principled without its sheen is a red Burley lobe,
+    // Rough glass is smooth glass (thin glass is supported as it is), not
+    // a surface; principled without its sheen is a red Burley lobe,
     // carried as a Lambertian lobe of its albedo at roughness 0.3, under a
     // GGX lobe of α = 0.3²; the bump map's nested diffuse stays.
     let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
@@ -188,6 +187,46 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         Some(Rgb([0.8, 0.1, 0.1]).map(|c| c * burley))
     );
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
+    let glass: Vec<(bool, usize)> = (s.glass.iter())
+        .map(|g| (g.interface.thin, g.faces.len()))
+        .collect();
+    assert_eq!(glass, [(false, 1), (true, 6), (false, 1)]);
+}
+
+#[test]
+fn glass_reads_mitsubas_indices_and_tints() {
+    let loaded = load(
+        r#"<shape type="sphere"><bsdf type="dielectric">
+               <string name="int_ior" value="water"/>
+               <float name="ext_ior" value="1.5"/>
+               <rgb name="specular_transmittance" value="0.9, 0.8, 0.7"/>
+           </bsdf></shape>
+           <shape type="rectangle"><bsdf type="thindielectric"/></shape>"#,
+        false,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let s = loaded.scene;
+    assert!(s.surfaces.is_empty());
+    let [sphere, pane] = &s.glass[..] else {
+        panic!("{:?}", s.glass)
+    };
+    // Water (1.3330) in a medium of 1.5; Mitsuba's default BK7 in air.
+    assert!((sphere.interface.eta - 1.333 / 1.5).abs() < 1e-12);
+    assert_eq!(sphere.interface.transmittance, Rgb([0.9, 0.8, 0.7]));
+    assert_eq!(sphere.interface.reflectance, Rgb::splat(1.0));
+    assert!(sphere.faces.iter().all(|(_, n)| n.is_some()));
+    assert!(!sphere.interface.thin && pane.interface.thin);
+    assert!((pane.interface.eta - 1.5046 / 1.000277).abs() < 1e-12);
+    // Glass cannot emit.
+    let e = load(
+        r#"<shape type="rectangle"><bsdf type="dielectric"/>
+               <emitter type="area"/></shape>"#,
+        false,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("is glass"), "{e}");
 }
 
 /// The `principled` BRDF of a rectangle whose BSDF has the parameters

@@ -104,7 +104,10 @@ fn unsupported_bsdfs() {
             "blendbsdf",
             "unsupported bsdf plugin \"blendbsdf\" (supported: diffuse, twosided",
         ),
-        ("dielectric", "bsdf \"dielectric\" is not supported"),
+        (
+            "roughdielectric",
+            "bsdf \"roughdielectric\" is not supported",
+        ),
     ] {
         assert_error(
             &format!(

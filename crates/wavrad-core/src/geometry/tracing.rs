@@ -63,21 +63,9 @@ impl SceneTracer {
         let mut triangles = Vec::with_capacity(2 * scene.surfaces.len());
         let mut prim_surface = Vec::with_capacity(2 * scene.surfaces.len());
         for (i, s) in scene.surfaces.iter().enumerate() {
-            match s.patch {
-                Patch::Parallelogram {
-                    origin,
-                    edge_s,
-                    edge_t,
-                } => {
-                    let far = origin + edge_s + edge_t;
-                    triangles.push([origin, origin + edge_s, far]);
-                    triangles.push([origin, far, origin + edge_t]);
-                    prim_surface.extend([i as u32, i as u32]);
-                }
-                Patch::Triangle(v) => {
-                    triangles.push(v);
-                    prim_surface.push(i as u32);
-                }
+            for triangle in s.patch.triangles() {
+                triangles.push(triangle);
+                prim_surface.push(i as u32);
             }
         }
         let occluder = Occluder::new(&triangles);

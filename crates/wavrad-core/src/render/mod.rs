@@ -14,6 +14,7 @@ pub mod estimator;
 pub mod eye;
 pub mod film;
 pub mod gather;
+pub mod glass;
 pub mod link_guide;
 pub mod mirror;
 mod reader;
@@ -29,12 +30,14 @@ use crate::scene::{Camera, Film, RenderHints, Rgb, Scene};
 use crate::solve::{bounces, Solution};
 use crate::{Error, Result};
 use cache::GatherCache;
+use camera::Ray;
 use enclosure::EnclosureRadiance;
 use estimator::{CameraHit, Estimator, GlossyView, ViewEstimator};
 use eye::EyeRadiance;
 use film::{develop, Image};
 use gather::{EmittersSeen, GatherPoint};
 use glam::{DVec2, DVec3};
+use glass::GlassTracer;
 use rayon::prelude::*;
 use reader::SolutionReader;
 use reconstruct::{radiance_at, Reconstruction};
@@ -237,6 +240,7 @@ pub struct Renderer<S = Solution> {
     reader: OnceLock<SolutionReader>,
     gather_cache: OnceLock<GatherCache>,
     enclosure: OnceLock<EnclosureRadiance>,
+    glass: OnceLock<GlassTracer>,
 }
 
 impl<S: Borrow<Solution> + Sync> Renderer<S> {
@@ -247,6 +251,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             reader: OnceLock::new(),
             gather_cache: OnceLock::new(),
             enclosure: OnceLock::new(),
+            glass: OnceLock::new(),
         }
     }
 
@@ -330,9 +335,25 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let probes = &self.probe(camera, film, quiet);
         let samples = |px: usize, py: usize| camera_rays(probes, film, (px, py), settings);
         let seed = settings.seed;
-        let radiance = |x, y, k, n| match self.camera_hit(camera, film, (x, y), (k, n), seed) {
-            Some(hit) => estimator.radiance(self, &hit, settings),
-            None => self.background(camera, film, (x, y)),
+        let (w, h) = (f64::from(film.width), f64::from(film.height));
+        let scene = &self.solution().scene;
+        let interfaces = GlassTracer::interfaces_allowed(scene);
+        let radiance = |x: f64, y: f64, k, n| {
+            // The pixel's estimates of one kind stratify their samples
+            // jointly: each takes its own block of the pixel's sequences.
+            let pixel = (y.floor() * w + x.floor()) as u64;
+            let samples = Samples::pixel(seeded(pixel, seed), k as u32);
+            let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
+            let tracer = &self.solution().tracer;
+            let choose = |depth| samples.interface(depth);
+            let Some(end) = self.glass().follow(scene, tracer, ray, interfaces, choose) else {
+                return Rgb::ZERO;
+            };
+            end.weight
+                * match self.camera_hit(&end.ray, samples, (k, n)) {
+                    Some(hit) => estimator.radiance(self, &hit, settings),
+                    None => self.background(&end.ray),
+                }
         };
         let mut image =
             develop(film, samples, radiance, seed, progress).ok_or(Error::Interrupted)?;
@@ -393,6 +414,12 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         }
     }
 
+    /// The scene's glass, ready for camera rays, made on first use.
+    fn glass(&self) -> &GlassTracer {
+        self.glass
+            .get_or_init(|| GlassTracer::new(&self.solution().scene))
+    }
+
     /// What final gathers read from the solution, made on first use.
     fn reader(&self) -> &SolutionReader {
         self.reader
@@ -445,9 +472,10 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         }
     }
 
-    /// Where the camera ray `k` of the `n` of its pixel, through film
-    /// position `(x, y)` (in pixels), meets the front of a surface (a
-    /// one-sided surface is black from behind, as Mitsuba's diffuse is).
+    /// Where the camera ray `ray`, the `k`-th of the `n` of its pixel
+    /// (past the glass it passed: [`GlassTracer::follow`]), meets the front
+    /// of a surface (a one-sided surface is black from behind, as
+    /// Mitsuba's diffuse is).
     /// Where it meets a curved shape ([`crate::geometry::tracing::SceneTracer::trace_seen`]), the
     /// solution is read on the tessellation's surface under the exact
     /// point, and the shading normal is the exact shape's; gathers and
@@ -455,19 +483,9 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// ([`crate::geometry::analytic::ExactHit::convex_side`]), so that
     /// shadows and the terminator are the shape's, else at the point under
     /// it (a ray from the concave side of a cylinder would meet its
-    /// tessellation at once). `seed` scrambles
-    /// the pixel's samples ([`RenderSettings::seed`]).
-    fn camera_hit(
-        &self,
-        camera: &Camera,
-        film: &Film,
-        (x, y): (f64, f64),
-        (k, n): (usize, usize),
-        seed: u32,
-    ) -> Option<CameraHit> {
+    /// tessellation at once). Its estimate draws on `samples`.
+    fn camera_hit(&self, ray: &Ray, samples: Samples, (k, n): (usize, usize)) -> Option<CameraHit> {
         let solution = self.solution();
-        let (w, h) = (film.width as f64, film.height as f64);
-        let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
         let seen = (solution.tracer).trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max)?;
         let surfaces = &solution.scene.surfaces;
         // The surface and point where the solution is read, and the
@@ -493,9 +511,6 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         let surface = &surfaces[s as usize];
         let patch = &surface.patch;
         let uv = patch.clamp_param(patch.param_of(position));
-        // The pixel's estimates of one kind stratify their samples jointly:
-        // each takes its own block of the pixel's sequences.
-        let pixel = (y.floor() * w + x.floor()) as u64;
         // Rays leave the convex side of a curved shape from its exact point.
         let (position, shape) = match exact {
             Some((hit, shape)) if hit.convex_side => (hit.position, Some(shape)),
@@ -506,7 +521,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 surface: s,
                 position,
                 normal: exact.map_or_else(|| surface.shading_normal(uv), |(hit, _)| hit.normal),
-                samples: Samples::pixel(seeded(pixel, seed), k as u32),
+                samples,
                 shape,
             },
             uv,
@@ -515,16 +530,14 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
         })
     }
 
-    /// What a camera ray through film position `(x, y)` that meets the
-    /// front of no surface sees: the sky where it leaves the scene, black
-    /// where it meets the back of a one-sided surface or without a sky.
-    fn background(&self, camera: &Camera, film: &Film, (x, y): (f64, f64)) -> Rgb {
+    /// What a camera ray that meets the front of no surface sees: the sky
+    /// where it leaves the scene, black where it meets the back of a
+    /// one-sided surface or without a sky.
+    fn background(&self, ray: &Ray) -> Rgb {
         let scene = &self.solution().scene;
         if scene.lights.iter().all(|l| l.is_delta()) {
             return Rgb::ZERO;
         }
-        let (w, h) = (film.width as f64, film.height as f64);
-        let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
         match (self.solution().tracer).trace_seen(ray.origin, ray.direction, ray.t_min, ray.t_max) {
             Some(_) => Rgb::ZERO,
             None => scene.sky_radiance(ray.direction),
@@ -623,7 +636,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .is_some_and(|h| solution.scene.surfaces[h.surface as usize].is_emitter())
     }
 
-    /// What 4×4 probe rays through each pixel of `film` meet; `glaring`
+    /// What 4×4 probe rays through each pixel of `film` meet, past any
+    /// glass (a pixel that shows glass is an edge); `glaring`
     /// per surface: emitters, and diffuse surfaces among the bright ones
     /// (the final gather's secondary sources). With `direct`, also how much
     /// of the emitters the point nearest the pixel's centre sees, where
@@ -640,6 +654,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .collect();
         let (w, h) = (film.width as usize, film.height as usize);
         let aspect = w as f64 / h as f64;
+        let (scene, glass) = (&solution.scene, self.glass());
+        let interfaces = GlassTracer::interfaces_allowed(scene);
         (0..w * h)
             .into_par_iter()
             .map(|pixel| {
@@ -650,9 +666,14 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                             (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
                             (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
                         );
-                        camera.ray(at, aspect)
+                        // Past the glass, following its likelier branch.
+                        let ray = camera.ray(at, aspect);
+                        let end = glass.follow(scene, &solution.tracer, ray, interfaces, |_| 0.5);
+                        end.map_or((ray, true), |end| (end.ray, end.interfaces > 0))
                     })
                     .collect();
+                let through_glass = rays.iter().any(|&(_, glass)| glass);
+                let rays: Vec<Ray> = rays.into_iter().map(|(ray, _)| ray).collect();
                 let seen: Vec<Option<SeenHit>> = (rays.iter())
                     .map(|ray| {
                         (solution.tracer).trace_seen(
@@ -669,7 +690,9 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                         hit.is_some_and(|hit| self.mirrors_an_emitter(&hit, ray.direction))
                     })
                     .collect();
-                let one = (hits.iter().zip(&mirrored)).all(|p| p == (&hits[0], &mirrored[0]));
+                // What glass shows is as sharp as its refraction bends it.
+                let one = !through_glass
+                    && (hits.iter().zip(&mirrored)).all(|p| p == (&hits[0], &mirrored[0]));
                 PixelProbe {
                     surface: if one { hits[0] } else { None },
                     glaring: hits.iter().any(|s| s.is_some_and(|s| glaring[s as usize]))

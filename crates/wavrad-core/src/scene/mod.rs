@@ -12,6 +12,7 @@ pub mod brdf;
 mod color;
 pub mod envmap;
 mod filter;
+pub mod glass;
 pub mod light;
 pub mod shading;
 pub mod texture;
@@ -166,6 +167,9 @@ pub struct Scene {
     /// The curved shapes some surfaces tessellate, exact for camera rays
     /// ([`analytic`]).
     pub shapes: Vec<AnalyticShape>,
+    /// Glass shapes: not surfaces of the solve (light passes them), but
+    /// met by camera rays, which they reflect and refract ([`glass`]).
+    pub glass: Vec<glass::Glass>,
 }
 
 impl Patch {
@@ -209,6 +213,26 @@ impl Patch {
                 edge_t: y,
             },
         ]
+    }
+
+    /// The patch as triangles for ray queries, each wound as the patch
+    /// (its front side theirs): two for a parallelogram, split along its
+    /// diagonal from (0,0) to (1,1).
+    pub fn triangles(&self) -> Vec<[DVec3; 3]> {
+        match *self {
+            Patch::Parallelogram {
+                origin,
+                edge_s,
+                edge_t,
+            } => {
+                let far = origin + edge_s + edge_t;
+                vec![
+                    [origin, origin + edge_s, far],
+                    [origin, far, origin + edge_t],
+                ]
+            }
+            Patch::Triangle(v) => vec![v],
+        }
     }
 
     /// Vertices in parameter order: (0,0), (1,0), (1,1), (0,1) for a
@@ -327,6 +351,7 @@ impl Scene {
             lights: Vec::new(),
             textures: Vec::new(),
             shapes: Vec::new(),
+            glass: Vec::new(),
         }
     }
 

@@ -1,6 +1,7 @@
 //! BSDF plugins: `diffuse`, `ward`, `roughconductor`, `conductor`,
-//! `roughplastic`, `plastic`, `principled` (its reflection), `twosided`
-//! and `mask`. Colours are `<rgb>`,
+//! `roughplastic`, `plastic`, `principled` (its reflection), the glass
+//! `dielectric` and `thindielectric` (not surfaces of the solve:
+//! [`wavrad_core::scene::glass`]), `twosided` and `mask`. Colours are `<rgb>`,
 //! `<float>` or `<spectrum value>`; reflectances must lie in [0, 1]. A
 //! `diffuse` reflectance, and the `base_color` of a `principled` without
 //! `metallic` and `spec_tint`, may be a texture (`checkerboard`, `bitmap`:
@@ -27,6 +28,9 @@
 //! | `principled`     | `base_color`                                     | colour               | 0.5             |
 //! |                  | `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`), `spec_tint` | `<float>` | 0.5, 0, 0, 0.5, 0 |
 //! |                  | `spec_trans`, `clearcoat`, `sheen`, `flatness`: 0 (see below) | `<float>` | 0       |
+//! | `dielectric`     | `int_ior`, `ext_ior` (number or name)            | `<float>`/`<string>` | `bk7`, `air`    |
+//! |                  | `specular_reflectance`, `specular_transmittance` | colour               | 1, 1            |
+//! | `thindielectric` | as `dielectric`                                  | as above             | as above        |
 //! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
 //! | `mask`           | `opacity` 1 and one nested BSDF                  | `<float>`            | 1               |
 //!
@@ -52,7 +56,7 @@
 //!
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
-//! | `dielectric`, `thindielectric`, `roughdielectric` | nothing: the shape is left out (fully transparent)     |
+//! | `roughdielectric`                               | `dielectric` of its indices and tints (smooth glass)     |
 //! | `principled` with `spec_trans`, `clearcoat`, `sheen` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
@@ -66,6 +70,7 @@ use wavrad_core::scene::brdf::{
     Brdf, Microfacet, MicrofacetType, Principled, PrincipledParams, RoughConductor, RoughPlastic,
     RoughPlasticParams, Ward, WardVariant,
 };
+use wavrad_core::scene::glass::Dielectric;
 use wavrad_core::scene::Rgb;
 
 use super::params::{Document, FloatOrString, Nested, Object};
@@ -87,8 +92,9 @@ pub(crate) struct Side {
 pub(crate) enum Material {
     /// Surfaces reflecting by `front`, and for `twosided` by `back` behind.
     Opaque { front: Side, back: Option<Side> },
-    /// No surfaces at all: glass approximated as fully transparent.
-    Transparent,
+    /// No surfaces of the solve: glass, which light passes and camera
+    /// rays reflect and refract at ([`Dielectric`]).
+    Glass(Dielectric),
 }
 
 impl Default for Material {
@@ -115,11 +121,12 @@ const MAX_NESTING: usize = 8;
 
 /// The BSDF plugins wavrad reads, for messages.
 const SUPPORTED: &str =
-    "diffuse, twosided, ward, roughconductor, conductor, roughplastic, plastic, mask (opaque)";
+    "diffuse, twosided, ward, roughconductor, conductor, roughplastic, plastic, \
+                         principled, dielectric, thindielectric, mask (opaque)";
 
-/// What `--approximate` puts in place of each glass plugin.
-const GLASS: &str =
-    "left out: the shape is fully transparent (no reflection, refraction or shadow)";
+/// What `--approximate` puts in place of rough glass.
+const ROUGH_GLASS: &str = "smooth glass (dielectric) of the same indices: sharp reflections and \
+                           refraction instead of blurred ones";
 
 /// What `--approximate` puts in place of a `principled` with the parts
 /// wavrad does not model.
@@ -213,7 +220,7 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
                             .error("a twosided BSDF cannot wrap another twosided BSDF"))
                     }
                     Material::Opaque { front, back: None } => sides.push(front),
-                    Material::Transparent => return Ok(Material::Transparent),
+                    Material::Glass(glass) => return Ok(Material::Glass(glass)),
                 }
             }
             match sides.as_slice() {
@@ -266,9 +273,22 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             nested_only(obj, doc, depth)
         }
         "dielectric" | "thindielectric" | "roughdielectric" => {
-            doc.approximate(obj.at(), &plugin, GLASS)?;
-            obj.ignore_all();
-            Ok(Material::Transparent)
+            if obj.plugin == "roughdielectric" {
+                doc.approximate(obj.at(), &plugin, ROUGH_GLASS)?;
+                obj.ignore(&[
+                    "distribution",
+                    "alpha",
+                    "alpha_u",
+                    "alpha_v",
+                    "sample_visible",
+                ]);
+            }
+            let glass = parse_dielectric(&mut obj, doc)?;
+            if let Some(n) = obj.nested.first() {
+                return Err(obj.unexpected(n));
+            }
+            obj.finish()?;
+            Ok(Material::Glass(glass))
         }
         "principled" => {
             let material = principled(&mut obj, doc)?;
@@ -710,6 +730,23 @@ fn parse_ior(obj: &mut Object, name: &'static str, default: f64) -> Result<f64> 
         )));
     }
     Ok(ior)
+}
+
+/// `dielectric` or `thindielectric` (or `roughdielectric`, approximated
+/// as the first): Mitsuba's defaults, BK7 glass in air.
+fn parse_dielectric(obj: &mut Object, doc: &Document) -> Result<Dielectric> {
+    let int_ior = parse_ior(obj, "int_ior", 1.5046)?;
+    let ext_ior = parse_ior(obj, "ext_ior", 1.000277)?;
+    let reflectance = constant_color(obj, "specular_reflectance", 1.0, doc)?;
+    let transmittance = constant_color(obj, "specular_transmittance", 1.0, doc)?;
+    check_unit(obj, "specular_reflectance", reflectance)?;
+    check_unit(obj, "specular_transmittance", transmittance)?;
+    Ok(Dielectric {
+        eta: int_ior / ext_ior,
+        thin: obj.plugin == "thindielectric",
+        reflectance,
+        transmittance,
+    })
 }
 
 /// `roughplastic`, or `plastic` as its smooth limit (Mitsuba's smallest

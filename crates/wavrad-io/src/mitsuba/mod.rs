@@ -187,8 +187,7 @@ fn load(
 fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
     let scene = Object::parse(root, doc)?;
     scene.finish()?;
-    let mut surfaces = Vec::new();
-    let mut curved = Vec::new();
+    let mut built = shapes::Built::default();
     let mut sensors = Vec::new();
     let mut top_level_samples = None;
     // The integrator's longest path, once one is read.
@@ -208,17 +207,16 @@ fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
             // A group's shapes are built where an instance places them.
             "shape" if n.plugin() == "shapegroup" => {}
             "shape" if n.plugin() == "instance" => {
-                let first_surface = surfaces.len();
-                shapes::build_instance(*n, doc, shape_index, (&mut surfaces, &mut curved))?;
-                check_coordinates(&surfaces[first_surface..], n)?;
+                let first_surface = built.surfaces.len();
+                shapes::build_instance(*n, doc, shape_index, &mut built)?;
+                check_coordinates(&built.surfaces[first_surface..], n)?;
                 shape_index += 1;
             }
             "shape" => {
-                let first_surface = surfaces.len();
+                let first_surface = built.surfaces.len();
                 let identity = glam::DMat4::IDENTITY;
-                let built = (&mut surfaces, &mut curved);
-                let emitter = shapes::build_shape(*n, doc, shape_index, &identity, built)?;
-                check_coordinates(&surfaces[first_surface..], n)?;
+                let emitter = shapes::build_shape(*n, doc, shape_index, &identity, &mut built)?;
+                check_coordinates(&built.surfaces[first_surface..], n)?;
                 if let Some(e) = emitter {
                     if let Some(first) = attached.insert(e.element, e.at) {
                         return Err(e.at.error(format!(
@@ -286,7 +284,7 @@ fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
     });
     let first = sensors.next();
     Ok(Scene {
-        surfaces,
+        surfaces: built.surfaces,
         camera: first.map(|s| s.camera),
         film: first.map_or_else(Film::default, |s| s.film),
         hints: first.map_or(
@@ -299,7 +297,8 @@ fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
         other_sensors: sensors.collect(),
         lights,
         textures: doc.take_textures(),
-        shapes: curved,
+        shapes: built.curved,
+        glass: built.glass,
     })
 }
 

@@ -10,9 +10,11 @@ use std::collections::BTreeMap;
 use std::fmt::Display;
 use std::ops::Range;
 
+use glam::DVec3;
 use wavrad_core::kernel::Quadrature;
 use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
 use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::{Camera, Projection, Rgb};
 use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::{Interactions, Source};
@@ -51,6 +53,9 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     }
     if let Some(camera) = &scene.camera {
         check_camera(camera).map_err(|e| inconsistent("the sensor", e))?;
+    }
+    for (g, glass) in scene.glass.iter().enumerate() {
+        check_glass(glass).map_err(|e| inconsistent(format!("glass shape {g}"), e))?;
     }
     let interactions = &solution.interactions;
     let surfaces = scene.surfaces.len();
@@ -116,6 +121,27 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
 /// The largest quadrature order per axis a solution file may hold: solves
 /// use 2 ([`Quadrature::default`]); rendering allocates the square of the
 /// square of it per element point.
+/// A glass shape as the loader makes one: a positive, finite index, tints
+/// in [0, 1], and faces within [`MAX_COORDINATE`].
+fn check_glass(glass: &Glass) -> Result<(), String> {
+    let interface = &glass.interface;
+    if !(interface.eta > 0.0 && interface.eta.is_finite()) {
+        return Err(format!("its index of refraction {}", interface.eta));
+    }
+    let unit = |v: Rgb| v.0.iter().all(|c| (0.0..=1.0).contains(c));
+    if !(unit(interface.reflectance) && unit(interface.transmittance)) {
+        return Err(format!(
+            "its tints {} and {} (each in [0, 1])",
+            interface.reflectance, interface.transmittance
+        ));
+    }
+    let within = |v: &DVec3| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE;
+    match (glass.faces.iter()).position(|(patch, _)| !patch.vertices().iter().all(within)) {
+        Some(f) => Err(format!("face {f} is not within {MAX_COORDINATE:e}")),
+        None => Ok(()),
+    }
+}
+
 const MAX_QUADRATURE_ORDER: usize = 16;
 
 /// Check `settings` as a solve's: every described setting within its range,

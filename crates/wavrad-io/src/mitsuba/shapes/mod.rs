@@ -39,6 +39,7 @@ mod tessellation;
 
 use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::analytic::{AnalyticShape, ShapeKind};
+use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::shading::ShadingNormals;
 use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
 use wavrad_core::scene::{Patch, Rgb, Surface};
@@ -250,17 +251,28 @@ impl Geometry {
     }
 }
 
-/// Append the surfaces of shape `shape` to `out`, all named by the shape's
-/// `id` (else its `name`, else `plugin#index`), and, for a curved shape,
-/// its exact description to `shapes`; return its area emitter, nested or
-/// referenced, if it has one. `world_from_parent` places it (an
-/// instance's `to_world`; the identity at the top level).
+/// What the scene's shapes become.
+#[derive(Debug, Default)]
+pub(crate) struct Built {
+    /// The surfaces of the solve.
+    pub surfaces: Vec<Surface>,
+    /// The curved shapes among them, as they are.
+    pub curved: Vec<AnalyticShape>,
+    /// The glass shapes, which are not surfaces.
+    pub glass: Vec<Glass>,
+}
+
+/// Append the surfaces of shape `shape` to `built`, all named by the
+/// shape's `id` (else its `name`, else `plugin#index`), and, for a curved
+/// shape, its exact description; or, for glass, its faces; return its area
+/// emitter, nested or referenced, if it has one. `world_from_parent`
+/// places it (an instance's `to_world`; the identity at the top level).
 pub(crate) fn build_shape<'a>(
     shape: Nested<'a>,
     doc: &'a Document<'a>,
     index: usize,
     world_from_parent: &DMat4,
-    (out, shapes): (&mut Vec<Surface>, &mut Vec<AnalyticShape>),
+    built: &mut Built,
 ) -> Result<Option<Nested<'a>>> {
     let mut obj = Object::parse(shape.element, doc)?;
     let plugin = obj.plugin;
@@ -299,28 +311,39 @@ pub(crate) fn build_shape<'a>(
         Some(n) => parse_area_emitter(n, doc)?,
         None => Rgb::ZERO,
     };
-    let Material::Opaque { front, back } = material else {
-        if let Some(n) = emitter {
-            return Err(n.at.error(format!(
-                "{} is left out as transparent (--approximate), so it cannot emit",
-                obj.describe()
-            )));
-        }
-        return Ok(None);
-    };
 
     // Geometry in world space.
     let mut patches = geometry.patches(&obj, &world_from_local, doc)?;
     if flip_normals {
         patches = patches.iter().map(flip).collect();
     }
-
-    // Surfaces: the front carries the emission; twosided adds the back.
     let name = shape
         .element
         .attr("id")
         .or(shape.element.attr("name"))
         .map_or_else(|| format!("{plugin}#{index}"), str::to_string);
+
+    let (front, back) = match material {
+        Material::Opaque { front, back } => (front, back),
+        Material::Glass(interface) => {
+            if let Some(n) = emitter {
+                return Err(n.at.error(format!(
+                    "{} is glass, which wavrad cannot make emit",
+                    obj.describe()
+                )));
+            }
+            let faces = patches.into_iter().map(|(p, _, n)| (p, n)).collect();
+            built.glass.push(Glass {
+                name,
+                interface,
+                faces,
+            });
+            return Ok(None);
+        }
+    };
+
+    // Surfaces: the front carries the emission; twosided adds the back.
+    let (out, shapes) = (&mut built.surfaces, &mut built.curved);
     let first = out.len();
     for placed in patches {
         let mut surface = textured(&front, placed, doc);
@@ -346,8 +369,8 @@ pub(crate) fn build_shape<'a>(
     Ok(emitter)
 }
 
-/// Append the surfaces of the shape group an `instance` names to `out`
-/// (and its curved shapes to `shapes`), placed by the instance's
+/// Append the shapes of the shape group an `instance` names to `built`,
+/// placed by the instance's
 /// `to_world` after each shape's own (numbered from `index` on, for their
 /// names), as Mitsuba's `instance` and `shapegroup` do. As in Mitsuba, a
 /// group's shapes cannot emit and a group holds no instances or groups.
@@ -355,7 +378,7 @@ pub(crate) fn build_instance<'a>(
     instance: Nested<'a>,
     doc: &'a Document<'a>,
     index: usize,
-    (out, shapes): (&mut Vec<Surface>, &mut Vec<AnalyticShape>),
+    built: &mut Built,
 ) -> Result<()> {
     let mut obj = Object::parse(instance.element, doc)?;
     let world_from_instance = obj.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -390,7 +413,6 @@ pub(crate) fn build_instance<'a>(
                 shape.plugin()
             )));
         }
-        let built = (&mut *out, &mut *shapes);
         if let Some(emitter) = build_shape(*shape, doc, index + k, &world_from_instance, built)? {
             return Err(emitter.at.error(format!(
                 "an area emitter on a shape of the shape group at {}: instanced shapes \

@@ -1,0 +1,145 @@
+//! Camera rays through glass: an emitter of radiance L seen through a glass
+//! slab at normal incidence shows L·(1 − R)/(1 + R) (the light passing the
+//! two interfaces after any even number of reflections between them, R the
+//! Fresnel reflectance at normal incidence), whether the slab is a solid
+//! (`dielectric`, refracting in and out) or a thin pane (`thindielectric`);
+//! and a tilted slab shifts what is seen through it sideways by Snell's law.
+
+use std::path::Path;
+
+use glam::{DVec2, DVec3};
+use wavrad_core::progress::Silent;
+use wavrad_core::render::{RenderSettings, Renderer};
+use wavrad_core::scene::Scene;
+use wavrad_core::solve::{solve, SolveSettings};
+
+/// Radiance of the emitter behind the glass.
+const RADIANCE: f64 = 2.0;
+
+/// Relative index of the glass.
+const ETA: f64 = 1.5;
+
+/// A camera on the z axis looking at the origin (`fov`°, `res`² pixels,
+/// `spp` camera rays, box filter), an emitter of [`RADIANCE`] facing it from
+/// z = −3 as the `emitter_to_world` transform places it, and the glass
+/// `bsdf` on a `shape` (`cube`, `rectangle`) placed by `glass_to_world`.
+fn scene_behind_glass(
+    (fov, res, spp): (f64, u32, u32),
+    emitter_to_world: &str,
+    (shape, bsdf, glass_to_world): (&str, &str, &str),
+) -> Scene {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+        <sensor type="perspective">
+            <float name="fov" value="{fov}"/>
+            <transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+            <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
+                <rfilter type="box"/></film>
+        </sensor>
+        <shape type="rectangle">
+            <transform name="to_world">{emitter_to_world}</transform>
+            <emitter type="area"><rgb name="radiance" value="{RADIANCE}"/></emitter>
+        </shape>
+        <shape type="{shape}">
+            <transform name="to_world">{glass_to_world}</transform>
+            {bsdf}
+        </shape>
+    </scene>"#
+    );
+    wavrad_io::load_scene_str(&xml, Path::new("."), "glass.xml", &[])
+        .unwrap()
+        .scene
+}
+
+/// The rendered image's red channel.
+fn render(scene: &Scene) -> Vec<f64> {
+    let solution = solve(scene, &SolveSettings::default(), &Silent).unwrap();
+    let image = Renderer::new(solution)
+        .render(&RenderSettings::for_scene(scene))
+        .unwrap();
+    image.rgb.chunks(3).map(|px| f64::from(px[0])).collect()
+}
+
+#[test]
+fn an_emitter_seen_through_glass_at_normal_incidence_loses_its_fresnel_reflections() {
+    let r = ((ETA - 1.0) / (ETA + 1.0)).powi(2);
+    let expected = RADIANCE * (1.0 - r) / (1.0 + r);
+    let big = "<scale value=\"5\"/><translate z=\"-3\"/>";
+    // A solid slab, and one thin pane (a thin cube would be two).
+    for (shape, bsdf) in [("cube", "dielectric"), ("rectangle", "thindielectric")] {
+        let glass = format!(
+            r#"<bsdf type="{bsdf}"><float name="int_ior" value="{ETA}"/><float name="ext_ior" value="1"/></bsdf>"#
+        );
+        let slab = "<scale x=\"2\" y=\"2\" z=\"0.3\"/>";
+        let scene = scene_behind_glass((8.0, 8, 256), big, (shape, &glass, slab));
+        assert_eq!(scene.glass.len(), 1);
+        let image = render(&scene);
+        let mean = image.iter().sum::<f64>() / image.len() as f64;
+        eprintln!("{bsdf}: {mean:.5} against {expected:.5}");
+        assert!((mean / expected - 1.0).abs() < 0.01, "{bsdf}: {mean}");
+        assert!(image.iter().all(|&v| v < RADIANCE * 1.0001), "{bsdf}");
+    }
+}
+
+/// Vector form of Snell's law (Glassner, *An Introduction to Ray
+/// Tracing*, 1989): the direction `d` refracted at a surface of normal `n`
+/// (facing against `d`) with index ratio `eta` (incident over transmitted).
+fn refract(d: DVec3, n: DVec3, eta: f64) -> DVec3 {
+    let cos_i = -d.dot(n);
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    eta * d + (eta * cos_i - k.sqrt()) * n
+}
+
+#[test]
+fn a_tilted_slab_shifts_what_is_seen_through_it_by_snells_law() {
+    // The emitter covers x < 0 behind a solid slab of thickness 2t turned
+    // by θ about the y axis: each camera ray refracts into the slab and
+    // out parallel to itself, shifted sideways, and the emitter's edge
+    // shows where the shifted ray meets x = 0 on the emitter.
+    let (theta, t) = (30f64.to_radians(), 0.3);
+    let n = DVec3::new(theta.sin(), 0.0, theta.cos());
+    let half_plane = "<scale x=\"2\" y=\"4\"/><translate x=\"-2\" z=\"-3\"/>";
+    let glass = format!(
+        r#"<bsdf type="dielectric"><float name="int_ior" value="{ETA}"/><float name="ext_ior" value="1"/></bsdf>"#
+    );
+    let slab = format!(
+        "<scale x=\"3\" y=\"3\" z=\"{t}\"/><rotate y=\"1\" angle=\"{}\"/>",
+        theta.to_degrees()
+    );
+    let res = 64;
+    let scene = scene_behind_glass((6.0, res, 64), half_plane, ("cube", &glass, &slab));
+    let image = render(&scene);
+    let camera = scene.camera.unwrap();
+    // Where the ray through film column boundary `col` of the middle row
+    // meets the emitter's plane, through the slab, and without it.
+    let x_at = |col: f64| {
+        let ray = camera.ray(DVec2::new(col / f64::from(res), 0.5), 1.0);
+        let plane = |p: DVec3, d: DVec3, offset: f64| p + d * (offset - n.dot(p)) / n.dot(d);
+        let entry = plane(ray.origin, ray.direction, t);
+        let inside = refract(ray.direction, n, 1.0 / ETA);
+        let exit = plane(entry, inside, -t);
+        let out = refract(inside, n, ETA);
+        let to_emitter = |p: DVec3, d: DVec3| p.x + d.x * (-3.0 - p.z) / d.z;
+        (to_emitter(exit, out), to_emitter(ray.origin, ray.direction))
+    };
+    let crossing = |through: bool| {
+        (0..res).position(|c| {
+            let (a, b) = (x_at(f64::from(c)), x_at(f64::from(c + 1)));
+            let (a, b) = if through { (a.0, b.0) } else { (a.1, b.1) };
+            (a < 0.0) != (b < 0.0)
+        })
+    };
+    let (expected, unbent) = (crossing(true).unwrap(), crossing(false).unwrap());
+    // Where the middle row crosses half the transmitted radiance.
+    let row = &image[(res as usize / 2) * res as usize..][..res as usize];
+    let half = 0.5 * row.iter().cloned().fold(0.0, f64::max);
+    let seen = row
+        .iter()
+        .position(|&v| (v < half) != (row[0] < half))
+        .unwrap();
+    eprintln!("edge seen in column {seen}: Snell's law puts it in {expected}, no slab in {unbent}");
+    assert!(seen.abs_diff(expected) <= 1, "{seen} vs {expected}");
+    // The slab moves it many pixels.
+    assert!(expected.abs_diff(unbent) > 5);
+}
