@@ -637,7 +637,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     }
 
     /// What 4×4 probe rays through each pixel of `film` meet, past any
-    /// glass (a pixel that shows glass is an edge); `glaring`
+    /// glass (a pixel that shows glass is an edge, and glaring where the
+    /// glass mirrors an emitter); `glaring`
     /// per surface: emitters, and diffuse surfaces among the bright ones
     /// (the final gather's secondary sources). With `direct`, also how much
     /// of the emitters the point nearest the pixel's centre sees, where
@@ -666,14 +667,26 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                             (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
                             (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
                         );
-                        // Past the glass, following its likelier branch.
+                        // Past the glass, following its likelier branch;
+                        // and whether the glass mirrors an emitter.
                         let ray = camera.ray(at, aspect);
-                        let end = glass.follow(scene, &solution.tracer, ray, interfaces, |_| 0.5);
-                        end.map_or((ray, true), |end| (end.ray, end.interfaces > 0))
+                        let tracer = &solution.tracer;
+                        let end = glass.follow(scene, tracer, ray, interfaces, |_| 0.5);
+                        let through = end.is_none_or(|end| end.interfaces > 0);
+                        let mirrors = through
+                            && glass
+                                .follow(scene, tracer, ray, interfaces, |_| 0.0)
+                                .and_then(|end| {
+                                    let ray = end.ray;
+                                    tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max)
+                                })
+                                .is_some_and(|h| scene.surfaces[h.surface as usize].is_emitter());
+                        (end.map_or(ray, |end| end.ray), through, mirrors)
                     })
                     .collect();
-                let through_glass = rays.iter().any(|&(_, glass)| glass);
-                let rays: Vec<Ray> = rays.into_iter().map(|(ray, _)| ray).collect();
+                let through_glass = rays.iter().any(|&(_, through, _)| through);
+                let glass_mirrors = rays.iter().any(|&(_, _, mirrors)| mirrors);
+                let rays: Vec<Ray> = rays.into_iter().map(|(ray, _, _)| ray).collect();
                 let seen: Vec<Option<SeenHit>> = (rays.iter())
                     .map(|ray| {
                         (solution.tracer).trace_seen(
@@ -696,7 +709,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                 PixelProbe {
                     surface: if one { hits[0] } else { None },
                     glaring: hits.iter().any(|s| s.is_some_and(|s| glaring[s as usize]))
-                        || mirrored.iter().any(|&m| m),
+                        || mirrored.iter().any(|&m| m)
+                        || glass_mirrors,
                     emitters: match seen[10] {
                         Some(SeenHit::Surface(hit)) if direct => self.emitters_seen(&hit),
                         _ => None,
