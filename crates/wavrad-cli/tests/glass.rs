@@ -1,9 +1,11 @@
-//! Camera rays through glass: an emitter of radiance L seen through a glass
-//! slab at normal incidence shows L·(1 − R)/(1 + R) (the light passing the
-//! two interfaces after any even number of reflections between them, R the
-//! Fresnel reflectance at normal incidence), whether the slab is a solid
-//! (`dielectric`, refracting in and out) or a thin pane (`thindielectric`);
-//! and a tilted slab shifts what is seen through it sideways by Snell's law.
+//! Glass: an emitter of radiance L seen through a glass slab at normal
+//! incidence shows L·(1 − R)/(1 + R) (the light passing the two interfaces
+//! after any even number of reflections between them, R the Fresnel
+//! reflectance at normal incidence), whether the slab is a solid
+//! (`dielectric`, refracting in and out) or a thin pane
+//! (`thindielectric`); a tilted slab shifts what is seen through it
+//! sideways by Snell's law; and glass between a light and a floor dims the
+//! floor by its transmittance (the photons of `render/caustics.rs`).
 
 use std::path::Path;
 
@@ -20,8 +22,9 @@ const RADIANCE: f64 = 2.0;
 const ETA: f64 = 1.5;
 
 /// A camera on the z axis looking at the origin (`fov`°, `res`² pixels,
-/// `spp` camera rays, box filter), an emitter of [`RADIANCE`] facing it from
-/// z = −3 as the `emitter_to_world` transform places it, and the glass
+/// `spp` camera rays, box filter), a black emitter of [`RADIANCE`] facing
+/// it from z = −3 as the `emitter_to_world` transform places it (reflecting
+/// nothing the glass sends back), and the glass
 /// `bsdf` on a `shape` (`cube`, `rectangle`) placed by `glass_to_world`.
 fn scene_behind_glass(
     (fov, res, spp): (f64, u32, u32),
@@ -30,26 +33,45 @@ fn scene_behind_glass(
 ) -> Scene {
     let xml = format!(
         r#"<scene version="3.0.0">
-        <sensor type="perspective">
-            <float name="fov" value="{fov}"/>
-            <transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
-            <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
-            <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
-                <rfilter type="box"/></film>
-        </sensor>
-        <shape type="rectangle">
-            <transform name="to_world">{emitter_to_world}</transform>
-            <emitter type="area"><rgb name="radiance" value="{RADIANCE}"/></emitter>
-        </shape>
+        {}
+        {}
         <shape type="{shape}">
             <transform name="to_world">{glass_to_world}</transform>
             {bsdf}
         </shape>
-    </scene>"#
+    </scene>"#,
+        sensor(6.0, (fov, res, spp)),
+        black_emitter(emitter_to_world),
     );
     wavrad_io::load_scene_str(&xml, Path::new("."), "glass.xml", &[])
         .unwrap()
         .scene
+}
+
+/// A camera at height `z` on the z axis looking at the origin (`fov`°,
+/// `res`² pixels, `spp` camera rays, box filter).
+fn sensor(z: f64, (fov, res, spp): (f64, u32, u32)) -> String {
+    format!(
+        r#"<sensor type="perspective">
+            <float name="fov" value="{fov}"/>
+            <transform name="to_world"><lookat origin="0, 0, {z}" target="0, 0, 0" up="0, 1, 0"/></transform>
+            <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+            <film type="hdrfilm"><integer name="width" value="{res}"/><integer name="height" value="{res}"/>
+                <rfilter type="box"/></film>
+        </sensor>"#
+    )
+}
+
+/// A black rectangle emitting [`RADIANCE`] from its front, placed by
+/// `to_world`: it reflects nothing the glass sends back.
+fn black_emitter(to_world: &str) -> String {
+    format!(
+        r#"<shape type="rectangle">
+            <transform name="to_world">{to_world}</transform>
+            <emitter type="area"><rgb name="radiance" value="{RADIANCE}"/></emitter>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
+        </shape>"#
+    )
 }
 
 /// The rendered image's red channel.
@@ -142,4 +164,76 @@ fn a_tilted_slab_shifts_what_is_seen_through_it_by_snells_law() {
     assert!(seen.abs_diff(expected) <= 1, "{seen} vs {expected}");
     // The slab moves it many pixels.
     assert!(expected.abs_diff(unbent) > 5);
+}
+
+/// The floor of a scene lit from straight above by a small black emitter,
+/// seen from below the `glass` element (none, or a shape between them),
+/// as an image's red channel.
+fn floor_under(glass: &str) -> Vec<f64> {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+        {}
+        <shape type="rectangle">
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+        </shape>
+        {}
+        {glass}
+    </scene>"#,
+        sensor(2.0, (30.0, 8, 16)),
+        black_emitter("<scale value=\"0.5\"/><rotate x=\"1\" angle=\"180\"/><translate z=\"10\"/>"),
+    );
+    let scene = wavrad_io::load_scene_str(&xml, Path::new("."), "floor.xml", &[])
+        .unwrap()
+        .scene;
+    render(&scene)
+}
+
+#[test]
+fn glass_between_a_light_and_a_floor_passes_its_fresnel_transmittance() {
+    // Light from a small emitter straight above, at height d = 10, through
+    // a pane or a slab: the floor's irradiance is the open floor's times
+    // the glass's transmittance at normal incidence, (1 − R)/(1 + R), and
+    // for a slab of thickness t, which brings the emitter's image nearer by
+    // t(1 − 1/η), times (d / (d − t(1 − 1/η)))² as well. The solve and the
+    // shadow rays let the light through whole; the photons shot through
+    // the glass make the difference. The glass is nearer the light than
+    // the floor, so that what the slab's sides reflect inwards lands beyond
+    // the floor (halfway, they would mirror the light onto its middle).
+    let r = ((ETA - 1.0) / (ETA + 1.0)).powi(2);
+    let transmittance = (1.0 - r) / (1.0 + r);
+    let (d, t) = (10.0, 0.3);
+    let nearer = (d / (d - t * (1.0 - 1.0 / ETA))).powi(2);
+    let open = floor_under("");
+    for (shape, bsdf, place, expected) in [
+        (
+            "rectangle",
+            "thindielectric",
+            "<scale value=\"1.3\"/><translate z=\"8\"/>".to_string(),
+            transmittance,
+        ),
+        (
+            "cube",
+            "dielectric",
+            format!(
+                "<scale x=\"1.3\" y=\"1.3\" z=\"{}\"/><translate z=\"8\"/>",
+                t / 2.0
+            ),
+            transmittance * nearer,
+        ),
+    ] {
+        let glass = format!(
+            r#"<shape type="{shape}"><transform name="to_world">{place}</transform>
+                <bsdf type="{bsdf}"><float name="int_ior" value="{ETA}"/><float name="ext_ior" value="1"/></bsdf>
+            </shape>"#
+        );
+        let covered = floor_under(&glass);
+        let ratio = covered.iter().sum::<f64>() / open.iter().sum::<f64>();
+        let worst = (covered.iter().zip(&open))
+            .map(|(c, o)| (c / o / expected - 1.0).abs())
+            .fold(0.0, f64::max);
+        eprintln!("{bsdf}: covered/open {ratio:.5} against {expected:.5}, worst pixel {worst:.4}");
+        assert!((ratio / expected - 1.0).abs() < 0.005, "{bsdf}: {ratio}");
+        // The photons' density estimate is noisy at the scale of its disc.
+        assert!(worst < 0.05, "{bsdf}: {worst}");
+    }
 }

@@ -316,7 +316,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     settings: &RenderSettings,
 ) -> Rgb {
     if let Some(l) = cache.and_then(|c| c.radiance(hit.point.surface, hit.uv)) {
-        return l;
+        return l + renderer.caustic_radiance(hit);
     }
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
@@ -351,7 +351,8 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
 /// straight from the emitters, evaluated by the camera ray (one shadow ray,
 /// the pixel's rays drawing their points on the emitters as one stratified
 /// set, so that a penumbra is sampled as finely as the pixel:
-/// [`gather::direct_radiance`]); and the rest of the solution
+/// [`gather::direct_radiance`]), with what glass adds to that or takes
+/// from it ([`super::caustics`]); and the rest of the solution
 /// ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
 /// reconstructed as `reconstruction`. Where the solution has no rest (its
 /// links are not arranged), nothing and the whole element radiance.
@@ -362,6 +363,7 @@ fn direct_per_point<S: Borrow<Solution> + Sync>(
 ) -> (Rgb, Rgb) {
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
+    let caustic = renderer.caustic_radiance(hit);
     match reader.rest(s) {
         Some(rest) => (
             solution.scene.surfaces[s].emission
@@ -371,11 +373,12 @@ fn direct_per_point<S: Borrow<Solution> + Sync>(
                     &reader.emitters,
                     &hit.point,
                     1,
-                ),
+                )
+                + caustic,
             renderer.element_values(reconstruction, s, hit.uv, (rest, Rgb::ZERO)),
         ),
         None => (
-            Rgb::ZERO,
+            caustic,
             renderer.element_radiance(reconstruction, s, hit.uv),
         ),
     }

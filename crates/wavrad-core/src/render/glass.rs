@@ -4,12 +4,14 @@
 //! path tracer does, and followed along that specular chain until it meets
 //! a surface of the solution, where the radiance is estimated as for any
 //! camera ray, or leaves the scene. The solve does not see glass: light
-//! reaches what lies behind or under it as if it were not there.
+//! reaches what lies behind or under it as if it were not there, and the
+//! photons of [`super::caustics`] make up the difference on diffuse
+//! surfaces.
 
 use crate::geometry::tracing::SceneTracer;
 use crate::geometry::visibility::Occluder;
 use crate::render::camera::Ray;
-use crate::scene::glass::Dielectric;
+use crate::scene::glass::{Dielectric, Transport};
 use crate::scene::{Rgb, Scene};
 use glam::DVec3;
 
@@ -38,7 +40,7 @@ pub struct GlassHit {
     /// The interface met.
     pub interface: Dielectric,
     /// The triangle met, which the ray leaving it skips.
-    triangle: u32,
+    pub triangle: u32,
 }
 
 /// The end of a camera ray's specular chain through glass.
@@ -71,6 +73,12 @@ impl GlassTracer {
         }
     }
 
+    /// How far a ray leaving a glass face starts from it: clear of that
+    /// face, and of its neighbours where it leaves near an edge.
+    pub fn clearance(&self) -> f64 {
+        self.occluder.contact_distance()
+    }
+
     /// True when the scene has no glass.
     pub fn is_empty(&self) -> bool {
         self.faces.is_empty()
@@ -88,7 +96,7 @@ impl GlassTracer {
 
     /// The first glass face along `ray` (other than triangle `skip`), with
     /// its interface and shading normal there.
-    fn hit(&self, scene: &Scene, ray: &Ray, skip: Option<u32>) -> Option<GlassHit> {
+    pub fn hit(&self, scene: &Scene, ray: &Ray, skip: Option<u32>) -> Option<GlassHit> {
         let hit = self.occluder.intersect_except(
             ray.origin,
             ray.direction,
@@ -113,16 +121,17 @@ impl GlassTracer {
         })
     }
 
-    /// Follow the camera ray `ray` through the glass it meets before any
-    /// surface of `tracer`: at the `k`-th interface (0 the first) it is
-    /// reflected when `choose(k)` falls below the Fresnel reflectance and
-    /// refracted otherwise ([`Dielectric::scatter`]). `None` when the chain
-    /// passes more than `limit` interfaces.
+    /// Follow `ray`, carrying `transport` (a camera ray's radiance, a
+    /// photon's power), through the glass it meets before any surface of
+    /// `tracer`: at the `k`-th interface (0 the first) it is reflected when
+    /// `choose(k)` falls below the Fresnel reflectance and refracted
+    /// otherwise ([`Dielectric::scatter`]). `None` when the chain passes
+    /// more than `limit` interfaces.
     pub fn follow(
         &self,
         scene: &Scene,
         tracer: &SceneTracer,
-        ray: Ray,
+        (ray, transport): (Ray, Transport),
         limit: u32,
         mut choose: impl FnMut(u32) -> f64,
     ) -> Option<ChainEnd> {
@@ -150,15 +159,14 @@ impl GlassTracer {
             if end.interfaces == limit {
                 return None;
             }
+            let u = choose(end.interfaces);
             let (direction, weight) =
-                (glass.interface).scatter(ray.direction, glass.normal, choose(end.interfaces));
+                (glass.interface).scatter(ray.direction, glass.normal, u, transport);
             end = ChainEnd {
                 ray: Ray {
                     origin: glass.position,
                     direction,
-                    // Clear of the face it leaves, and of that face's
-                    // neighbours where it leaves near an edge.
-                    t_min: self.occluder.contact_distance(),
+                    t_min: self.clearance(),
                     t_max: f64::INFINITY,
                 },
                 weight: end.weight * weight,

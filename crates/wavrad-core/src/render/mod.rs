@@ -7,6 +7,7 @@
 
 pub mod cache;
 pub mod camera;
+pub mod caustics;
 pub mod discrete;
 pub mod emitters;
 pub mod enclosure;
@@ -26,11 +27,13 @@ use crate::geometry::tracing::SurfaceHit;
 use crate::progress::{Progress, Silent};
 use crate::sampling::{seeded, Samples};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
+use crate::scene::glass::Transport::Radiance;
 use crate::scene::{Camera, Film, RenderHints, Rgb, Scene};
 use crate::solve::{bounces, Solution};
 use crate::{Error, Result};
 use cache::GatherCache;
 use camera::Ray;
+use caustics::CausticMap;
 use enclosure::EnclosureRadiance;
 use estimator::{CameraHit, Estimator, GlossyView, ViewEstimator};
 use eye::EyeRadiance;
@@ -241,6 +244,7 @@ pub struct Renderer<S = Solution> {
     gather_cache: OnceLock<GatherCache>,
     enclosure: OnceLock<EnclosureRadiance>,
     glass: OnceLock<GlassTracer>,
+    caustics: OnceLock<Option<CausticMap>>,
 }
 
 impl<S: Borrow<Solution> + Sync> Renderer<S> {
@@ -252,6 +256,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             gather_cache: OnceLock::new(),
             enclosure: OnceLock::new(),
             glass: OnceLock::new(),
+            caustics: OnceLock::new(),
         }
     }
 
@@ -321,6 +326,8 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             );
         }
         let estimator = self.estimator_for(camera, settings, progress);
+        // Shot once, before the rows that read them.
+        self.caustics();
         // Pixels showing one surface, as do their eight neighbours
         // (an edge slipping between a pixel's probes shows in a neighbour's),
         // get fewer camera rays; those near an emitter's outline, more.
@@ -346,7 +353,11 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             let ray = camera.ray(DVec2::new(x / w, y / h), w / h);
             let tracer = &self.solution().tracer;
             let choose = |depth| samples.interface(depth);
-            let Some(end) = self.glass().follow(scene, tracer, ray, interfaces, choose) else {
+            let chain = (ray, Radiance);
+            let Some(end) = self
+                .glass()
+                .follow(scene, tracer, chain, interfaces, choose)
+            else {
                 return Rgb::ZERO;
             };
             end.weight
@@ -418,6 +429,36 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     fn glass(&self) -> &GlassTracer {
         self.glass
             .get_or_init(|| GlassTracer::new(&self.solution().scene))
+    }
+
+    /// The photons of the scene's glass, shot on first use; `None`
+    /// without glass.
+    fn caustics(&self) -> Option<&CausticMap> {
+        self.caustics
+            .get_or_init(|| {
+                let solution = self.solution();
+                CausticMap::shoot(&solution.scene, &solution.tracer, self.glass())
+            })
+            .as_ref()
+    }
+
+    /// The light that glass adds to (or takes from) the light straight
+    /// from the emitters at `hit`, reflected by its Lambertian lobe
+    /// ([`CausticMap`]).
+    fn caustic_radiance(&self, hit: &CameraHit) -> Rgb {
+        let Some(caustics) = self.caustics() else {
+            return Rgb::ZERO;
+        };
+        let scene = &self.solution().scene;
+        let s = hit.point.surface as usize;
+        let Some(albedo) = scene
+            .lambertian_at(s, hit.uv)
+            .filter(|a| a.max_channel() > 0.0)
+        else {
+            return Rgb::ZERO;
+        };
+        let normal = scene.surfaces[s].patch.normal();
+        albedo * caustics.irradiance(hit.point.position, normal) / std::f64::consts::PI
     }
 
     /// What final gathers read from the solution, made on first use.
@@ -671,11 +712,11 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                         // and whether the glass mirrors an emitter.
                         let ray = camera.ray(at, aspect);
                         let tracer = &solution.tracer;
-                        let end = glass.follow(scene, tracer, ray, interfaces, |_| 0.5);
+                        let end = glass.follow(scene, tracer, (ray, Radiance), interfaces, |_| 0.5);
                         let through = end.is_none_or(|end| end.interfaces > 0);
                         let mirrors = through
                             && glass
-                                .follow(scene, tracer, ray, interfaces, |_| 0.0)
+                                .follow(scene, tracer, (ray, Radiance), interfaces, |_| 0.0)
                                 .and_then(|end| {
                                     let ray = end.ray;
                                     tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max)

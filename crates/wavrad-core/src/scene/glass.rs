@@ -6,16 +6,16 @@
 //! glass").
 //!
 //! ```
-//! use wavrad_core::scene::glass::Dielectric;
+//! use wavrad_core::scene::glass::{Dielectric, Transport::Radiance};
 //! use wavrad_core::scene::Rgb;
 //! use glam::DVec3;
 //!
 //! let glass = Dielectric { eta: 1.5, thin: false, reflectance: Rgb::splat(1.0), transmittance: Rgb::splat(1.0) };
 //! // Straight down onto the interface: 4 % is reflected (u below it), the rest refracts.
-//! let (dir, weight) = glass.scatter(-DVec3::Z, DVec3::Z, 0.5);
+//! let (dir, weight) = glass.scatter(-DVec3::Z, DVec3::Z, 0.5, Radiance);
 //! assert_eq!(dir, -DVec3::Z);
 //! assert!((weight[0] - 1.0 / 2.25).abs() < 1e-12);
-//! let (dir, _) = glass.scatter(-DVec3::Z, DVec3::Z, 0.01);
+//! let (dir, _) = glass.scatter(-DVec3::Z, DVec3::Z, 0.01, Radiance);
 //! assert_eq!(dir, DVec3::Z);
 //! ```
 
@@ -39,6 +39,17 @@ pub struct Dielectric {
     pub reflectance: Rgb,
     /// Scales the transmitted light (`specular_transmittance`).
     pub transmittance: Rgb,
+}
+
+/// What a ray carries across an interface, which decides how a refracted
+/// ray's weight changes (Mitsuba 3's `TransportMode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Transport {
+    /// Radiance, traced from the eye: scaled by (η_t/η_i)⁻² where it
+    /// refracts, the solid angle's compression.
+    Radiance,
+    /// Power (a photon), traced from a light: unscaled.
+    Power,
 }
 
 /// The faces of one glass shape, all of one interface.
@@ -71,11 +82,11 @@ impl Dielectric {
     /// at shading normal `normal` goes on, and the weight its radiance
     /// takes there, choosing reflection when `u` ∈ [0, 1) falls below the
     /// Fresnel reflectance and transmission otherwise (Mitsuba 3's
-    /// `dielectric` and `thindielectric` `sample` in radiance mode: the
-    /// choice's probability cancels the Fresnel factor, and a refracted
-    /// ray's radiance is scaled by (η_t/η_i)⁻², the solid angle's
-    /// compression across the interface).
-    pub fn scatter(&self, dir: DVec3, normal: DVec3, u: f64) -> (DVec3, Rgb) {
+    /// `dielectric` and `thindielectric` `sample`: the choice's
+    /// probability cancels the Fresnel factor, and a refracted ray's
+    /// radiance, not its power, is scaled by (η_t/η_i)⁻², the solid
+    /// angle's compression across the interface).
+    pub fn scatter(&self, dir: DVec3, normal: DVec3, u: f64, transport: Transport) -> (DVec3, Rgb) {
         let cos_theta_i = -dir.dot(normal);
         let reflect = || dir + 2.0 * cos_theta_i * normal;
         if self.thin {
@@ -93,7 +104,11 @@ impl Dielectric {
         let wi = -dir;
         let tangential = wi - cos_theta_i * normal;
         let refracted = (-eta_ti * tangential + cos_theta_t * normal).normalize();
-        (refracted, self.transmittance * (eta_ti * eta_ti))
+        let scale = match transport {
+            Transport::Radiance => eta_ti * eta_ti,
+            Transport::Power => 1.0,
+        };
+        (refracted, self.transmittance * scale)
     }
 }
 
@@ -117,16 +132,19 @@ mod tests {
         for theta_deg in [10.0_f64, 30.0, 40.0, 60.0, 80.0] {
             let t = theta_deg.to_radians();
             let dir = DVec3::new(t.sin(), 0.0, -t.cos());
-            let (out, w) = g.scatter(dir, n, 0.999);
+            let (out, w) = g.scatter(dir, n, 0.999, Transport::Radiance);
             // sin θi = η sin θt, on the same side of the normal's plane.
             assert!((t.sin() - 1.5 * out.x).abs() < 1e-12, "{theta_deg}");
             assert!(out.z < 0.0 && (out.length() - 1.0).abs() < 1e-12);
             assert!((w[0] - 1.0 / 2.25).abs() < 1e-12);
             // Back out along the reversed ray: the original direction, and
             // the inverse radiance scale.
-            let (back, w) = g.scatter(-out, n, 0.999);
+            let (back, w) = g.scatter(-out, n, 0.999, Transport::Radiance);
             assert!((back + dir).length() < 1e-12, "{theta_deg}");
             assert!((w[0] - 2.25).abs() < 1e-12);
+            // A photon's power is not scaled.
+            let (_, w) = g.scatter(dir, n, 0.999, Transport::Power);
+            assert_eq!(w, Rgb::splat(1.0));
         }
     }
 
@@ -137,7 +155,7 @@ mod tests {
         // interface whose normal is +z).
         let dir = DVec3::new(0.8, 0.0, 0.6);
         assert_eq!(g.reflectance_at(-dir.dot(DVec3::Z)), 1.0);
-        let (out, _) = g.scatter(dir, DVec3::Z, 0.9999);
+        let (out, _) = g.scatter(dir, DVec3::Z, 0.9999, Transport::Power);
         assert!((out - DVec3::new(0.8, 0.0, -0.6)).length() < 1e-12);
     }
 
@@ -150,6 +168,9 @@ mod tests {
         // The same from either side.
         assert_eq!(thin.reflectance_at(-0.3), thin.reflectance_at(0.3));
         let dir = DVec3::new(0.6, 0.0, -0.8);
-        assert_eq!(thin.scatter(dir, DVec3::Z, 0.5), (dir, Rgb::splat(1.0)));
+        assert_eq!(
+            thin.scatter(dir, DVec3::Z, 0.5, Transport::Radiance),
+            (dir, Rgb::splat(1.0))
+        );
     }
 }

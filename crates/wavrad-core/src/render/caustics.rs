@@ -1,0 +1,350 @@
+//! What glass does to the light on diffuse surfaces: its caustics and its
+//! shadows, as a signed photon map (Jensen 1996, "Global illumination using
+//! photon maps": the caustic map, and its shadow photons).
+//!
+//! The solve and the final gather's shadow rays let light pass glass as if
+//! it were not there ([`crate::render::glass`]). Photons shot from the
+//! emitters towards each glass shape measure the difference: a photon whose
+//! straight path meets glass before a surface leaves its power, negated,
+//! where that straight path lands (the light the transparent glass let
+//! through), and its power where it lands after following the glass's
+//! specular chain (reflected and refracted as Mitsuba 3's `dielectric`
+//! scatters power). Their density at a diffuse point, estimated from its
+//! nearest photons on surfaces facing the same way, is the irradiance that
+//! the glass adds there (a caustic) or takes away (a shadow); the final
+//! gather adds it, times the Lambertian albedo over π, to the light
+//! straight from the emitters.
+//!
+//! Photons leave the emitting surfaces, picked by power, uniformly over
+//! the cone of directions that each glass shape's bounding sphere subtends
+//! (the sphere around it, from inside), so that nearly all of them meet
+//! glass. Lights that are not surfaces (point, spot, directional, the sky)
+//! shoot none: their light through glass stays as if the glass were not
+//! there.
+
+use super::discrete::SurfaceDistribution;
+use super::emitters::SphereEmitter;
+use super::glass::GlassTracer;
+use crate::geometry::tracing::SceneTracer;
+use crate::render::camera::Ray;
+use crate::sampling::hash2;
+use crate::scene::glass::Transport;
+use crate::scene::{Rgb, Scene};
+use glam::{DVec2, DVec3};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::num::NonZero;
+
+/// Photons shot towards each glass shape.
+pub const PHOTONS_PER_SHAPE: u32 = 1 << 18;
+
+/// Glass interfaces at which a photon splits in two, before it chooses
+/// one branch at each, by its probability.
+pub const SPLIT_DEPTH: u32 = 2;
+
+/// Photons a density estimate gathers.
+pub const NEAREST: usize = 128;
+
+/// The farthest a density estimate reaches, as a share of the smallest
+/// glass shape's bounding radius: caustics are about as sharp as the glass
+/// that focuses them is small.
+pub const MAX_RADIUS_SHARE: f64 = 0.1;
+
+/// Least cosine between the normals of a photon's surface and of the point
+/// whose irradiance it counts for: the two sides of a wall, or a floor and
+/// the box standing on it, keep their photons apart.
+const SAME_FACING: f64 = 0.9;
+
+/// The signed photons glass leaves on the scene's diffuse surfaces.
+pub struct CausticMap {
+    tree: ImmutableKdTree<f64, 3>,
+    photons: Vec<Photon>,
+    max_radius: f64,
+    /// The photons' bounding box, grown by `max_radius`: no point outside
+    /// it has any within reach.
+    reach: (DVec3, DVec3),
+}
+
+/// A photon at rest: its (signed) power and the front normal of the
+/// surface it rests on; its position is in the tree.
+#[derive(Debug, Clone, Copy)]
+struct Photon {
+    power: Rgb,
+    normal: DVec3,
+}
+
+impl std::fmt::Debug for CausticMap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CausticMap")
+            .field("photons", &self.photons.len())
+            .field("max_radius", &self.max_radius)
+            .finish()
+    }
+}
+
+impl CausticMap {
+    /// Shoot the photons of `scene`'s glass: `None` without glass, without
+    /// emitting surfaces, or where no photon comes to rest.
+    pub fn shoot(scene: &Scene, tracer: &SceneTracer, glass: &GlassTracer) -> Option<CausticMap> {
+        if glass.is_empty() {
+            return None;
+        }
+        let emitting: Vec<(u32, f64)> = (scene.surfaces.iter().enumerate())
+            .filter(|(_, s)| s.is_emitter())
+            .map(|(k, s)| (k as u32, s.emission.average() * s.patch.area()))
+            .collect();
+        if emitting.is_empty() {
+            return None;
+        }
+        let emitters = SurfaceDistribution::new(emitting);
+        let targets: Vec<SphereEmitter> = scene.glass.iter().map(bounding_sphere).collect();
+        let smallest = targets
+            .iter()
+            .map(|t| t.radius)
+            .fold(f64::INFINITY, f64::min);
+        let limit = GlassTracer::interfaces_allowed(scene);
+        let shot: Vec<(DVec3, Photon)> = (0..targets.len() as u64 * u64::from(PHOTONS_PER_SHAPE))
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let target = &targets[(i / u64::from(PHOTONS_PER_SHAPE)) as usize];
+                let shoot = Shot {
+                    scene,
+                    tracer,
+                    glass,
+                    limit,
+                };
+                shoot.photon(&emitters, target, i)
+            })
+            .collect();
+        if shot.is_empty() {
+            return None;
+        }
+        let positions: Vec<[f64; 3]> = shot.iter().map(|(x, _)| x.to_array()).collect();
+        let max_radius = MAX_RADIUS_SHARE * smallest;
+        let (lo, hi) = (shot.iter()).fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), (x, _)| (lo.min(*x), hi.max(*x)),
+        );
+        Some(CausticMap {
+            tree: ImmutableKdTree::new_from_slice(&positions),
+            photons: shot.into_iter().map(|(_, p)| p).collect(),
+            max_radius,
+            reach: (lo - DVec3::splat(max_radius), hi + DVec3::splat(max_radius)),
+        })
+    }
+
+    /// The irradiance that glass adds (or, negative, takes away) at point
+    /// `x` of a surface whose front normal is `normal`: the power of the
+    /// [`NEAREST`] photons within reach on surfaces facing the same way,
+    /// over the disc they cover, weighted by Epanechnikov's kernel.
+    pub fn irradiance(&self, x: DVec3, normal: DVec3) -> Rgb {
+        if x.cmplt(self.reach.0).any() || x.cmpgt(self.reach.1).any() {
+            return Rgb::ZERO;
+        }
+        let reach = self.max_radius * self.max_radius;
+        let found = self.tree.nearest_n_within::<SquaredEuclidean>(
+            &x.to_array(),
+            reach,
+            NonZero::new(NEAREST).expect("NEAREST > 0"),
+            false,
+        );
+        if found.is_empty() {
+            return Rgb::ZERO;
+        }
+        let r2 = if found.len() == NEAREST {
+            found.iter().map(|n| n.distance).fold(0.0, f64::max)
+        } else {
+            reach
+        };
+        let r2 = r2.max(f64::MIN_POSITIVE);
+        // Epanechnikov's kernel, 1 − d²/r², whose integral over the disc is
+        // πr²/2: the photon that bounds the disc counts for nothing, so
+        // whether the partner it rests with (a photon a pane dims where its
+        // negative rests) falls inside or out changes nothing.
+        let power: Rgb = (found.iter())
+            .filter_map(|n| {
+                let p = &self.photons[n.item as usize];
+                (p.normal.dot(normal) >= SAME_FACING).then(|| p.power * (1.0 - n.distance / r2))
+            })
+            .sum();
+        power / (0.5 * PI * r2)
+    }
+
+    /// How many photons rest on the surfaces.
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// True when none does.
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+}
+
+/// The sphere around a glass shape's faces (that of their bounding box),
+/// as the target the photons aim at.
+fn bounding_sphere(glass: &crate::scene::glass::Glass) -> SphereEmitter {
+    let (lo, hi) = (glass.faces.iter())
+        .flat_map(|(patch, _)| patch.vertices())
+        .fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), v| (lo.min(v), hi.max(v)),
+        );
+    SphereEmitter {
+        center: 0.5 * (lo + hi),
+        radius: 0.5 * (hi - lo).length(),
+        surfaces: 0..0,
+        emission: Rgb::ZERO,
+    }
+}
+
+/// What one photon is traced through.
+struct Shot<'a> {
+    scene: &'a Scene,
+    tracer: &'a SceneTracer,
+    glass: &'a GlassTracer,
+    limit: u32,
+}
+
+impl Shot<'_> {
+    /// Photon `i` aimed at `target` from an emitter of `emitters`: where
+    /// its straight path lands, with its power negated, and where its
+    /// branches through the glass land, each with its share of the power
+    /// ([`Shot::spread`]); none where its straight path meets no glass
+    /// first, and each only on a surface with a Lambertian lobe that it
+    /// reaches from the front.
+    fn photon(
+        &self,
+        emitters: &SurfaceDistribution,
+        target: &SphereEmitter,
+        i: u64,
+    ) -> Vec<(DVec3, Photon)> {
+        let key = i.wrapping_mul(0x2545_f491_4f6c_dd1d);
+        let (u_emitter, u_direction) = (hash2(key, 0), hash2(key, 1));
+        let Some((s, uv, probability)) = emitters.sample(u_emitter, u32::MAX) else {
+            return Vec::new();
+        };
+        let surface = &self.scene.surfaces[s as usize];
+        let patch = &surface.patch;
+        let x = patch.point_at(patch.square_to_param(uv));
+        let (direction, solid_angle) = match target.sample(x, u_direction) {
+            Some(cone) => (cone.direction, 1.0 / cone.pdf),
+            None => (uniform_sphere(u_direction), 4.0 * PI),
+        };
+        let cos = patch.normal().dot(direction);
+        if cos <= 0.0 {
+            return Vec::new();
+        }
+        let power = surface.emission
+            * (cos * solid_angle * patch.area() / (probability * f64::from(PHOTONS_PER_SHAPE)));
+        let ray = Ray {
+            origin: x,
+            direction,
+            t_min: 1e-7,
+            t_max: f64::INFINITY,
+        };
+        // Where the straight path lands; the glass must come first.
+        let straight = self.tracer.trace(x, direction, ray.t_min, ray.t_max);
+        let before = Ray {
+            t_max: straight.map_or(f64::INFINITY, |h| h.distance),
+            ..ray
+        };
+        if self.glass.hit(self.scene, &before, None).is_none() {
+            return Vec::new();
+        }
+        let mut rested: Vec<_> = (straight.into_iter())
+            .filter_map(|h| self.rest(h.surface, h.position, direction, power * -1.0))
+            .collect();
+        self.spread((ray, None), power, (0, key), &mut rested);
+        rested
+    }
+
+    /// Follow a photon of `power` along `ray` (leaving glass triangle
+    /// `skip`, if any), at its `depth`-th glass interface (photon `key`),
+    /// and append where it rests to `rested`. The first [`SPLIT_DEPTH`]
+    /// interfaces split it, each branch weighted by its probability, so
+    /// that where glass only dims the light (a pane, a slab) the photons
+    /// that pass it rest with the negative ones they take the place of;
+    /// deeper ones choose a branch by its probability ([`Dielectric`]).
+    ///
+    /// [`Dielectric`]: crate::scene::glass::Dielectric
+    fn spread(
+        &self,
+        (ray, skip): (Ray, Option<u32>),
+        power: Rgb,
+        (depth, key): (u32, u64),
+        rested: &mut Vec<(DVec3, Photon)>,
+    ) {
+        let glass = self.glass.hit(self.scene, &ray, skip);
+        let opaque = self.tracer.trace(
+            ray.origin,
+            ray.direction,
+            ray.t_min,
+            glass.map_or(ray.t_max, |g| g.distance),
+        );
+        // A surface before any glass, or glass before any surface.
+        let glass = match (opaque, glass) {
+            (Some(hit), _) => {
+                if depth > 0 {
+                    rested.extend(self.rest(hit.surface, hit.position, ray.direction, power));
+                }
+                return;
+            }
+            (None, Some(glass)) if depth < self.limit => glass,
+            _ => return,
+        };
+        let (dir, interface) = (ray.direction, glass.interface);
+        let mut branch = |u: f64, share: f64| {
+            let (direction, weight) = interface.scatter(dir, glass.normal, u, Transport::Power);
+            let next = Ray {
+                origin: glass.position,
+                direction,
+                t_min: self.glass.clearance(),
+                t_max: f64::INFINITY,
+            };
+            let power = power * weight * share;
+            self.spread(
+                (next, Some(glass.triangle)),
+                power,
+                (depth + 1, key),
+                rested,
+            );
+        };
+        if depth < SPLIT_DEPTH {
+            let r = interface.reflectance_at(-dir.dot(glass.normal));
+            if r > 0.0 {
+                branch(0.5 * r, r);
+            }
+            if r < 1.0 {
+                branch(r + 0.5 * (1.0 - r), 1.0 - r);
+            }
+        } else {
+            branch(hash2(key, 2 + u64::from(depth)).x, 1.0);
+        }
+    }
+
+    /// A photon of `power` arriving along `direction` at `position` on
+    /// surface `s`, if it rests there: on the front of a surface with a
+    /// Lambertian lobe.
+    fn rest(
+        &self,
+        s: u32,
+        position: DVec3,
+        direction: DVec3,
+        power: Rgb,
+    ) -> Option<(DVec3, Photon)> {
+        let surface = &self.scene.surfaces[s as usize];
+        let normal = surface.patch.normal();
+        (normal.dot(direction) < 0.0 && surface.brdf.lambertian().is_some())
+            .then_some((position, Photon { power, normal }))
+    }
+}
+
+/// A direction uniform over the unit sphere from `u` ∈ [0,1)².
+fn uniform_sphere(u: DVec2) -> DVec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
