@@ -170,6 +170,14 @@ fn a_tilted_slab_shifts_what_is_seen_through_it_by_snells_law() {
 /// seen from below the `glass` element (none, or a shape between them),
 /// as an image's red channel.
 fn floor_under(glass: &str) -> Vec<f64> {
+    let light =
+        black_emitter("<scale value=\"0.5\"/><rotate x=\"1\" angle=\"180\"/><translate z=\"10\"/>");
+    floor_lit_by(&light, glass)
+}
+
+/// The floor of a scene lit by the `light` element, seen from below the
+/// `glass` element, as an image's red channel.
+fn floor_lit_by(light: &str, glass: &str) -> Vec<f64> {
     let xml = format!(
         r#"<scene version="3.0.0">
         {}
@@ -180,7 +188,7 @@ fn floor_under(glass: &str) -> Vec<f64> {
         {glass}
     </scene>"#,
         sensor(2.0, (30.0, 8, 16)),
-        black_emitter("<scale value=\"0.5\"/><rotate x=\"1\" angle=\"180\"/><translate z=\"10\"/>"),
+        light,
     );
     let scene = wavrad_io::load_scene_str(&xml, Path::new("."), "floor.xml", &[])
         .unwrap()
@@ -234,6 +242,53 @@ fn glass_between_a_light_and_a_floor_passes_its_fresnel_transmittance() {
         eprintln!("{bsdf}: covered/open {ratio:.5} against {expected:.5}, worst pixel {worst:.4}");
         assert!((ratio / expected - 1.0).abs() < 0.005, "{bsdf}: {ratio}");
         // The photons' density estimate is noisy at the scale of its disc.
+        assert!(worst < 0.05, "{bsdf}: {worst}");
+    }
+}
+
+#[test]
+fn glass_dims_point_and_directional_lights_as_it_dims_emitters() {
+    // A point light at height 10 through a pane, and parallel light
+    // straight down through a slab (which cannot bring parallel light
+    // nearer): both dim the floor by the transmittance at normal
+    // incidence, the photons leaving the light itself.
+    let r = ((ETA - 1.0) / (ETA + 1.0)).powi(2);
+    let transmittance = (1.0 - r) / (1.0 + r);
+    let point = r#"<emitter type="point"><point name="position" x="0" y="0" z="10"/>
+        <rgb name="intensity" value="50"/></emitter>"#;
+    let parallel = r#"<emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/>
+        <rgb name="irradiance" value="1"/></emitter>"#;
+    for (light, shape, bsdf, scale) in [
+        (
+            point,
+            "rectangle",
+            "thindielectric",
+            "<scale value=\"1.3\"/>",
+        ),
+        (
+            parallel,
+            "cube",
+            "dielectric",
+            "<scale x=\"1.3\" y=\"1.3\" z=\"0.15\"/>",
+        ),
+    ] {
+        let glass = format!(
+            r#"<shape type="{shape}"><transform name="to_world">{scale}<translate z="8"/></transform>
+                <bsdf type="{bsdf}"><float name="int_ior" value="{ETA}"/><float name="ext_ior" value="1"/></bsdf>
+            </shape>"#
+        );
+        let (open, covered) = (floor_lit_by(light, ""), floor_lit_by(light, &glass));
+        let ratio = covered.iter().sum::<f64>() / open.iter().sum::<f64>();
+        let worst = (covered.iter().zip(&open))
+            .map(|(c, o)| (c / o / transmittance - 1.0).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "{bsdf}: covered/open {ratio:.5} against {transmittance:.5}, worst pixel {worst:.4}"
+        );
+        assert!(
+            (ratio / transmittance - 1.0).abs() < 0.005,
+            "{bsdf}: {ratio}"
+        );
         assert!(worst < 0.05, "{bsdf}: {worst}");
     }
 }

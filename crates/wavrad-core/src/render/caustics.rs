@@ -15,21 +15,24 @@
 //! gather adds it, times the Lambertian albedo over π, to the light
 //! straight from the emitters.
 //!
-//! Photons leave the emitting surfaces, picked by power, uniformly over
-//! the cone of directions that each glass shape's bounding sphere subtends
-//! (the sphere around it, from inside), so that nearly all of them meet
-//! glass. Lights that are not surfaces (point, spot, directional, the sky)
-//! shoot none: their light through glass stays as if the glass were not
-//! there.
+//! Photons leave the emitting surfaces (picked by power) and the point and
+//! spot lights uniformly over the cone of directions that each glass
+//! shape's bounding sphere subtends (the sphere around it, from inside), and
+//! a directional light's from a disc across its path as wide as that
+//! sphere, so that nearly all of them meet glass. The sky (`constant`,
+//! `envmap`) shoots none: its light through glass stays as if the glass
+//! were not there.
 
-use super::discrete::SurfaceDistribution;
+use super::discrete::{DiscreteDistribution, SurfaceDistribution};
 use super::emitters::SphereEmitter;
 use super::glass::GlassTracer;
 use crate::geometry::tracing::SceneTracer;
 use crate::render::camera::Ray;
 use crate::sampling::hash2;
+use crate::scene::brdf::microfacet::square_to_uniform_disk_concentric;
 use crate::scene::glass::Transport;
-use crate::scene::{Rgb, Scene};
+use crate::scene::light::spot_falloff;
+use crate::scene::{Light, Rgb, Scene};
 use glam::{DVec2, DVec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
@@ -85,36 +88,31 @@ impl std::fmt::Debug for CausticMap {
 
 impl CausticMap {
     /// Shoot the photons of `scene`'s glass: `None` without glass, without
-    /// emitting surfaces, or where no photon comes to rest.
+    /// emitting surfaces or point, spot or directional lights, or where no
+    /// photon comes to rest.
     pub fn shoot(scene: &Scene, tracer: &SceneTracer, glass: &GlassTracer) -> Option<CausticMap> {
         if glass.is_empty() {
             return None;
         }
-        let emitting: Vec<(u32, f64)> = (scene.surfaces.iter().enumerate())
-            .filter(|(_, s)| s.is_emitter())
-            .map(|(k, s)| (k as u32, s.emission.average() * s.patch.area()))
-            .collect();
-        if emitting.is_empty() {
-            return None;
-        }
-        let emitters = SurfaceDistribution::new(emitting);
         let targets: Vec<SphereEmitter> = scene.glass.iter().map(bounding_sphere).collect();
+        let sources: Vec<Sources> = (targets.iter())
+            .map(|target| Sources::towards(scene, target))
+            .collect::<Option<_>>()?;
         let smallest = targets
             .iter()
             .map(|t| t.radius)
             .fold(f64::INFINITY, f64::min);
-        let limit = GlassTracer::interfaces_allowed(scene);
+        let shoot = Shot {
+            scene,
+            tracer,
+            glass,
+            limit: GlassTracer::interfaces_allowed(scene),
+        };
         let shot: Vec<(DVec3, Photon)> = (0..targets.len() as u64 * u64::from(PHOTONS_PER_SHAPE))
             .into_par_iter()
             .flat_map_iter(|i| {
-                let target = &targets[(i / u64::from(PHOTONS_PER_SHAPE)) as usize];
-                let shoot = Shot {
-                    scene,
-                    tracer,
-                    glass,
-                    limit,
-                };
-                shoot.photon(&emitters, target, i)
+                let g = (i / u64::from(PHOTONS_PER_SHAPE)) as usize;
+                shoot.photon(&sources[g], &targets[g], i)
             })
             .collect();
         if shot.is_empty() {
@@ -199,6 +197,160 @@ fn bounding_sphere(glass: &crate::scene::glass::Glass) -> SphereEmitter {
     }
 }
 
+/// Where the photons aimed at one glass shape leave from: the emitting
+/// surfaces, picked by power, and the point, spot and directional lights,
+/// each group drawn by an estimate of the power it sends towards the shape
+/// (which changes only the photons' noise).
+struct Sources {
+    surfaces: Option<SurfaceDistribution>,
+    /// The delta lights (indices in [`Scene::lights`]).
+    lights: Vec<usize>,
+    /// Over `surfaces` (first, where there are any) and `lights`.
+    choice: DiscreteDistribution,
+    /// How far back from the target directional light's photons start:
+    /// beyond every surface.
+    far: f64,
+}
+
+impl Sources {
+    /// The sources of `scene` for photons aimed at `target`; `None` where
+    /// there are none.
+    fn towards(scene: &Scene, target: &SphereEmitter) -> Option<Sources> {
+        let solid_angle = |x: DVec3| {
+            let d2 = (target.center - x).length_squared();
+            match d2 > target.radius * target.radius {
+                true => 2.0 * PI * (1.0 - (1.0 - target.radius * target.radius / d2).sqrt()),
+                false => 4.0 * PI,
+            }
+        };
+        let emitting: Vec<(u32, f64)> = (scene.surfaces.iter().enumerate())
+            .filter(|(_, s)| s.is_emitter())
+            .map(|(k, s)| (k as u32, s.emission.average() * s.patch.area()))
+            .collect();
+        let towards_target: f64 = (emitting.iter())
+            .map(|&(k, power)| {
+                let patch = &scene.surfaces[k as usize].patch;
+                let centre = patch.centroid();
+                let cos = patch
+                    .normal()
+                    .dot((target.center - centre).normalize_or_zero());
+                power * solid_angle(centre) * cos.max(0.01) / PI
+            })
+            .sum();
+        let lights: Vec<(usize, f64)> = (scene.lights.iter().enumerate())
+            .filter(|(_, l)| l.is_delta() && !l.is_dark())
+            .map(|(k, light)| {
+                let weight = match *light {
+                    Light::Point {
+                        position,
+                        intensity,
+                    } => intensity.average() * solid_angle(position),
+                    Light::Spot {
+                        position,
+                        intensity,
+                        ..
+                    } => intensity.average() * solid_angle(position),
+                    Light::Directional { irradiance, .. } => {
+                        irradiance.average() * PI * target.radius * target.radius
+                    }
+                    Light::Constant { .. } | Light::Envmap(_) => 0.0,
+                };
+                (k, weight)
+            })
+            .collect();
+        if emitting.is_empty() && lights.is_empty() {
+            return None;
+        }
+        let surfaces = (!emitting.is_empty()).then(|| SurfaceDistribution::new(emitting));
+        let weights = surfaces.as_ref().map(|_| towards_target);
+        let extent = (scene.surfaces.iter())
+            .flat_map(|s| s.patch.vertices())
+            .map(|v| (v - target.center).length())
+            .fold(0.0, f64::max);
+        Some(Sources {
+            far: 2.0 * (target.radius + extent),
+            surfaces,
+            choice: DiscreteDistribution::new(
+                weights.into_iter().chain(lights.iter().map(|l| l.1)),
+            ),
+            lights: lights.into_iter().map(|(k, _)| k).collect(),
+        })
+    }
+
+    /// Photon `key`, aimed at `target`: its ray and its power, a share of
+    /// [`PHOTONS_PER_SHAPE`]; `None` where it carries nothing (leaving an
+    /// emitter's back, outside a spot's cone).
+    fn launch(&self, scene: &Scene, target: &SphereEmitter, key: u64) -> Option<(Ray, Rgb)> {
+        let (u_source, u_direction) = (hash2(key, 0), hash2(key, 1));
+        let drawn = self.choice.sample(u_source.x, 0..0)?;
+        let u = DVec2::new(drawn.u, u_source.y);
+        let share = drawn.probability * f64::from(PHOTONS_PER_SHAPE);
+        // Uniform over the cone of the target's sphere (every direction
+        // from inside it), with the cone's solid angle.
+        let aim = |x: DVec3| match target.sample(x, u_direction) {
+            Some(cone) => (cone.direction, 1.0 / cone.pdf),
+            None => (uniform_sphere(u_direction), 4.0 * PI),
+        };
+        let from = |origin: DVec3, direction: DVec3| Ray {
+            origin,
+            direction,
+            t_min: 1e-7,
+            t_max: f64::INFINITY,
+        };
+        let light = match (&self.surfaces, drawn.index) {
+            (Some(surfaces), 0) => {
+                let (s, uv, probability) = surfaces.sample(u, u32::MAX)?;
+                let surface = &scene.surfaces[s as usize];
+                let patch = &surface.patch;
+                let x = patch.point_at(patch.square_to_param(uv));
+                let (direction, solid_angle) = aim(x);
+                let cos = patch.normal().dot(direction);
+                let power = surface.emission * (cos * solid_angle * patch.area() / probability);
+                return (cos > 0.0).then(|| (from(x, direction), power / share));
+            }
+            (Some(_), k) => &scene.lights[self.lights[k - 1]],
+            (None, k) => &scene.lights[self.lights[k]],
+        };
+        let (ray, power) = match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let (direction, solid_angle) = aim(position);
+                (from(position, direction), intensity * solid_angle)
+            }
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                let (direction, solid_angle) = aim(position);
+                let falloff = spot_falloff(axis.dot(direction), cutoff, beam_width);
+                (
+                    from(position, direction),
+                    intensity * (solid_angle * falloff),
+                )
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                // From a disc across the light's path, as wide as the
+                // target and beyond the scene.
+                let (t, b) = direction.any_orthonormal_pair();
+                let disc = target.radius * square_to_uniform_disk_concentric(u);
+                let origin = target.center - self.far * direction + disc.x * t + disc.y * b;
+                let area = PI * target.radius * target.radius;
+                (from(origin, direction), irradiance * area)
+            }
+            Light::Constant { .. } | Light::Envmap(_) => return None,
+        };
+        (power.max_channel() > 0.0).then(|| (ray, power / share))
+    }
+}
+
 /// What one photon is traced through.
 struct Shot<'a> {
     scene: &'a Scene,
@@ -208,42 +360,18 @@ struct Shot<'a> {
 }
 
 impl Shot<'_> {
-    /// Photon `i` aimed at `target` from an emitter of `emitters`: where
+    /// Photon `i` aimed at `target` from one of `sources`: where
     /// its straight path lands, with its power negated, and where its
     /// branches through the glass land, each with its share of the power
     /// ([`Shot::spread`]); none where its straight path meets no glass
     /// first, and each only on a surface with a Lambertian lobe that it
     /// reaches from the front.
-    fn photon(
-        &self,
-        emitters: &SurfaceDistribution,
-        target: &SphereEmitter,
-        i: u64,
-    ) -> Vec<(DVec3, Photon)> {
+    fn photon(&self, sources: &Sources, target: &SphereEmitter, i: u64) -> Vec<(DVec3, Photon)> {
         let key = i.wrapping_mul(0x2545_f491_4f6c_dd1d);
-        let (u_emitter, u_direction) = (hash2(key, 0), hash2(key, 1));
-        let Some((s, uv, probability)) = emitters.sample(u_emitter, u32::MAX) else {
+        let Some((ray, power)) = sources.launch(self.scene, target, key) else {
             return Vec::new();
         };
-        let surface = &self.scene.surfaces[s as usize];
-        let patch = &surface.patch;
-        let x = patch.point_at(patch.square_to_param(uv));
-        let (direction, solid_angle) = match target.sample(x, u_direction) {
-            Some(cone) => (cone.direction, 1.0 / cone.pdf),
-            None => (uniform_sphere(u_direction), 4.0 * PI),
-        };
-        let cos = patch.normal().dot(direction);
-        if cos <= 0.0 {
-            return Vec::new();
-        }
-        let power = surface.emission
-            * (cos * solid_angle * patch.area() / (probability * f64::from(PHOTONS_PER_SHAPE)));
-        let ray = Ray {
-            origin: x,
-            direction,
-            t_min: 1e-7,
-            t_max: f64::INFINITY,
-        };
+        let (x, direction) = (ray.origin, ray.direction);
         // Where the straight path lands; the glass must come first.
         let straight = self.tracer.trace(x, direction, ray.t_min, ray.t_max);
         let before = Ray {
