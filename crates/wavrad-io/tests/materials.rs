@@ -216,6 +216,9 @@ fn glass_reads_mitsubas_indices_and_tints() {
     assert_eq!(sphere.interface.transmittance, Rgb([0.9, 0.8, 0.7]));
     assert_eq!(sphere.interface.reflectance, Rgb::splat(1.0));
     assert!(sphere.faces.iter().all(|(_, n)| n.is_some()));
+    // Mitsuba's unit sphere, exact for the rays that meet it.
+    assert_eq!(sphere.sphere, Some((glam::DVec3::ZERO, 1.0)));
+    assert_eq!(pane.sphere, None);
     assert!(!sphere.interface.thin && pane.interface.thin);
     assert!((pane.interface.eta - 1.5046 / 1.000277).abs() < 1e-12);
     // Glass cannot emit.

@@ -20,12 +20,17 @@ use glam::DVec3;
 /// integrator may allow fewer ([`GlassTracer::interfaces_allowed`]).
 pub const MAX_INTERFACES: u32 = 16;
 
-/// Ray queries against the scene's glass faces.
+/// Ray queries against the scene's glass: its faces, and its exact
+/// spheres in place of theirs.
 #[derive(Debug)]
 pub struct GlassTracer {
     occluder: Occluder,
     /// For each triangle of `occluder`: its glass shape and face.
     faces: Vec<(u32, u32)>,
+    /// The exact spheres: glass shape, centre, radius.
+    spheres: Vec<(u32, DVec3, f64)>,
+    /// [`GlassTracer::clearance`].
+    clearance: f64,
 }
 
 /// Where a ray meets glass.
@@ -39,8 +44,32 @@ pub struct GlassHit {
     pub normal: DVec3,
     /// The interface met.
     pub interface: Dielectric,
-    /// The triangle met, which the ray leaving it skips.
+    /// The triangle met, which the ray leaving it skips ([`NO_TRIANGLE`]
+    /// on an exact sphere, which the ray leaving it clears by starting
+    /// [`GlassTracer::clearance`] away).
     pub triangle: u32,
+}
+
+/// [`GlassHit::triangle`] of a hit on an exact sphere.
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
+/// The nearest distance t ∈ (`ray.t_min`, `t_max`) at which `ray` meets
+/// the sphere (`centre`, `radius`).
+fn sphere_hit(ray: &Ray, (centre, radius): (DVec3, f64), t_max: f64) -> Option<f64> {
+    let to = ray.origin - centre;
+    let b = to.dot(ray.direction);
+    let c = to.length_squared() - radius * radius;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    // The root farther from 0 without cancellation, then the other.
+    let q = -(b + b.signum() * disc.sqrt());
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q, c / q) };
+    let (near, far) = (t0.min(t1), t0.max(t1));
+    [near, far]
+        .into_iter()
+        .find(|&t| t > ray.t_min && t < t_max)
 }
 
 /// The end of a camera ray's specular chain through glass.
@@ -59,7 +88,12 @@ impl GlassTracer {
     pub fn new(scene: &Scene) -> GlassTracer {
         let mut triangles = Vec::new();
         let mut faces = Vec::new();
+        let mut spheres = Vec::new();
         for (g, glass) in scene.glass.iter().enumerate() {
+            if let Some((centre, radius)) = glass.sphere {
+                spheres.push((g as u32, centre, radius));
+                continue;
+            }
             for (f, (patch, _)) in glass.faces.iter().enumerate() {
                 for triangle in patch.triangles() {
                     triangles.push(triangle);
@@ -67,21 +101,28 @@ impl GlassTracer {
                 }
             }
         }
+        let occluder = Occluder::new(&triangles);
+        // The faces' contact distance, or as much of the spheres' size.
+        let size = (spheres.iter())
+            .map(|&(_, centre, radius)| centre.abs().max_element() + radius)
+            .fold(0.0, f64::max);
         GlassTracer {
-            occluder: Occluder::new(&triangles),
+            clearance: occluder.contact_distance().max(1e-7 * size),
+            occluder,
             faces,
+            spheres,
         }
     }
 
     /// How far a ray leaving a glass face starts from it: clear of that
     /// face, and of its neighbours where it leaves near an edge.
     pub fn clearance(&self) -> f64 {
-        self.occluder.contact_distance()
+        self.clearance
     }
 
     /// True when the scene has no glass.
     pub fn is_empty(&self) -> bool {
-        self.faces.is_empty()
+        self.faces.is_empty() && self.spheres.is_empty()
     }
 
     /// How many interfaces a camera ray may pass in `scene`: at most
@@ -94,16 +135,32 @@ impl GlassTracer {
             .map_or(MAX_INTERFACES, |d| d.saturating_sub(1).min(MAX_INTERFACES))
     }
 
-    /// The first glass face along `ray` (other than triangle `skip`), with
-    /// its interface and shading normal there.
+    /// The first glass along `ray` (other than triangle `skip`), with its
+    /// interface and shading normal there.
     pub fn hit(&self, scene: &Scene, ray: &Ray, skip: Option<u32>) -> Option<GlassHit> {
-        let hit = self.occluder.intersect_except(
-            ray.origin,
-            ray.direction,
-            ray.t_min,
-            ray.t_max,
-            |t| Some(t) == skip,
-        )?;
+        let face =
+            self.occluder
+                .intersect_except(ray.origin, ray.direction, ray.t_min, ray.t_max, |t| {
+                    Some(t) == skip
+                });
+        let t_max = face.map_or(ray.t_max, |f| f.t);
+        let sphere = (self.spheres.iter())
+            .filter_map(|&(g, centre, radius)| {
+                let t = sphere_hit(ray, (centre, radius), t_max)?;
+                Some((t, g, centre))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((t, g, centre)) = sphere {
+            let position = ray.origin + t * ray.direction;
+            return Some(GlassHit {
+                distance: t,
+                position,
+                normal: (position - centre).normalize(),
+                interface: scene.glass[g as usize].interface,
+                triangle: NO_TRIANGLE,
+            });
+        }
+        let hit = face?;
         let (g, f) = self.faces[hit.primitive as usize];
         let glass = &scene.glass[g as usize];
         let (patch, shading) = &glass.faces[f as usize];
@@ -174,5 +231,37 @@ impl GlassTracer {
             };
             skip = Some(glass.triangle);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ray(origin: DVec3, direction: DVec3, t_min: f64) -> Ray {
+        Ray {
+            origin,
+            direction,
+            t_min,
+            t_max: f64::INFINITY,
+        }
+    }
+
+    #[test]
+    fn a_ray_meets_a_sphere_at_its_nearest_root_past_its_start() {
+        let sphere = (DVec3::new(0.0, 0.0, 1.0), 0.5);
+        let down = -DVec3::Z;
+        // From outside: the near side; from its surface, inwards: the far
+        // side, the start's own root (≈ 0) left behind by t_min.
+        let outside = ray(DVec3::new(0.0, 0.0, 5.0), down, 0.0);
+        assert_eq!(sphere_hit(&outside, sphere, f64::INFINITY), Some(3.5));
+        let inside = ray(DVec3::new(0.0, 0.0, 1.5), down, 1e-9);
+        assert!((sphere_hit(&inside, sphere, f64::INFINITY).unwrap() - 1.0).abs() < 1e-12);
+        // Beyond t_max, beside it, and away from it: none.
+        assert_eq!(sphere_hit(&outside, sphere, 3.0), None);
+        let beside = ray(DVec3::new(0.6, 0.0, 5.0), down, 0.0);
+        assert_eq!(sphere_hit(&beside, sphere, f64::INFINITY), None);
+        let away = ray(DVec3::new(0.0, 0.0, 5.0), DVec3::Z, 0.0);
+        assert_eq!(sphere_hit(&away, sphere, f64::INFINITY), None);
     }
 }

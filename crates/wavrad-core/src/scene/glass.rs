@@ -62,6 +62,10 @@ pub struct Glass {
     /// Its faces, front side that of its shading normal (the exterior),
     /// with their shading normals where the shape is curved or smooth.
     pub faces: Vec<(Patch, Option<ShadingNormals>)>,
+    /// The exact sphere (centre, radius; the exterior outside) that the
+    /// faces tessellate, for Mitsuba's `sphere`: rays meet it instead of
+    /// its faces.
+    pub sphere: Option<(DVec3, f64)>,
 }
 
 impl Dielectric {

@@ -136,6 +136,11 @@ fn check_glass(glass: &Glass) -> Result<(), String> {
         ));
     }
     let within = |v: &DVec3| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE;
+    if let Some((centre, radius)) = glass.sphere {
+        if !(within(&centre) && radius > 0.0 && radius <= MAX_COORDINATE) {
+            return Err(format!("its sphere at {centre} of radius {radius}"));
+        }
+    }
     match (glass.faces.iter()).position(|(patch, _)| !patch.vertices().iter().all(within)) {
         Some(f) => Err(format!("face {f} is not within {MAX_COORDINATE:e}")),
         None => Ok(()),

@@ -333,10 +333,19 @@ pub(crate) fn build_shape<'a>(
                 )));
             }
             let faces = patches.into_iter().map(|(p, _, n)| (p, n)).collect();
+            // A sphere turned inside out keeps its faces.
+            let sphere = match geometry.exact(&world_from_local) {
+                Some((ShapeKind::Sphere, m)) if m.determinant() > 0.0 && !flip_normals => Some((
+                    m.transform_point3(DVec3::ZERO),
+                    m.transform_vector3(DVec3::X).length(),
+                )),
+                _ => None,
+            };
             built.glass.push(Glass {
                 name,
                 interface,
                 faces,
+                sphere,
             });
             return Ok(None);
         }
