@@ -39,8 +39,18 @@ use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::num::NonZero;
 
-/// Photons shot towards each glass shape.
+/// Photons shot towards each glass shape, at most: the scene's
+/// [`PHOTONS`] shared among its glass shapes.
 pub const PHOTONS_PER_SHAPE: u32 = 1 << 18;
+
+/// Photons shot in all, at most, where the glass shapes are many.
+pub const PHOTONS: u32 = 1 << 20;
+
+/// Photons shot towards each of `shapes` glass shapes.
+pub fn photons_per_shape(shapes: usize) -> u32 {
+    let shared = u64::from(PHOTONS) / (shapes.max(1) as u64);
+    shared.clamp(1, u64::from(PHOTONS_PER_SHAPE)) as u32
+}
 
 /// Glass interfaces at which a photon splits in two, before it chooses
 /// one branch at each, by its probability.
@@ -108,11 +118,12 @@ impl CausticMap {
             glass,
             limit: GlassTracer::interfaces_allowed(scene),
         };
-        let shot: Vec<(DVec3, Photon)> = (0..targets.len() as u64 * u64::from(PHOTONS_PER_SHAPE))
+        let each = u64::from(photons_per_shape(targets.len()));
+        let shot: Vec<(DVec3, Photon)> = (0..targets.len() as u64 * each)
             .into_par_iter()
             .flat_map_iter(|i| {
-                let g = (i / u64::from(PHOTONS_PER_SHAPE)) as usize;
-                shoot.photon(&sources[g], &targets[g], i)
+                let g = (i / each) as usize;
+                shoot.photon(&sources[g], (&targets[g], each), i)
             })
             .collect();
         if shot.is_empty() {
@@ -277,14 +288,19 @@ impl Sources {
         })
     }
 
-    /// Photon `key`, aimed at `target`: its ray and its power, a share of
-    /// [`PHOTONS_PER_SHAPE`]; `None` where it carries nothing (leaving an
-    /// emitter's back, outside a spot's cone).
-    fn launch(&self, scene: &Scene, target: &SphereEmitter, key: u64) -> Option<(Ray, Rgb)> {
+    /// Photon `key` of the `count` aimed at `target`: its ray and its
+    /// power, its share of theirs; `None` where it carries nothing (leaving
+    /// an emitter's back, outside a spot's cone).
+    fn launch(
+        &self,
+        scene: &Scene,
+        (target, count): (&SphereEmitter, u64),
+        key: u64,
+    ) -> Option<(Ray, Rgb)> {
         let (u_source, u_direction) = (hash2(key, 0), hash2(key, 1));
         let drawn = self.choice.sample(u_source.x, 0..0)?;
         let u = DVec2::new(drawn.u, u_source.y);
-        let share = drawn.probability * f64::from(PHOTONS_PER_SHAPE);
+        let share = drawn.probability * count as f64;
         // Uniform over the cone of the target's sphere (every direction
         // from inside it), with the cone's solid angle.
         let aim = |x: DVec3| match target.sample(x, u_direction) {
@@ -360,13 +376,19 @@ struct Shot<'a> {
 }
 
 impl Shot<'_> {
-    /// Photon `i` aimed at `target` from one of `sources`: where
+    /// Photon `i` of those aimed at `target` (a glass shape's sphere, and
+    /// how many photons aim at it) from one of `sources`: where
     /// its straight path lands, with its power negated, and where its
     /// branches through the glass land, each with its share of the power
     /// ([`Shot::spread`]); none where its straight path meets no glass
     /// first, and each only on a surface with a Lambertian lobe that it
     /// reaches from the front.
-    fn photon(&self, sources: &Sources, target: &SphereEmitter, i: u64) -> Vec<(DVec3, Photon)> {
+    fn photon(
+        &self,
+        sources: &Sources,
+        target: (&SphereEmitter, u64),
+        i: u64,
+    ) -> Vec<(DVec3, Photon)> {
         let key = i.wrapping_mul(0x2545_f491_4f6c_dd1d);
         let Some((ray, power)) = sources.launch(self.scene, target, key) else {
             return Vec::new();
@@ -475,4 +497,20 @@ fn uniform_sphere(u: DVec2) -> DVec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u.y;
     DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn many_glass_shapes_share_a_bounded_number_of_photons() {
+        assert_eq!(photons_per_shape(0), PHOTONS_PER_SHAPE);
+        assert_eq!(photons_per_shape(4), PHOTONS_PER_SHAPE);
+        assert_eq!(photons_per_shape(64), PHOTONS / 64);
+        assert_eq!(photons_per_shape(10_000_000), 1);
+        for shapes in [1, 5, 7, 100, 3000] {
+            assert!(u64::from(photons_per_shape(shapes)) * shapes as u64 <= u64::from(PHOTONS));
+        }
+    }
 }
