@@ -31,7 +31,6 @@ use crate::render::camera::Ray;
 use crate::sampling::hash2;
 use crate::scene::brdf::microfacet::square_to_uniform_disk_concentric;
 use crate::scene::glass::Transport;
-use crate::scene::light::spot_falloff;
 use crate::scene::{Light, Rgb, Scene};
 use glam::{DVec2, DVec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
@@ -328,26 +327,10 @@ impl Sources {
             (None, k) => &scene.lights[self.lights[k]],
         };
         let (ray, power) = match *light {
-            Light::Point {
-                position,
-                intensity,
-            } => {
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
                 let (direction, solid_angle) = aim(position);
+                let (_, intensity) = light.point_intensity(direction)?;
                 (from(position, direction), intensity * solid_angle)
-            }
-            Light::Spot {
-                position,
-                axis,
-                intensity,
-                cutoff,
-                beam_width,
-            } => {
-                let (direction, solid_angle) = aim(position);
-                let falloff = spot_falloff(axis.dot(direction), cutoff, beam_width);
-                (
-                    from(position, direction),
-                    intensity * (solid_angle * falloff),
-                )
             }
             Light::Directional {
                 direction,

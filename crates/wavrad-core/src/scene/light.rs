@@ -95,6 +95,29 @@ impl Light {
         value.max_channel() <= 0.0
     }
 
+    /// Where a point or spot light is and its radiant intensity along the
+    /// unit direction `direction` it sends light in (a spot's falloff
+    /// applied); `None` outside a spot's cone and for the other lights.
+    pub fn point_intensity(&self, direction: DVec3) -> Option<(DVec3, Rgb)> {
+        match *self {
+            Light::Point {
+                position,
+                intensity,
+            } => Some((position, intensity)),
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cutoff,
+                beam_width,
+            } => {
+                let falloff = spot_falloff(axis.dot(direction), cutoff, beam_width);
+                (falloff > 0.0).then(|| (position, intensity * falloff))
+            }
+            _ => None,
+        }
+    }
+
     /// Light arriving at `x`, on a plane of unit normal `normal`, from this
     /// light: a delta light's exact irradiance (`u` unused), or the sky's
     /// sample along the cosine-distributed direction `u` ∈ \[0,1)² picks
@@ -118,22 +141,9 @@ impl Light {
             (local.x * t + local.y * b + local.z * normal).normalize()
         };
         match *self {
-            Light::Point {
-                position,
-                intensity,
-            } => towards(position, intensity),
-            Light::Spot {
-                position,
-                axis,
-                intensity,
-                cutoff,
-                beam_width,
-            } => {
-                let falloff =
-                    spot_falloff(axis.dot((x - position).normalize()), cutoff, beam_width);
-                (falloff > 0.0)
-                    .then(|| towards(position, intensity * falloff))
-                    .flatten()
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
+                let (_, intensity) = self.point_intensity((x - position).normalize())?;
+                towards(position, intensity)
             }
             Light::Directional {
                 direction,
