@@ -195,7 +195,9 @@ def cases() -> list[Case]:
         ),
         Case("a second sensor", [], {"scene.xml": before_walls(c, '<sensor type="perspective"/>')}),
         Case(
-            "`--gather-cache --mode haar`", ["--gather-cache", "--mode", "haar"], {"scene.xml": c}
+            "`--no-gather-cache --mode haar`",
+            ["--no-gather-cache", "--mode", "haar"],
+            {"scene.xml": c},
         ),
         Case(
             "an unknown integrator parameter",

@@ -174,8 +174,8 @@ def test_unknown_mode_is_a_solve_error_naming_the_modes(solution: wavrad.Solutio
 @pytest.mark.parametrize(
     ("mode", "options", "unused"),
     [
-        ("haar", {"gather_cache": True}, "the gather cache"),
-        ("direct", {"gather_cache": True}, "the gather cache"),
+        ("haar", {"gather_cache": False}, "gather_cache off"),
+        ("direct", {"gather_cache": False}, "gather_cache off"),
         ("gather", {"eye": False}, "without the eye"),
         (None, {"eye": False}, "without the eye"),
     ],

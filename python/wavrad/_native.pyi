@@ -114,7 +114,7 @@ class Solution:
         up: npt.ArrayLike | None = None,
         fov: float | None = None,
         eye: bool = True,
-        gather_cache: bool = False,
+        gather_cache: bool = True,
         gather_spp: int | None = None,
         seed: int = 0,
         progress: _Progress = None,
@@ -154,12 +154,14 @@ class Solution:
         the directional radiance towards what the view ray meets beyond the eye,
         or towards an enclosure receiver around the scene; no per-view work,
         softer highlights).
-        ``gather_cache``: for ``"gather"``, diffuse surfaces show a
-        view-independent final gather, one gather per texel (half an element
-        wide), made by the first render that asks for it and read by every
-        later one, instead of gathering per camera ray: for many views of
-        one solution. ``gather_spp``: for ``"gather"``, how many of an
-        interior pixel's camera rays also final-gather (default ``spp`` / 32).
+        ``gather_cache``: for ``"gather"``, diffuse surfaces read the light
+        beyond the emitters' from a view-independent final gather, one gather
+        per texel (half an element wide), gathered when a render first shows
+        it and read by every later one, wherever that light varies slowly,
+        and camera rays gather themselves only near other geometry (the
+        default); ``False``: every gathering camera ray gathers.
+        ``gather_spp``: for ``"gather"``, how many of an interior pixel's
+        camera rays also final-gather (default ``spp`` / 32).
         ``seed``: scrambles every pixel's samples, as Mitsuba's sampler
         ``seed`` does (0 to 2³²−1): renders with different seeds have
         independent noise.
@@ -171,7 +173,7 @@ class Solution:
         returned, the solution is unchanged and can render again.
         Raises ``SolveError`` for an unknown mode, a value out of range, an
         option the mode has no use for (``eye=False`` with ``"gather"``,
-        ``gather_cache=True`` with any other mode), a scene without a
+        ``gather_cache=False`` with any other mode), a scene without a
         sensor and an image with pixels that are not finite (never returned);
         ``TypeError`` for an unknown keyword.
         """

@@ -50,7 +50,7 @@ fn errors(image: &[f32], reference: &[f32], width: usize) -> (f64, f64) {
 fn direct_error(renderer: &Renderer, scene: &wavrad_core::scene::Scene, reference: &[f32]) -> f64 {
     let image = renderer
         .render(&RenderSettings {
-            estimator: Mode::Direct.estimator(true, false).unwrap(),
+            estimator: Mode::Direct.estimator(true, true).unwrap(),
             ..RenderSettings::for_scene(scene)
         })
         .unwrap();
@@ -89,7 +89,7 @@ fn cornell_box_matches_mitsuba_path_tracer() {
 
     let smooth = renderer
         .render(&RenderSettings {
-            estimator: Mode::Smooth.estimator(true, false).unwrap(),
+            estimator: Mode::Smooth.estimator(true, true).unwrap(),
             ..RenderSettings::default()
         })
         .unwrap();
@@ -169,8 +169,8 @@ fn glossy_cornell_box_matches_mitsuba_path_tracer() {
     for (mode, eye, gather_cache, bound) in [
         (Mode::Gather, true, false, 0.0090),
         (Mode::Gather, true, true, 0.0080),
-        (Mode::Direct, true, false, 0.016),
-        (Mode::Direct, false, false, 0.048),
+        (Mode::Direct, true, true, 0.016),
+        (Mode::Direct, false, true, 0.048),
     ] {
         let image = renderer
             .render(&RenderSettings {
@@ -201,7 +201,7 @@ fn textured_cornell_box_matches_mitsuba_path_tracer() {
     for (mode, bound) in [(Mode::Gather, 0.0095), (Mode::Smooth, 0.036)] {
         let image = renderer
             .render(&RenderSettings {
-                estimator: mode.estimator(true, false).unwrap(),
+                estimator: mode.estimator(true, mode != Mode::Gather).unwrap(),
                 ..RenderSettings::for_scene(&scene)
             })
             .unwrap();

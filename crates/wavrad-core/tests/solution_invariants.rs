@@ -343,7 +343,7 @@ fn same_on_one_and_two_threads(scene: &Scene, settings: &SolveSettings) {
             let gather = renderer.render(&render).unwrap();
             let direct = renderer
                 .render(&RenderSettings {
-                    estimator: Mode::Direct.estimator(true, false).unwrap(),
+                    estimator: Mode::Direct.estimator(true, true).unwrap(),
                     ..render
                 })
                 .unwrap();

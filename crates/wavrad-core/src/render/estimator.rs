@@ -33,10 +33,11 @@ pub enum Estimator {
     /// rest of the solution gathered ([`crate::render::gather`]); on glossy
     /// surfaces light and BRDF sampling over the solution per camera ray.
     /// With `cached`, diffuse surfaces (and the Lambertian lobes of glossy
-    /// ones) show the solution's view-independent final gather
-    /// ([`crate::render::cache::GatherCache`]: one gather per texel, built
-    /// the first time a view asks for it, then read by every view) instead
-    /// of gathering per camera ray: for many views of one solution.
+    /// ones) read the light beyond the emitters' from the solution's
+    /// view-independent final gather wherever it varies slowly
+    /// ([`crate::render::cache::GatherCache`]: one gather per texel, made
+    /// the first time a view reads it, then read by every view), and
+    /// gather per camera ray only nearer other geometry.
     FinalGather {
         /// Read diffuse light from the gather cache.
         cached: bool,
@@ -61,7 +62,7 @@ pub enum Estimator {
 
 impl Default for Estimator {
     fn default() -> Self {
-        Estimator::FinalGather { cached: false }
+        Estimator::FinalGather { cached: true }
     }
 }
 
@@ -113,8 +114,8 @@ impl Mode {
     /// The estimator of this mode, with glossy surfaces' radiance towards
     /// the eye gathered into the eye (`eye`) or read from the directional
     /// solution, and for the final gather the gather cache (`gather_cache`).
-    /// An option the mode has no use for is an error: the final gather
-    /// needs no eye, and only it has a cache.
+    /// Turning off an option the mode has no use for is an error: the final
+    /// gather needs no eye, and only it has a cache.
     pub fn estimator(self, eye: bool, gather_cache: bool) -> Result<Estimator> {
         let reconstruction = match self {
             Mode::Gather if !eye => {
@@ -130,11 +131,11 @@ impl Mode {
                     cached: gather_cache,
                 })
             }
-            _ if gather_cache => {
+            _ if !gather_cache => {
                 return Err(Error::RenderOption {
                     mode: self.name(),
-                    option: "the gather cache",
-                    reason: "only the final gather (mode gather) has one",
+                    option: "gather_cache off",
+                    reason: "only the final gather (mode gather) has a gather cache to turn off",
                 })
             }
             Mode::Haar => Reconstruction::Haar,
@@ -164,14 +165,14 @@ impl Estimator {
                 direct_per_point: true,
                 glossy,
                 ..
-            } => (Mode::Direct, glossy != GlossyView::Directional, false),
+            } => (Mode::Direct, glossy != GlossyView::Directional, true),
             Estimator::Solution {
                 reconstruction: Reconstruction::Haar,
                 glossy,
                 ..
-            } => (Mode::Haar, glossy != GlossyView::Directional, false),
+            } => (Mode::Haar, glossy != GlossyView::Directional, true),
             Estimator::Solution { glossy, .. } => {
-                (Mode::Smooth, glossy != GlossyView::Directional, false)
+                (Mode::Smooth, glossy != GlossyView::Directional, true)
             }
         }
     }
@@ -280,7 +281,7 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         let source = &solution.scene.surfaces[q as usize];
         let at = || source.patch.clamp_param(source.patch.param_of(z));
         let cached = cache.filter(|_| !source.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION));
-        if let Some(l) = cached.and_then(|c| c.radiance(q, at())) {
+        if let Some(l) = cached.and_then(|c| c.radiance(renderer.cache_source(), q, at())) {
             return l;
         }
         let from = SurfacePoint {
@@ -315,12 +316,20 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     cache: Option<&GatherCache>,
     settings: &RenderSettings,
 ) -> Rgb {
-    if let Some(l) = cache.and_then(|c| c.radiance(hit.point.surface, hit.uv)) {
-        return l + renderer.caustic_radiance(hit);
-    }
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
     let (direct, control) = direct_per_point(renderer, hit, Reconstruction::Smooth);
+    if let Some(cache) = cache {
+        // Without a rest, `direct` is only what glass adds.
+        let source = renderer.cache_source();
+        let cached = match reader.rest(s) {
+            Some(_) => cache.indirect(source, hit.point.surface, hit.uv),
+            None => cache.radiance(source, hit.point.surface, hit.uv),
+        };
+        if let Some(l) = cached {
+            return direct + l;
+        }
+    }
     let (k, n) = hit.rays;
     let local = settings.on_receiver(reader.caustic[s]);
     let gathering = GatheringRays::new(n, local.gathers_among(n));
@@ -523,7 +532,7 @@ mod tests {
                 for cache in [true, false] {
                     let unused = match mode {
                         Mode::Gather => !eye,
-                        _ => cache,
+                        _ => !cache,
                     };
                     match mode.estimator(eye, cache) {
                         Ok(e) => {
@@ -544,7 +553,7 @@ mod tests {
         estimators.dedup();
         assert_eq!(estimators.len(), 8);
         assert_eq!(
-            Mode::default().estimator(true, false),
+            Mode::default().estimator(true, true),
             Ok(Estimator::default())
         );
     }

@@ -352,6 +352,10 @@ pub struct GatherSources<'a> {
 pub struct Indirect {
     /// The reflected radiance.
     pub radiance: Rgb,
+    /// The reflected radiance per unit of the point's Lambertian albedo
+    /// (the irradiance over π): what another albedo reflects of the same
+    /// light, divided by it.
+    pub per_albedo: Rgb,
     /// Harmonic mean of the distances at which the cosine rays meet a
     /// surface (infinite if none does): how far from the point the light
     /// it gathers can be taken as varying slowly, the radius of Ward,
@@ -469,6 +473,7 @@ pub fn indirect_radiance(
     }
     Indirect {
         radiance: rho * sum,
+        per_albedo: sum,
         reach: f64::from(rays) / inverse_distances,
     }
 }

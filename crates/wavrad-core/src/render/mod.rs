@@ -467,11 +467,20 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             .get_or_init(|| SolutionReader::new(self.solution()))
     }
 
-    /// The view-independent final gather, built the first time a view asks
-    /// for it, with that view's `settings`.
+    /// The view-independent final gather, made the first time a view asks
+    /// for it, with that view's `settings` (its texels are gathered as
+    /// views read them).
     fn gather_cache(&self, settings: &RenderSettings) -> &GatherCache {
         self.gather_cache
-            .get_or_init(|| GatherCache::build(self.solution(), self.reader(), settings))
+            .get_or_init(|| GatherCache::new(self.solution(), settings))
+    }
+
+    /// What the gather cache's texels are gathered from.
+    fn cache_source(&self) -> cache::Source<'_> {
+        cache::Source {
+            solution: self.solution(),
+            reader: self.reader(),
+        }
     }
 
     /// The estimator of `settings` for the view from `camera`, with what it

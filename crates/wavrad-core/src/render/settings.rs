@@ -67,10 +67,12 @@ impl Described for RenderSettings {
             name: "gather_cache",
             group: Group::Render,
             domain: Domain::Flag,
-            default: "false",
-            help: "With mode gather: gather once per texel of every diffuse surface \
-                   (view-independent; texels half an element wide) and read the texels, instead \
-                   of gathering per camera ray: for many views of one solution.",
+            default: "true",
+            help: "With mode gather: read the light beyond the emitters' from a view-independent \
+                   final gather made once per texel of every diffuse surface (texels half an \
+                   element wide, gathered when a view first shows them, shared by every view), \
+                   wherever it varies slowly, and gather per camera ray only near other \
+                   geometry; off, every gathering camera ray gathers.",
         },
         Setting {
             name: "seed",
@@ -160,7 +162,7 @@ mod tests {
     #[test]
     fn every_mode_with_its_options_reads_back_as_given() {
         for &mode in Mode::ALL {
-            for (eye, cache) in [(true, false), (false, false), (true, true)] {
+            for (eye, cache) in [(true, false), (false, true), (true, true)] {
                 let Ok(estimator) = mode.estimator(eye, cache) else {
                     continue;
                 };
@@ -173,14 +175,14 @@ mod tests {
 
     #[test]
     fn options_are_checked_together_whatever_the_order() {
-        let cached = [
-            ("gather_cache", Value::Flag(true)),
+        let per_ray = [
+            ("gather_cache", Value::Flag(false)),
             ("mode", Value::Choice("gather")),
         ];
-        let settings = RenderSettings::from_values(&no_hints(), &cached).unwrap();
-        assert_eq!(settings.estimator, Estimator::FinalGather { cached: true });
+        let settings = RenderSettings::from_values(&no_hints(), &per_ray).unwrap();
+        assert_eq!(settings.estimator, Estimator::FinalGather { cached: false });
         let haar = [
-            ("gather_cache", Value::Flag(true)),
+            ("gather_cache", Value::Flag(false)),
             ("mode", Value::Choice("haar")),
         ];
         assert!(RenderSettings::from_values(&no_hints(), &haar).is_err());
