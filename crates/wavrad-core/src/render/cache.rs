@@ -434,6 +434,49 @@ mod tests {
         assert!(cache.radiance(source, 0, near).is_some());
     }
 
+    /// A checkerboard finer than the texels on that floor: two points of
+    /// one texel on squares of different colours read the same light, each
+    /// reflected with its own albedo.
+    #[test]
+    fn cached_indirect_light_takes_the_albedo_where_it_is_read() {
+        use crate::scene::texture::{Texture, TextureMapping, UvTransform};
+        let mut scene = crate::testing::light_over_a_corner(0.5);
+        scene.surfaces.push(crate::scene::Surface {
+            patch: Patch::Parallelogram {
+                origin: glam::DVec3::X,
+                edge_s: glam::DVec3::Z,
+                edge_t: glam::DVec3::Y,
+            },
+            ..scene.surfaces[0].clone()
+        });
+        let mut scene = crate::scene::Scene::from_surfaces(scene.surfaces);
+        let (dark, light) = (Rgb::splat(0.2), Rgb::splat(0.6));
+        scene.textures.push(Texture::Checkerboard {
+            color0: light,
+            color1: dark,
+            to_uv: UvTransform::scale(512.0, 512.0),
+        });
+        scene.surfaces[0].texture = Some(TextureMapping {
+            texture: 0,
+            uv: [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y],
+        });
+        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+        let reader = SolutionReader::new(&solution);
+        let cache = GatherCache::new(&solution, &RenderSettings::default());
+        let source = Source {
+            solution: &solution,
+            reader: &reader,
+        };
+        // Neighbouring squares, a 1024th apart: one texel.
+        let a = DVec2::new(0.1 + 0.25 / 512.0, 0.5 + 0.25 / 512.0);
+        let b = a + DVec2::X / 1024.0;
+        let (rho_a, rho_b) = (scene.lambertian_at(0, a), scene.lambertian_at(0, b));
+        assert_eq!((rho_a, rho_b), (Some(light), Some(dark)));
+        let at = |uv: DVec2| cache.indirect(source, 0, uv).unwrap()[0];
+        let ratio = at(a) / at(b);
+        assert!((ratio - 3.0).abs() < 0.05, "{ratio}");
+    }
+
     /// Indirect light varying linearly over a grid keeps its values (the
     /// windows are centred, shrinking at the edges); noise on a constant
     /// shrinks; a texel whose gather met geometry close by keeps its own
