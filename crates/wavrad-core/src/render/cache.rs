@@ -358,55 +358,58 @@ mod tests {
             edge_s: glam::DVec3::Y * 0.2,
             edge_t: glam::DVec3::X * 0.2,
         };
-        let solved = |brdf: crate::scene::brdf::Brdf| {
+        let with_brdf = |brdf: crate::scene::brdf::Brdf| {
             let mut scene = scene.clone();
             scene.surfaces[0].brdf = brdf;
-            let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-            let reader = SolutionReader::new(&solution);
-            let cache = GatherCache::new(&solution, &RenderSettings::default());
-            (solution, reader, cache)
+            scene
         };
         let (floor, light) = (&scene.surfaces[0].patch, &scene.surfaces[1].patch);
         for (brdf, rho) in [
             (crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)), 0.5),
             (crate::testing::rolled_aluminium(), 0.1),
         ] {
-            let (solution, reader, cache) = solved(brdf);
-            let source = Source {
-                solution: &solution,
-                reader: &reader,
-            };
-            assert!(cache.texels() > 1000, "{} texels", cache.texels());
-            let mut worst: f64 = 0.0;
-            for k in 0..400 {
-                let uv = crate::sampling::hash2(11, k);
-                let x = floor.point_at(uv);
-                let expect =
-                    rho * point_to_polygon(x, floor.normal(), &light.vertices(), light.normal());
-                let got = cache.radiance(source, 0, uv).expect("cached")[0];
-                worst = worst.max((got - expect).abs() / expect);
-                // Nothing else is lit: no indirect light, wherever it is read.
-                let indirect = cache.indirect(source, 0, uv);
-                assert!(indirect.is_none_or(|l| l == Rgb::ZERO), "{indirect:?}");
-            }
-            assert!(worst < 0.005, "ρ {rho}: worst relative error {worst}");
+            with_cache(&with_brdf(brdf), |cache, source| {
+                assert!(cache.texels() > 1000, "{} texels", cache.texels());
+                let mut worst: f64 = 0.0;
+                for k in 0..400 {
+                    let uv = crate::sampling::hash2(11, k);
+                    let x = floor.point_at(uv);
+                    let expect = rho
+                        * point_to_polygon(x, floor.normal(), &light.vertices(), light.normal());
+                    let got = cache.radiance(source, 0, uv).expect("cached")[0];
+                    worst = worst.max((got - expect).abs() / expect);
+                    // Nothing else is lit: no indirect light, wherever it is read.
+                    let indirect = cache.indirect(source, 0, uv);
+                    assert!(indirect.is_none_or(|l| l == Rgb::ZERO), "{indirect:?}");
+                }
+                assert!(worst < 0.005, "ρ {rho}: worst relative error {worst}");
+            });
         }
         let conductor = crate::scene::brdf::Brdf::RoughConductor(Default::default());
-        let (solution, reader, cache) = solved(conductor);
-        let source = Source {
-            solution: &solution,
-            reader: &reader,
-        };
-        assert_eq!(cache.radiance(source, 0, DVec2::splat(0.5)), None);
+        with_cache(&with_brdf(conductor), |cache, source| {
+            assert_eq!(cache.radiance(source, 0, DVec2::splat(0.5)), None);
+        });
     }
 
-    /// A floor lit by a wall standing on its far edge: camera rays read its
-    /// indirect light from the cache far from the wall, where it varies
-    /// slowly, and gather themselves near it (a few texels away), where
-    /// it does not.
-    #[test]
-    fn indirect_light_is_read_only_where_the_gathers_reach_far() {
-        let mut scene = crate::testing::light_over_a_corner(0.5);
+    /// `check` of the gather cache of `scene`'s default solution, with
+    /// what it gathers from.
+    fn with_cache(scene: &crate::scene::Scene, check: impl FnOnce(&GatherCache, Source)) {
+        let solution = solve(scene, &SolveSettings::default(), &Silent).unwrap();
+        let reader = SolutionReader::new(&solution);
+        let cache = GatherCache::new(&solution, &RenderSettings::default());
+        check(
+            &cache,
+            Source {
+                solution: &solution,
+                reader: &reader,
+            },
+        );
+    }
+
+    /// [`crate::testing::light_over_a_corner`]'s floor and light, with a
+    /// grey wall standing on the floor's far edge (x = 1), facing it.
+    fn floor_beside_a_wall() -> crate::scene::Scene {
+        let scene = crate::testing::light_over_a_corner(0.5);
         let wall = crate::scene::Surface {
             patch: Patch::Parallelogram {
                 origin: glam::DVec3::X,
@@ -416,22 +419,27 @@ mod tests {
             ..scene.surfaces[0].clone()
         };
         assert!(wall.patch.normal().x < 0.0);
-        scene.surfaces.push(wall);
-        let scene = crate::scene::Scene::from_surfaces(scene.surfaces);
-        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-        let reader = SolutionReader::new(&solution);
-        let cache = GatherCache::new(&solution, &RenderSettings::default());
-        let source = Source {
-            solution: &solution,
-            reader: &reader,
-        };
-        let far = cache.indirect(source, 0, DVec2::new(0.1, 0.5));
-        assert!(far.is_some_and(|l| l[0] > 0.0), "{far:?}");
-        let total = cache.radiance(source, 0, DVec2::new(0.1, 0.5)).unwrap();
-        assert!(total[0] > far.unwrap()[0]);
-        let near = DVec2::new(1.0 - 1.5 * cache.texel, 0.5);
-        assert_eq!(cache.indirect(source, 0, near), None);
-        assert!(cache.radiance(source, 0, near).is_some());
+        let mut surfaces = scene.surfaces;
+        surfaces.push(wall);
+        crate::scene::Scene::from_surfaces(surfaces)
+    }
+
+    /// A floor lit by a wall standing on its far edge: camera rays read its
+    /// indirect light from the cache far from the wall, where it varies
+    /// slowly, and gather themselves near it (a few texels away), where
+    /// it does not.
+    #[test]
+    fn indirect_light_is_read_only_where_the_gathers_reach_far() {
+        let scene = floor_beside_a_wall();
+        with_cache(&scene, |cache, source| {
+            let far = cache.indirect(source, 0, DVec2::new(0.1, 0.5));
+            assert!(far.is_some_and(|l| l[0] > 0.0), "{far:?}");
+            let total = cache.radiance(source, 0, DVec2::new(0.1, 0.5)).unwrap();
+            assert!(total[0] > far.unwrap()[0]);
+            let near = DVec2::new(1.0 - 1.5 * cache.texel, 0.5);
+            assert_eq!(cache.indirect(source, 0, near), None);
+            assert!(cache.radiance(source, 0, near).is_some());
+        });
     }
 
     /// A checkerboard finer than the texels on that floor: two points of
@@ -440,16 +448,7 @@ mod tests {
     #[test]
     fn cached_indirect_light_takes_the_albedo_where_it_is_read() {
         use crate::scene::texture::{Texture, TextureMapping, UvTransform};
-        let mut scene = crate::testing::light_over_a_corner(0.5);
-        scene.surfaces.push(crate::scene::Surface {
-            patch: Patch::Parallelogram {
-                origin: glam::DVec3::X,
-                edge_s: glam::DVec3::Z,
-                edge_t: glam::DVec3::Y,
-            },
-            ..scene.surfaces[0].clone()
-        });
-        let mut scene = crate::scene::Scene::from_surfaces(scene.surfaces);
+        let mut scene = floor_beside_a_wall();
         let (dark, light) = (Rgb::splat(0.2), Rgb::splat(0.6));
         scene.textures.push(Texture::Checkerboard {
             color0: light,
@@ -460,21 +459,16 @@ mod tests {
             texture: 0,
             uv: [glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y],
         });
-        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-        let reader = SolutionReader::new(&solution);
-        let cache = GatherCache::new(&solution, &RenderSettings::default());
-        let source = Source {
-            solution: &solution,
-            reader: &reader,
-        };
         // Neighbouring squares, a 1024th apart: one texel.
         let a = DVec2::new(0.1 + 0.25 / 512.0, 0.5 + 0.25 / 512.0);
         let b = a + DVec2::X / 1024.0;
         let (rho_a, rho_b) = (scene.lambertian_at(0, a), scene.lambertian_at(0, b));
         assert_eq!((rho_a, rho_b), (Some(light), Some(dark)));
-        let at = |uv: DVec2| cache.indirect(source, 0, uv).unwrap()[0];
-        let ratio = at(a) / at(b);
-        assert!((ratio - 3.0).abs() < 0.05, "{ratio}");
+        with_cache(&scene, |cache, source| {
+            let at = |uv: DVec2| cache.indirect(source, 0, uv).unwrap()[0];
+            let ratio = at(a) / at(b);
+            assert!((ratio - 3.0).abs() < 0.05, "{ratio}");
+        });
     }
 
     /// Indirect light varying linearly over a grid keeps its values (the
