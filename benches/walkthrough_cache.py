@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The walkthrough of benches/benchmarks.py rendered twice from one solve of
-the glossy Cornell box: gathering per camera ray, and with the
-view-independent gather cache (made by the first view). Prints the solve
+the glossy Cornell box (its bundled 64² film): gathering per camera ray,
+and with the view-independent gather cache (the default; its texels
+gathered as the views first show them). Prints the solve
 time, each way's total and per-view render times, each way's relRMSE on
 view 0 against the committed reference, and how far the two ways' images
 differ on the other views.
@@ -18,11 +19,12 @@ import time
 import wavrad
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from benchmarks import scene_files, walkthrough_views  # noqa: E402
+from benchmarks import SCENES, SCENES_DIR, WALKTHROUGH_SCENE, walkthrough_views  # noqa: E402
 
 
 def main() -> None:
-    xml, exr, _ = scene_files("glossy-cornell-box")
+    xml = os.path.join(SCENES_DIR, SCENES[WALKTHROUGH_SCENE].xml)
+    exr = os.path.join(os.path.dirname(xml), "reference.exr")
     reference = wavrad.read_exr(exr)
     clock = time.perf_counter()
     solution = wavrad.solve(wavrad.load_scene(xml))
