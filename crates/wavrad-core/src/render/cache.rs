@@ -155,7 +155,7 @@ impl GatherCache {
     /// where some of the four are buried, a blend of the others. `None`
     /// where the surface is not cached or all four are buried.
     pub(super) fn radiance(&self, source: Source, surface: u32, uv: DVec2) -> Option<Rgb> {
-        let [direct, indirect] =
+        let ([direct, indirect], _) =
             self.interpolate(source, surface, uv, |t| [t.direct, t.indirect])?;
         Some(direct + albedo(source, surface, uv) * indirect)
     }
@@ -163,22 +163,31 @@ impl GatherCache {
     /// The indirect part of [`GatherCache::radiance`] (the light gathered
     /// from the solution beyond emission and the light straight from the
     /// emitters, which a camera ray evaluates itself), where the texels'
-    /// gathers reach [`FAR`] texels (their bilinear blend); `None` nearer
+    /// gathers reach [`FAR`] texels (their reaches' bilinear blend, of
+    /// their inverses as each is a harmonic mean); `None` nearer
     /// other geometry, and where [`GatherCache::radiance`] is.
     pub(super) fn indirect(&self, source: Source, surface: u32, uv: DVec2) -> Option<Rgb> {
-        let [indirect, reach] =
-            self.interpolate(source, surface, uv, |t| [t.indirect, Rgb::splat(t.reach)])?;
-        (reach[0] >= FAR * self.texel).then(|| albedo(source, surface, uv) * indirect)
+        // The reaches blended harmonically, as each is of distances, and a
+        // buried texel counting as geometry at no distance: a texel whose
+        // gather met geometry close by (the edge of a light hanging just
+        // below the ceiling), or that lies under it, keeps its neighbours'
+        // light from being read across it.
+        let ([indirect, inverse_reach], buried) = self.interpolate(source, surface, uv, |t| {
+            [t.indirect, Rgb::splat(1.0 / t.reach.max(f64::MIN_POSITIVE))]
+        })?;
+        (!buried && inverse_reach[0] * FAR * self.texel <= 1.0)
+            .then(|| albedo(source, surface, uv) * indirect)
     }
 
-    /// Parts of the texels around `uv`, blended as [`GatherCache::radiance`] says.
+    /// Parts of the texels around `uv`, blended as [`GatherCache::radiance`]
+    /// says, and whether a buried texel had a share of the blend.
     fn interpolate(
         &self,
         source: Source,
         surface: u32,
         uv: DVec2,
         parts: impl Fn(&Texel) -> [Rgb; 2],
-    ) -> Option<[Rgb; 2]> {
+    ) -> Option<([Rgb; 2], bool)> {
         let grid = self.grids.get(surface as usize)?.as_ref()?;
         let n = grid.side;
         let at = |x: f64| {
@@ -200,15 +209,18 @@ impl GatherCache {
                 (1.0 - fx) * fy,
                 fx * fy,
             ];
-            let (mut sum, mut total) = ([Rgb::ZERO; 2], 0.0);
+            let (mut sum, mut total, mut buried) = ([Rgb::ZERO; 2], 0.0, false);
             for (l, w) in corners.iter().zip(weights) {
-                if let Some(l) = l {
-                    sum[0] += l[0] * w;
-                    sum[1] += l[1] * w;
-                    total += w;
+                match l {
+                    Some(l) => {
+                        sum[0] += l[0] * w;
+                        sum[1] += l[1] * w;
+                        total += w;
+                    }
+                    None => buried |= w > 0.0,
                 }
             }
-            (total > 0.0).then(|| sum.map(|l| l.map(|x| (x / total).max(0.0))))
+            (total > 0.0).then(|| (sum.map(|l| l.map(|x| (x / total).max(0.0))), buried))
         };
         match corners.iter().all(Option::is_some) {
             true => blend(fx, fy),
@@ -439,6 +451,51 @@ mod tests {
             let near = DVec2::new(1.0 - 1.5 * cache.texel, 0.5);
             assert_eq!(cache.indirect(source, 0, near), None);
             assert!(cache.radiance(source, 0, near).is_some());
+        });
+    }
+
+    /// A floor half under a grey panel hung a tenth of a texel above it (as
+    /// the light hangs below the ceiling of a Cornell box): between a texel
+    /// under the panel, buried, and one beside it, camera rays do not read
+    /// the cache (the texel beside alone would give the dark under the
+    /// panel its light); away from the panel they do.
+    #[test]
+    fn a_gather_that_met_geometry_close_by_is_not_read_across() {
+        let mut texel = 0.0;
+        with_cache(&crate::testing::light_over_a_corner(0.5), |cache, _| {
+            texel = cache.texel;
+        });
+        let scene = crate::testing::light_over_a_corner(0.5);
+        let panel = crate::scene::Surface {
+            patch: Patch::Parallelogram {
+                origin: glam::DVec3::new(0.5, 0.0, 0.1 * texel),
+                edge_s: glam::DVec3::X * 0.5,
+                edge_t: glam::DVec3::Y,
+            },
+            ..scene.surfaces[0].clone()
+        };
+        assert!(panel.patch.normal().z > 0.0);
+        let mut surfaces = scene.surfaces;
+        surfaces.push(panel);
+        let scene = crate::scene::Scene::from_surfaces(surfaces);
+        with_cache(&scene, |cache, source| {
+            assert_eq!(cache.texel, texel);
+            let texel_at = |uv: DVec2| {
+                let side = (1.0 / texel).round();
+                let t = (uv.y * side).floor() * side + (uv.x * side).floor();
+                cache.texel(source, 0, cache.grids[0].as_ref().unwrap(), t as usize)
+            };
+            // Under the panel, a texel is buried; beside it, its gather
+            // reaches far.
+            assert!(texel_at(DVec2::new(0.5 + texel / 2.0, 0.6)).is_none());
+            let beside = texel_at(DVec2::new(0.5 - texel / 2.0, 0.6)).unwrap();
+            assert!(
+                beside.reach > FAR * texel,
+                "{} texels",
+                beside.reach / texel
+            );
+            assert_eq!(cache.indirect(source, 0, DVec2::new(0.5, 0.6)), None);
+            assert!(cache.indirect(source, 0, DVec2::new(0.1, 0.6)).is_some());
         });
     }
 

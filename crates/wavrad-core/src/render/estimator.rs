@@ -304,9 +304,10 @@ fn final_gather<S: Borrow<Solution> + Sync>(
 }
 
 /// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
-/// at `hit`: the view-independent gather `cache`'s; or its
-/// [`direct_per_point`] parts, the rest of the solution (smooth) corrected
-/// by the final gathers of some of the pixel's camera rays
+/// at `hit`: its [`direct_per_point`] part, and the rest from the
+/// view-independent gather `cache` where it is read there
+/// ([`GatherCache::indirect`]); or else the [`rest_of_solution`] (smooth)
+/// corrected by the final gathers of some of the pixel's camera rays
 /// ([`GatheringRays`]: a control variate). While the solution's links are
 /// not arranged, the whole smooth element radiance is the control variate
 /// of whole final gathers.
@@ -318,7 +319,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
 ) -> Rgb {
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
-    let (direct, control) = direct_per_point(renderer, hit, Reconstruction::Smooth);
+    let direct = direct_per_point(renderer, hit);
     if let Some(cache) = cache {
         // Without a rest, `direct` is only what glass adds.
         let source = renderer.cache_source();
@@ -330,6 +331,7 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
             return direct + l;
         }
     }
+    let control = rest_of_solution(renderer, hit, Reconstruction::Smooth);
     let (k, n) = hit.rays;
     let local = settings.on_receiver(reader.caustic[s]);
     let gathering = GatheringRays::new(n, local.gathers_among(n));
@@ -355,26 +357,21 @@ fn lambertian_gather<S: Borrow<Solution> + Sync>(
     direct + control + (gathered - control) * gathering.weight()
 }
 
-/// The light a diffuse surface, or a glossy one's Lambertian lobe, reflects
-/// at `hit` without a gather, in two parts: its emission and the light
-/// straight from the emitters, evaluated by the camera ray (one shadow ray,
-/// the pixel's rays drawing their points on the emitters as one stratified
-/// set, so that a penumbra is sampled as finely as the pixel:
+/// The part of the light a diffuse surface, or a glossy one's Lambertian
+/// lobe, reflects at `hit` that a camera ray evaluates itself: its emission
+/// and the light straight from the emitters (one shadow ray, the pixel's
+/// rays drawing their points on the emitters as one stratified set, so
+/// that a penumbra is sampled as finely as the pixel:
 /// [`gather::direct_radiance`]), with what glass adds to that or takes
-/// from it ([`super::caustics`]); and the rest of the solution
-/// ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
-/// reconstructed as `reconstruction`. Where the solution has no rest (its
-/// links are not arranged), nothing and the whole element radiance.
-fn direct_per_point<S: Borrow<Solution> + Sync>(
-    renderer: &Renderer<S>,
-    hit: &CameraHit,
-    reconstruction: Reconstruction,
-) -> (Rgb, Rgb) {
+/// from it ([`super::caustics`]). Where the solution has no rest (its links
+/// are not arranged), only what glass adds: the element radiance holds the
+/// rest ([`rest_of_solution`]).
+fn direct_per_point<S: Borrow<Solution> + Sync>(renderer: &Renderer<S>, hit: &CameraHit) -> Rgb {
     let (solution, reader) = (renderer.solution(), renderer.reader());
     let s = hit.point.surface as usize;
     let caustic = renderer.caustic_radiance(hit);
     match reader.rest(s) {
-        Some(rest) => (
+        Some(_) => {
             solution.scene.surfaces[s].emission
                 + gather::direct_radiance(
                     &solution.scene,
@@ -383,27 +380,39 @@ fn direct_per_point<S: Borrow<Solution> + Sync>(
                     &hit.point,
                     1,
                 )
-                + caustic,
-            renderer.element_values(reconstruction, s, hit.uv, (rest, Rgb::ZERO)),
-        ),
-        None => (
-            caustic,
-            renderer.element_radiance(reconstruction, s, hit.uv),
-        ),
+                + caustic
+        }
+        None => caustic,
+    }
+}
+
+/// What [`direct_per_point`] leaves out of a surface's radiance at `hit`:
+/// the rest of the solution
+/// ([`SolutionReader::rest`](super::reader::SolutionReader::rest)),
+/// reconstructed as `reconstruction`; where the solution has no rest, the
+/// whole element radiance.
+fn rest_of_solution<S: Borrow<Solution> + Sync>(
+    renderer: &Renderer<S>,
+    hit: &CameraHit,
+    reconstruction: Reconstruction,
+) -> Rgb {
+    let s = hit.point.surface as usize;
+    match renderer.reader().rest(s) {
+        Some(rest) => renderer.element_values(reconstruction, s, hit.uv, (rest, Rgb::ZERO)),
+        None => renderer.element_radiance(reconstruction, s, hit.uv),
     }
 }
 
 /// A surface's own radiance at `hit` read from the solution (its element
 /// radiance, reconstructed as `reconstruction`), or with `per_point` its
-/// [`direct_per_point`] parts together.
+/// [`direct_per_point`] and [`rest_of_solution`] parts together.
 fn own_radiance<S: Borrow<Solution> + Sync>(
     renderer: &Renderer<S>,
     hit: &CameraHit,
     (reconstruction, per_point): (Reconstruction, bool),
 ) -> Rgb {
     if per_point {
-        let (direct, rest) = direct_per_point(renderer, hit, reconstruction);
-        return direct + rest;
+        return direct_per_point(renderer, hit) + rest_of_solution(renderer, hit, reconstruction);
     }
     renderer.element_radiance(reconstruction, hit.point.surface as usize, hit.uv)
 }
