@@ -480,10 +480,11 @@ mod tests {
         let scene = crate::scene::Scene::from_surfaces(surfaces);
         with_cache(&scene, |cache, source| {
             assert_eq!(cache.texel, texel);
+            let grid = cache.grids[0].as_ref().unwrap();
             let texel_at = |uv: DVec2| {
-                let side = (1.0 / texel).round();
+                let side = grid.side as f64;
                 let t = (uv.y * side).floor() * side + (uv.x * side).floor();
-                cache.texel(source, 0, cache.grids[0].as_ref().unwrap(), t as usize)
+                cache.texel(source, 0, grid, t as usize)
             };
             // Under the panel, a texel is buried; beside it, its gather
             // reaches far.
