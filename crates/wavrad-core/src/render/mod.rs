@@ -616,24 +616,10 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     ) -> Rgb {
         let solution = self.solution();
         let l = self.reader().lookup[s].radiance(&solution.trees[s], values, uv, reconstruction);
-        let Some(scales) = solution.interactions.texture_of(s) else {
-            return l;
-        };
-        let (scene, surface) = (&solution.scene, &solution.scene.surfaces[s]);
-        let (Some(rho), Some(here)) = (surface.brdf.lambertian(), scene.lambertian_at(s, uv))
-        else {
-            return l;
-        };
-        let leaf = scales[solution.trees[s].locate(uv).0 as usize];
-        let factor = Rgb([0, 1, 2].map(|c| {
-            let average = leaf[c] * rho[c];
-            if average > 0.0 {
-                here[c] / average
-            } else {
-                0.0
-            }
-        }));
-        emission + (l - emission) * factor
+        match texture_factor(solution, s, uv) {
+            Some(factor) => emission + (l - emission) * factor,
+            None => l,
+        }
     }
 
     /// How much of the emitters the camera ray's `hit` sees
@@ -820,6 +806,25 @@ fn camera_rays(
     } else {
         settings.samples_per_pixel
     }
+}
+
+/// On a textured surface `s`, the texture's albedo at `uv` over its
+/// average over the leaf element there (the albedo the solve gave that
+/// leaf), per channel: what scales the leaf's reflected light at `uv`, so
+/// detail finer than the elements shows. `None` on an untextured surface.
+pub(super) fn texture_factor(solution: &Solution, s: usize, uv: DVec2) -> Option<Rgb> {
+    let scales = solution.interactions.texture_of(s)?;
+    let (scene, surface) = (&solution.scene, &solution.scene.surfaces[s]);
+    let (rho, here) = (surface.brdf.lambertian()?, scene.lambertian_at(s, uv)?);
+    let leaf = scales[solution.trees[s].locate(uv).0 as usize];
+    Some(Rgb([0, 1, 2].map(|c| {
+        let average = leaf[c] * rho[c];
+        if average > 0.0 {
+            here[c] / average
+        } else {
+            0.0
+        }
+    })))
 }
 
 #[cfg(test)]

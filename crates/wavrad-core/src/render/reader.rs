@@ -55,7 +55,14 @@ use rayon::prelude::*;
 /// emitters, smooth where the solution is, its control variate. Where the
 /// scene limits the path length ([`bounces`]), it is the elements'
 /// reflection of the solution ([`Solution::reflection_of`]) less their
-/// first bounce: what that gather then estimates.
+/// first bounce: what that gather then estimates; and `hit_rest` is then
+/// the elements' radiance less their emission and first bounce, what a
+/// gather ray reads beyond the first bounce it evaluates per point.
+///
+/// On a textured surface, what a gather ray reads of an element's
+/// reflected light is scaled by the texture where it lands
+/// ([`super::texture_factor`]), and a glossy one reflects with its
+/// Lambertian lobe's albedo there.
 pub(super) struct SolutionReader {
     pub(super) lookup: Vec<TreeLookup>,
     pub(super) non_lambertian: Vec<Option<Brdf>>,
@@ -66,10 +73,9 @@ pub(super) struct SolutionReader {
     pub(super) caustic: Vec<bool>,
     links: LinkGuide,
     rest: Vec<Option<Vec<Rgb>>>,
-    /// Whether the scene limits the path length ([`bounces`]): gather rays
-    /// then read elements as solved, never a first bounce per point (the
-    /// solution may hold no first bounce at all).
-    limited: bool,
+    /// Where the scene limits the path length ([`bounces`]), `rest` as
+    /// gather rays read it; `None` where that is `rest` itself.
+    hit_rest: Option<Vec<Option<Vec<Rgb>>>>,
 }
 
 /// What a final gather finds at a point, in two parts: light that varies as
@@ -164,26 +170,33 @@ impl SolutionReader {
         // With a bounce limit the solution holds the light that reaches the
         // visible points' gathers, and what they gather is one reflection
         // of it: the elements' share of that is the rest's.
-        let limited = bounces(&solution.scene).is_some();
-        let reflected = match limited {
-            true => solution.reflection_of(&solution.radiance, &solution.directional),
-            false => None,
+        let reflected = match bounces(&solution.scene) {
+            Some(_) => solution.reflection_of(&solution.radiance, &solution.directional),
+            None => None,
         };
-        let rest = match first {
-            Some(first) => (first.into_par_iter().enumerate())
-                .map(|(s, first)| {
-                    let emission = surfaces[s].emission;
-                    (!first.is_empty()).then(|| match &reflected {
-                        Some(reflected) => (reflected[s].iter().zip(first))
-                            .map(|(&l, f)| l - f)
-                            .collect(),
-                        None => (solution.radiance[s].iter().zip(first))
-                            .map(|(&l, f)| l - f - emission)
-                            .collect(),
+        // Each surface's `radiance` (emission included when `emitting`)
+        // less its first bounce, where it has one.
+        let less_first = |radiance: &[Vec<Rgb>], emitting: bool| -> Vec<Option<Vec<Rgb>>> {
+            match &first {
+                Some(first) => (first.par_iter().enumerate())
+                    .map(|(s, first)| {
+                        let emission = surfaces[s].emission * f64::from(u8::from(emitting));
+                        (!first.is_empty()).then(|| {
+                            (radiance[s].iter().zip(first))
+                                .map(|(&l, &f)| l - f - emission)
+                                .collect()
+                        })
                     })
-                })
-                .collect(),
-            None => vec![None; surfaces.len()],
+                    .collect(),
+                None => vec![None; surfaces.len()],
+            }
+        };
+        let (rest, hit_rest) = match &reflected {
+            Some(reflected) => (
+                less_first(reflected, false),
+                Some(less_first(&solution.radiance, true)),
+            ),
+            None => (less_first(&solution.radiance, true), None),
         };
         SolutionReader {
             lookup: solution.trees.par_iter().map(TreeLookup::new).collect(),
@@ -199,7 +212,7 @@ impl SolutionReader {
                 false => LinkGuide::new(solution),
             },
             rest,
-            limited,
+            hit_rest,
         }
     }
 
@@ -326,12 +339,21 @@ impl SolutionReader {
             return self.outgoing_radiance(solution, from, to, seed);
         }
         let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
+        // A texture makes the Lambertian lobe's albedo vary over the surface.
+        let uv = source.patch.clamp_param(source.patch.param_of(y));
+        let textured = (source.texture.is_some())
+            .then(|| solution.scene.lambertian_at(q as usize, uv))
+            .flatten()
+            .map(|rho| source.brdf.with_lambertian(rho));
         let reflected = gather::glossy_radiance(
             &solution.scene,
             &solution.tracer,
             &self.emitters,
             &at,
-            (&source.brdf, (to.position - y).normalize()),
+            (
+                textured.as_ref().unwrap_or(&source.brdf),
+                (to.position - y).normalize(),
+            ),
             grid,
             |h, z| {
                 let hit = SurfacePoint {
@@ -363,19 +385,28 @@ impl SolutionReader {
         let uv_y = surface.patch.clamp_param(surface.patch.param_of(y));
         let (i, tree) = (q as usize, &solution.trees[q as usize]);
         let leaf = self.lookup[i].locate(tree, uv_y).0 as usize;
-        let element = |radiance: &[Rgb]| radiance[leaf];
+        // The leaf's value of `values` (of which `emission` is not
+        // reflected light), scaled by the texture at y.
+        let texture = super::texture_factor(solution, i, uv_y);
+        let element = |values: &[Rgb], emission: Rgb| match texture {
+            Some(factor) => emission + (values[leaf] - emission) * factor,
+            None => values[leaf],
+        };
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
-            let own = element(&solution.radiance[i]);
+            let own = element(&solution.radiance[i], surface.emission);
             let glossy = directional_radiance(solution, q, y, to.surface, to.position);
             return own + glossy;
         }
         let near = (to.position - y).length_squared()
             < NEAR_ELEMENTS * NEAR_ELEMENTS * tree.nodes[leaf].patch.area();
-        let per_point = (self.per_point[i] || near) && !self.limited;
-        let (true, Some(rest)) = (per_point, self.rest(i)) else {
-            return element(&solution.radiance[i]);
+        let hit_rest = match &self.hit_rest {
+            Some(hit_rest) => hit_rest[i].as_deref(),
+            None => self.rest(i),
         };
-        let solved = element(rest) + surface.emission;
+        let (true, Some(rest)) = (self.per_point[i] || near, hit_rest) else {
+            return element(&solution.radiance[i], surface.emission);
+        };
+        let solved = element(rest, Rgb::ZERO) + surface.emission;
         let at = GatherPoint::on(&solution.scene, q, y, Samples::Hashed(seed));
         let first =
             gather::direct_radiance(&solution.scene, &solution.tracer, &self.emitters, &at, 1);
@@ -439,4 +470,63 @@ fn secondary_sources(solution: &Solution, glossy: &[u32]) -> SurfaceDistribution
             .map(|s| (s as u32, power[s] / (threshold * area(s)))),
     );
     SurfaceDistribution::new(weighted)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+    use crate::scene::{Patch, Scene};
+    use crate::solve::{solve, SolveSettings};
+    use crate::testing::{grey, light_over_a_corner};
+
+    #[test]
+    fn under_a_bounce_limit_gather_rays_read_the_first_bounce_per_point_close_by() {
+        // A grey unit floor under a low light over its corner, and a grey
+        // wall standing on the floor beside the light, facing it. Paths
+        // of three segments: the wall's gathers see the floor's first
+        // bounce, which is all the floor's elements hold, and which
+        // varies steeply within each of them here.
+        let mut surfaces = light_over_a_corner(0.1).surfaces;
+        surfaces.push(grey(Patch::Parallelogram {
+            origin: DVec3::new(0.3, 0.0, 0.0),
+            edge_s: DVec3::Z * 0.5,
+            edge_t: DVec3::Y,
+        }));
+        let mut scene = Scene::from_surfaces(surfaces);
+        scene.hints.max_depth = Some(3);
+        let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+        let reader = SolutionReader::new(&solution);
+        let floor = DVec3::new(0.25, 0.1, 0.0);
+        let from = SurfacePoint {
+            surface: 0,
+            position: floor,
+        };
+        let to = SurfacePoint {
+            surface: 2,
+            position: DVec3::new(0.3, 0.1, 0.03),
+        };
+        let at = |seed| GatherPoint::on(&solution.scene, 0, floor, Samples::Hashed(seed));
+        let (scene, tracer) = (&solution.scene, &solution.tracer);
+        let exact = gather::direct_radiance(scene, tracer, &reader.emitters, &at(1), 64)[0];
+        let n = 16u32;
+        let read = (0..n)
+            .map(|seed| reader.radiance_leaving(&solution, from, to, seed.into(), GLOSSY_GRID)[0])
+            .sum::<f64>()
+            / f64::from(n);
+        let tree = &solution.trees[0];
+        let leaf = reader.lookup[0]
+            .locate(tree, tree.nodes[0].patch.param_of(floor))
+            .0;
+        let element = solution.radiance[0][leaf as usize][0];
+        eprintln!("exact {exact}, read {read}, element {element}");
+        assert!(
+            (read - exact).abs() < 0.01 * exact,
+            "read {read}, exact {exact}"
+        );
+        assert!(
+            (element - exact).abs() > 0.05 * exact,
+            "element {element}, exact {exact}"
+        );
+    }
 }
