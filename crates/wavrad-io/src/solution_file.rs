@@ -77,7 +77,7 @@ pub const MAGIC: [u8; 8] = *b"wavradSF";
 /// The version of the format [`write_solution`] writes and
 /// [`read_solution`] reads; a change of the body, or of any type it holds,
 /// needs a new one.
-pub const FORMAT_VERSION: u32 = 10;
+pub const FORMAT_VERSION: u32 = 11;
 
 /// Bytes before the body.
 const HEADER_LEN: usize = 56;
@@ -722,7 +722,7 @@ mod tests {
 
     #[test]
     fn a_body_with_a_matching_checksum_is_checked_index_by_index() {
-        use wavrad_core::solve::gather::Source;
+        use wavrad_core::solve::gather::{Shares, Source};
         let dir = tempfile::tempdir().unwrap();
         let (solution, _) = solved(dir.path(), GLOSSY);
         let dir = dir.path();
@@ -771,6 +771,7 @@ mod tests {
                     b.interactions.to_mut().incoming[s][0].source = Source::Element {
                         surface: 0,
                         node: 9999,
+                        shares: Shares::NONE,
                     }
                 }),
             ),
@@ -780,6 +781,7 @@ mod tests {
                     b.interactions.to_mut().incoming[s][0].source = Source::Element {
                         surface: 77,
                         node: 0,
+                        shares: Shares::NONE,
                     }
                 }),
             ),

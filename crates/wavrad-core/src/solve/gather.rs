@@ -54,17 +54,21 @@ pub struct Directional {
 /// Where a transfer reads the radiance L_{c→a} it carries.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Source {
-    /// A diffuse source element: `radiance[surface][node]`.
+    /// A diffuse source element: `radiance[surface][node]`, or its
+    /// children's by their `shares`.
     Element {
         /// Source surface.
         surface: u32,
         /// Node in its element tree.
         node: u32,
+        /// How its children share the link ([`Shares`]).
+        shares: Shares,
     },
     /// A glossy source: its element's own radiance,
-    /// `radiance[surface][node]` (emission and Lambertian reflection), plus
-    /// the area-weighted mean of `directional[structure]` over `nodes`
-    /// (node, weight) covering the pair (c, a).
+    /// `radiance[surface][node]` (emission and Lambertian reflection; or
+    /// its children's by their `shares`), plus the area-weighted mean of
+    /// `directional[structure]` over `nodes` (node, weight) covering the
+    /// pair (c, a).
     Glossy {
         /// Source surface.
         surface: u32,
@@ -74,7 +78,35 @@ pub enum Source {
         structure: u32,
         /// Range in [`Interactions::covers`].
         nodes: Range<u32>,
+        /// How its children share the link ([`Shares`]).
+        shares: Shares,
     },
+}
+
+/// How a link's throughput divides between the four children of its
+/// source element, T(child k, receiver) / T(element, receiver) in
+/// [`Patch::subdivide`] order, in units of 1/[`u16::MAX`]; all zero
+/// ([`Shares::NONE`]) where the element is read whole (a leaf). A
+/// transfer reads the children's radiance, each weighted by its share
+/// ([`Interactions::children`] finds them): the element's average would
+/// weigh a bright part the receiver sees little of (the floor's lit centre
+/// seen from a wall beside an open side) as much as one it sees well.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct Shares(pub [u16; 4]);
+
+impl Shares {
+    /// The element read whole.
+    pub const NONE: Shares = Shares([0; 4]);
+
+    /// Shares proportional to `weights`; [`Shares::NONE`] when they sum
+    /// to nothing.
+    pub fn new(weights: [f64; 4]) -> Shares {
+        let total: f64 = weights.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return Shares::NONE;
+        }
+        Shares(weights.map(|w| (w / total * f64::from(u16::MAX)).round() as u16))
+    }
 }
 
 /// The form factor of a link of throughput T(a,c) into element `node` of
@@ -165,13 +197,17 @@ pub struct Interactions {
     /// surface's tree reflects (empty for other surfaces;
     /// [`crate::geometry::texture::texture_scales`]).
     pub texture: Vec<Vec<Rgb>>,
+    /// Per surface, each node's first child in its element tree
+    /// ([`u32::MAX`] for a leaf): where a source read through its children
+    /// ([`Shares`]) finds them.
+    pub children: Vec<Vec<u32>>,
 }
 
 impl Source {
     /// The source element: (surface, node in its tree).
     pub fn element(&self) -> (u32, u32) {
         match *self {
-            Source::Element { surface, node } | Source::Glossy { surface, node, .. } => {
+            Source::Element { surface, node, .. } | Source::Glossy { surface, node, .. } => {
                 (surface, node)
             }
         }
@@ -215,6 +251,38 @@ pub fn receiver_gradient(
         count += 1;
     }
     relative_gradient(&points[..count], &values[..count], normal)
+}
+
+/// Make `source`, an element of `tree` (whose nodes have the exposed
+/// fractions `exposure`), read through its children where it has some
+/// ([`Shares`]): weighted by `shares`, their shares of the link's
+/// throughput where refinement integrated them, else by Lambert's
+/// unoccluded form factor from each child's centroid to the `receiver`
+/// times its exposed fraction (as [`receiver_gradient`] weighs a
+/// receiver's children).
+fn read_through_children(
+    tree: &ElementTree,
+    exposure: &[f64],
+    source: &mut Source,
+    receiver: &Patch,
+    shares: Option<[f32; 4]>,
+) {
+    let (_, node) = source.element();
+    let Some(first) = tree.first_child(node as usize) else {
+        return;
+    };
+    let weights = shares.map(|s| s.map(f64::from)).unwrap_or_else(|| {
+        std::array::from_fn(|k| {
+            let child = &tree.nodes[first + k].patch;
+            let (vertices, n) = (receiver.vertices(), receiver.normal());
+            exposure[first + k] * point_to_polygon(child.centroid(), child.normal(), &vertices, n)
+        })
+    });
+    match source {
+        Source::Element { shares, .. } | Source::Glossy { shares, .. } => {
+            *shares = Shares::new(weights)
+        }
+    }
 }
 
 impl Interactions {
@@ -262,6 +330,15 @@ impl Interactions {
             lights: Vec::new(),
             light_pairs: Vec::new(),
             texture: Vec::new(),
+            children: (trees.iter())
+                .map(|t| {
+                    let first = |n: &crate::geometry::hierarchy::Node| n.first_child;
+                    t.nodes
+                        .iter()
+                        .map(|n| first(n).unwrap_or(u32::MAX))
+                        .collect()
+                })
+                .collect(),
         };
         out.pair_exposure = out
             .directional
@@ -279,8 +356,9 @@ impl Interactions {
                 .index_of(id)
                 .expect("link element is in its tree")
         };
-        // The children's shares of each transfer's link, when they are the
-        // receiver's, beside `incoming` until the gradients are made.
+        // The children's shares of each transfer's link, (the receiver's,
+        // the source's), beside `incoming` until the gradients and the
+        // sources' children are made.
         let mut shares_of = vec![Vec::new(); scene.surfaces.len()];
         for l in links {
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
@@ -297,19 +375,23 @@ impl Interactions {
                     form_factor,
                     gradient: Vec3::ZERO,
                 });
-                shares_of[p as usize].push(l.shares_into(of_a));
+                shares_of[p as usize].push((l.shares_into(of_a), l.shares_into(!of_a)));
             }
         }
         for (p, shares) in shares_of.into_iter().enumerate() {
             let (tree, exposure) = (&trees[p], &out.exposure[p][..]);
+            let all_exposure = &out.exposure;
             out.incoming[p]
                 .par_iter_mut()
                 .zip(shares)
-                .for_each(|(t, shares)| {
+                .for_each(|(t, (into, from))| {
                     let (r, c) = t.source.element();
                     let source = &trees[r as usize].nodes[c as usize].patch;
-                    let g = receiver_gradient(tree, exposure, t.receiver as usize, source, shares);
+                    let g = receiver_gradient(tree, exposure, t.receiver as usize, source, into);
                     t.gradient = g.as_vec3();
+                    let receiver = &tree.nodes[t.receiver as usize].patch;
+                    let (source_tree, exposure) = (&trees[r as usize], &all_exposure[r as usize]);
+                    read_through_children(source_tree, exposure, &mut t.source, receiver, from);
                 });
         }
         for p in 0..out.incoming.len() {
@@ -517,6 +599,7 @@ impl Interactions {
                 node: source_tree.node_containing(g),
                 structure,
                 nodes: self.push_cover(cover),
+                shares: Shares::NONE,
             };
             out.push(Transfer {
                 receiver,
@@ -564,25 +647,46 @@ impl Interactions {
                     node,
                     structure,
                     nodes: self.push_cover(cover),
+                    shares: Shares::NONE,
                 }
             }
-            _ => Source::Element { surface: r, node },
+            _ => Source::Element {
+                surface: r,
+                node,
+                shares: Shares::NONE,
+            },
         }
     }
 
-    /// L_{c→a} now: `radiance[surface][node]`, plus for glossy sources
-    /// their directional radiance `directional[structure]` over the pair.
+    /// L_{c→a} now: `radiance[surface][node]` (or its children's by
+    /// their [`Shares`]), plus for glossy sources their directional
+    /// radiance `directional[structure]` over the pair.
     pub fn read(&self, source: &Source, radiance: &[Vec<Rgb>], directional: &[Vec<Rgb>]) -> Rgb {
-        match source {
-            Source::Element { surface, node } => radiance[*surface as usize][*node as usize],
+        let own = |surface: u32, node: u32, shares: Shares| {
+            let values = &radiance[surface as usize];
+            if shares == Shares::NONE {
+                return values[node as usize];
+            }
+            let first = self.children[surface as usize][node as usize] as usize;
+            let sum = (shares.0.iter().zip(&values[first..first + 4]))
+                .fold(Rgb::ZERO, |l, (&w, &v)| l + v * f64::from(w));
+            sum / f64::from(u16::MAX)
+        };
+        match *source {
+            Source::Element {
+                surface,
+                node,
+                shares,
+            } => own(surface, node, shares),
             Source::Glossy {
                 surface,
                 node,
                 structure,
-                nodes,
+                ref nodes,
+                shares,
             } => {
-                let values = &directional[*structure as usize];
-                let mut l = radiance[*surface as usize][*node as usize];
+                let values = &directional[structure as usize];
+                let mut l = own(surface, node, shares);
                 for &(n, w) in &self.covers[nodes.start as usize..nodes.end as usize] {
                     l += values[n as usize] * w;
                 }

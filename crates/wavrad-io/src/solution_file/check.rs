@@ -17,7 +17,7 @@ use wavrad_core::scene::bounds::MAX_COORDINATE;
 use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::{Camera, Projection, Rgb};
 use wavrad_core::setting::Described;
-use wavrad_core::solve::gather::{Interactions, Source};
+use wavrad_core::solve::gather::{Interactions, Shares, Source};
 use wavrad_core::solve::{Solution, SolveSettings};
 
 use super::SolutionProblem;
@@ -65,6 +65,7 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
         ("exposure lists", interactions.exposure.len()),
         ("reflection limits", interactions.limit.len()),
         ("incoming transfer lists", interactions.incoming.len()),
+        ("children lists", interactions.children.len()),
     ];
     if let Some((what, n)) = per_surface.iter().find(|(_, n)| *n != surfaces) {
         return Err(inconsistent(
@@ -94,6 +95,13 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
             .map_err(|e| inconsistent(part(), format!("its exposure: {e}")))?;
         check_values(&interactions.limit[s], nodes, |v| v.is_finite())
             .map_err(|e| inconsistent(part(), format!("its reflection limit: {e}")))?;
+        let first_children = tree.nodes.iter().map(|n| n.first_child.unwrap_or(u32::MAX));
+        if !first_children.eq(interactions.children[s].iter().copied()) {
+            return Err(inconsistent(
+                part(),
+                "its children list is not its element tree's",
+            ));
+        }
         for (j, t) in interactions.incoming[s].iter().enumerate() {
             let part = || format!("surface {s}'s incoming transfer {j}");
             check_index(t.receiver, nodes).map_err(|e| inconsistent(part(), e))?;
@@ -266,6 +274,10 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
         let d = (interactions.directional.get(*structure as usize))
             .ok_or_else(|| format!("source structure {structure} out of range"))?;
         check_covers(interactions, nodes, d.tree.nodes.len()).map_err(|e| format!("source {e}"))?;
+    }
+    let (Source::Element { shares, .. } | Source::Glossy { shares, .. }) = source;
+    if *shares != Shares::NONE && tree.nodes[node as usize].first_child.is_none() {
+        return Err(format!("source node {node} has shares but no children"));
     }
     Ok(())
 }
