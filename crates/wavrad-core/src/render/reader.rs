@@ -180,7 +180,10 @@ impl SolutionReader {
             match &first {
                 Some(first) => (first.par_iter().enumerate())
                     .map(|(s, first)| {
-                        let emission = surfaces[s].emission * f64::from(u8::from(emitting));
+                        let emission = match emitting {
+                            true => surfaces[s].emission,
+                            false => Rgb::ZERO,
+                        };
                         (!first.is_empty()).then(|| {
                             (radiance[s].iter().zip(first))
                                 .map(|(&l, &f)| l - f - emission)

@@ -272,9 +272,9 @@ fn read_through_children(
         return;
     };
     let weights = shares.map(|s| s.map(f64::from)).unwrap_or_else(|| {
+        let (vertices, n) = (receiver.vertices(), receiver.normal());
         std::array::from_fn(|k| {
             let child = &tree.nodes[first + k].patch;
-            let (vertices, n) = (receiver.vertices(), receiver.normal());
             exposure[first + k] * point_to_polygon(child.centroid(), child.normal(), &vertices, n)
         })
     });
@@ -332,10 +332,8 @@ impl Interactions {
             texture: Vec::new(),
             children: (trees.iter())
                 .map(|t| {
-                    let first = |n: &crate::geometry::hierarchy::Node| n.first_child;
-                    t.nodes
-                        .iter()
-                        .map(|n| first(n).unwrap_or(u32::MAX))
+                    (t.nodes.iter())
+                        .map(|n| n.first_child.unwrap_or(u32::MAX))
                         .collect()
                 })
                 .collect(),
