@@ -4,6 +4,7 @@ with its blocks replaced by a tessellated sphere (convex: its triangles never
 see each other) or by a bowl (concave: they do), at any triangle count.
 
     python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes   # writes scene.xml + mesh
+    python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes metal   # rough aluminium
     python3 benches/mesh_scenes.py bunny.ply /tmp/scenes     # any PLY/OBJ, fitted in
 
 Standard library only. The meshes are written as binary PLY.
@@ -142,17 +143,23 @@ def room(mesh: str, scale: float, offset: list[float], out: Path, bsdf: str) -> 
     return path
 
 
-def make(kind: str, triangles: int, out: Path) -> Path:
+# Rough aluminium (Beckmann, alpha 0.2): a glossy mesh with no Lambertian lobe.
+METAL = (
+    '<bsdf type="roughconductor"><string name="material" value="Al"/>'
+    '<float name="alpha" value="0.2"/></bsdf>'
+)
+
+
+def make(kind: str, triangles: int, out: Path, metal: bool = False) -> Path:
     """Write `out/scene.xml` with a sphere or bowl of about `triangles`
-    triangles, 0.45 in radius, its centre 0.5 above the floor; return the
-    scene's path."""
+    triangles, 0.45 in radius, its centre 0.5 above the floor, white or
+    (`metal`) rough aluminium; return the scene's path."""
     out.mkdir(parents=True, exist_ok=True)
     verts, faces = grid_sphere(triangles, rows_for_bowl=(kind == "bowl"))
     write_ply(out / "mesh.ply", verts, faces)
-    two_sided = '<bsdf type="twosided"><ref id="white"/></bsdf>'
-    return room(
-        "mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else '<ref id="white"/>'
-    )
+    material = METAL if metal else '<ref id="white"/>'
+    two_sided = f'<bsdf type="twosided">{material}</bsdf>'
+    return room("mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else material)
 
 
 def make_from(mesh: Path, out: Path) -> Path:
@@ -172,6 +179,7 @@ def make_from(mesh: Path, out: Path) -> Path:
 
 if __name__ == "__main__":
     if sys.argv[1] in ("sphere", "bowl"):
-        print(make(sys.argv[1], int(sys.argv[2]), Path(sys.argv[3])))
+        metal = sys.argv[4:] == ["metal"]
+        print(make(sys.argv[1], int(sys.argv[2]), Path(sys.argv[3]), metal))
     else:
         print(make_from(Path(sys.argv[1]), Path(sys.argv[2])))

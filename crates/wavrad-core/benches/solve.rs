@@ -13,7 +13,7 @@ use wavrad_core::solve::{push_pull::push_pull, solve, Solution, SolveSettings};
 /// One sweep as `solve` does it (diffuse surfaces only: the Cornell box has
 /// no glossy one), updating `radiance` in place.
 fn sweep(s: &Solution, radiance: &mut [Vec<Rgb>]) {
-    let far = s.interactions.clusters.far_field(radiance);
+    let far = (s.interactions).far_field(&s.scene, &s.trees, (radiance, &s.directional), None);
     for (p, surface) in s.scene.surfaces.iter().enumerate() {
         let rho = surface.brdf.lambertian().expect("diffuse scene");
         let read = (&radiance[..], &s.directional[..]);
@@ -59,7 +59,7 @@ fn gauss_seidel(c: &mut Criterion) {
     group.throughput(Throughput::Elements(
         s.interactions.incoming[busiest].len() as u64
     ));
-    let far = s.interactions.clusters.far_field(&s.radiance);
+    let far = (s.interactions).far_field(&s.scene, &s.trees, (&s.radiance, &s.directional), None);
     let read = (&s.radiance[..], &s.directional[..]);
     group.bench_function("gather (busiest surface)", |b| {
         b.iter(|| {

@@ -97,6 +97,19 @@ pub fn inward_box(min: DVec3, max: DVec3) -> Vec<Patch> {
     Patch::inward_box(min, max).to_vec()
 }
 
+/// A 0.2 square light of radiance 5 facing down just under the unit box's
+/// ceiling, about its centre.
+fn ceiling_light() -> Surface {
+    Surface {
+        emission: Rgb::splat(5.0),
+        ..grey(Patch::Parallelogram {
+            origin: DVec3::new(0.4, 0.4, 0.99),
+            edge_s: DVec3::Y * 0.2,
+            edge_t: DVec3::X * 0.2,
+        })
+    }
+}
+
 /// The unit box (inward faces, grey) with its floor (z = 0) cut into
 /// 4^`levels` tiles of rolled aluminium (the first surfaces) and a 0.2
 /// square light of radiance 5 facing down just under its ceiling (the
@@ -111,16 +124,53 @@ pub fn glossy_tiled_box(levels: u32) -> Scene {
         brdf: rolled_aluminium(),
         ..grey(patch)
     });
-    let light = Surface {
-        emission: Rgb::splat(5.0),
-        ..grey(Patch::Parallelogram {
-            origin: DVec3::new(0.4, 0.4, 0.99),
-            edge_s: DVec3::Y * 0.2,
-            edge_t: DVec3::X * 0.2,
-        })
-    };
     let walls = faces[1..].iter().map(|&f| grey(f));
-    Scene::from_surfaces(glossy.chain(walls).chain([light]).collect())
+    Scene::from_surfaces(glossy.chain(walls).chain([ceiling_light()]).collect())
+}
+
+/// The unit box (inward faces, grey), a 0.2 square light of radiance 5
+/// facing down just under its ceiling (the last surface), and, first, a
+/// ball of radius 0.25 at the box's centre tessellated as a UV sphere of
+/// `rings` × 2·`rings` quads (two triangles each, one at the poles) in
+/// `brdf`: many small glossy surfaces that see none of each other, which
+/// cluster links join to the room.
+pub fn ball_in_a_box(rings: usize, brdf: Brdf) -> Scene {
+    let centre = DVec3::splat(0.5);
+    let point = |i: usize, j: usize| {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        let phi = std::f64::consts::PI * j as f64 / rings as f64;
+        centre
+            + 0.25
+                * DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                )
+    };
+    let mut ball = Vec::new();
+    for i in 0..rings {
+        for j in 0..2 * rings {
+            let [a, b, c, d] = [
+                point(i, j),
+                point(i, j + 1),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+            ];
+            // Counter-clockwise from outside; a pole's quad is one triangle.
+            if i > 0 {
+                ball.push([a, c, b]);
+            }
+            if i + 1 < rings {
+                ball.push([b, c, d]);
+            }
+        }
+    }
+    let ball = ball.into_iter().map(|t| Surface {
+        brdf: brdf.clone(),
+        ..grey(Patch::Triangle(t))
+    });
+    let walls = inward_box(DVec3::ZERO, DVec3::ONE).into_iter().map(grey);
+    Scene::from_surfaces(ball.chain(walls).chain([ceiling_light()]).collect())
 }
 
 /// `count` curved shapes, of `kinds` in turn, scattered over the cube

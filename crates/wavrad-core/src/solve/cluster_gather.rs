@@ -45,6 +45,7 @@ use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::refine::cluster_links::{ClusterLink, End};
 use crate::scene::{Rgb, Scene};
+use crate::solve::glossy_clusters::GlossyReflectors;
 use crate::solve::push_pull::Gathered;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -218,12 +219,33 @@ impl Anchored {
     }
 }
 
+/// What one side of a cluster link sends towards the other.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sent {
+    /// The intensity vectors N of its members' Lambertian radiance, per
+    /// channel: I(ω) = N·ω.
+    lambertian: [DVec3; 3],
+    /// The intensity its glossy members' lobes send towards the other
+    /// side's centre ([`crate::solve::glossy_clusters`]).
+    glossy: Rgb,
+}
+
+impl Sent {
+    const ZERO: Sent = Sent {
+        lambertian: [DVec3::ZERO; 3],
+        glossy: Rgb::ZERO,
+    };
+}
+
 /// One radiance state's far field: what every link's ends send, and what
 /// every surface's root gathers through the clusters above it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FarField {
-    /// Each side's intensity vectors N (per channel) towards the other.
-    sent: Vec<[[DVec3; 3]; 2]>,
+    /// What each side sends towards the other.
+    sent: Vec<[Sent; 2]>,
+    /// The radiance per bin of every glossy reflector
+    /// ([`crate::solve::glossy_clusters`]), when there are any.
+    exitant: Vec<Vec<Rgb>>,
     /// What each surface's root receives through its clusters' links
     /// (irradiance over π, before reflectance).
     at_roots: Vec<Rgb>,
@@ -461,8 +483,10 @@ impl ClusterTransfers {
 
     /// The field that side `side` of link `link` receives at `x` from the
     /// other side's intensities in `sent`: F = V·u·I(−u)/(π·d⁴), u = y − x
-    /// towards the other side's centre y, with its Jacobian in x.
-    fn incoming(&self, (link, side): (u32, u8), x: DVec3, sent: &[[[DVec3; 3]; 2]]) -> Field {
+    /// towards the other side's centre y, with its Jacobian in x (the
+    /// glossy members' intensity taken as constant over the directions
+    /// the receiver spans).
+    fn incoming(&self, (link, side): (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
         let t = &self.links[link as usize];
         let u = self.center(t.sides[1 - side as usize]) - x;
         let d2 = u.length_squared();
@@ -471,13 +495,17 @@ impl ClusterTransfers {
         }
         let scale = t.visibility / (PI * d2 * d2);
         let mut field = Field::ZERO;
-        for (k, n) in sent[link as usize][1 - side as usize].iter().enumerate() {
+        let from = &sent[link as usize][1 - side as usize];
+        let d = d2.sqrt();
+        for (k, n) in from.lambertian.iter().enumerate() {
             // I(−u)·|u|, the source's intensity towards x.
-            let s = -n.dot(u);
+            let glossy = from.glossy[k];
+            let s = -n.dot(u) + glossy * d;
             if s > 0.0 {
                 field.value[k] = u * (s * scale);
-                // ∂F/∂x = −∂F/∂u, with ∂s/∂u = −N and ∂d⁻⁴/∂u = −4u/d⁶.
-                let g = *n + u * (4.0 * s / d2);
+                // ∂F/∂x = −∂F/∂u, with ∂s/∂u = −N + I_g·u/|u| and
+                // ∂d⁻⁴/∂u = −4u/d⁶.
+                let g = *n - u * (glossy / d) + u * (4.0 * s / d2);
                 let outer = DMat3::from_cols(u * g.x, u * g.y, u * g.z);
                 field.jacobian[k] = (outer - DMat3::from_diagonal(DVec3::splat(s))) * scale;
             }
@@ -494,7 +522,7 @@ impl ClusterTransfers {
         &self,
         c: u32,
         (folded, pending): (Option<&Anchored>, &[(u32, u8)]),
-        sent: &[[[DVec3; 3]; 2]],
+        sent: &[[Sent; 2]],
         out: &mut [Rgb],
     ) {
         let node = &self.clusters.nodes[c as usize];
@@ -545,20 +573,31 @@ impl ClusterTransfers {
 
     /// The far field of `radiance` (every surface's node averages): what
     /// every link's ends send, and what every surface's root receives
-    /// through the clusters above it.
-    pub fn far_field(&self, radiance: &[Vec<Rgb>]) -> FarField {
+    /// through the clusters above it. With `glossy`, the scene's glossy
+    /// members that cluster links reach ([`ClusterTransfers::reaches`])
+    /// and the irradiance per bin their element links bring each: their
+    /// lobes reflect it, with what their cluster links bring from
+    /// `radiance` and from the glossy members' radiance per bin in
+    /// `previous` (the far field of the sweep before, if any), towards the
+    /// other ends of their cluster links ([`crate::solve::glossy_clusters`]).
+    pub fn far_field(
+        &self,
+        radiance: &[Vec<Rgb>],
+        glossy: Option<(&GlossyReflectors, Vec<Vec<Rgb>>)>,
+        previous: Option<&FarField>,
+    ) -> FarField {
         if self.links.is_empty() {
             return FarField::default();
         }
         let sums = self.pull(radiance);
-        let sent: Vec<[[DVec3; 3]; 2]> = self
+        let mut sent: Vec<[Sent; 2]> = self
             .links
             .par_iter()
             .map(|t| {
                 let centers = t.sides.map(|s| self.center(s));
                 [0, 1].map(|k| {
                     let towards = centers[1 - k] - centers[k];
-                    match t.sides[k] {
+                    let lambertian = match t.sides[k] {
                         Side::Cluster(c) => {
                             self.sent_by_cluster(c, towards.normalize_or_zero(), &sums)
                         }
@@ -571,17 +610,130 @@ impl ClusterTransfers {
                                 [DVec3::ZERO; 3]
                             }
                         }
+                    };
+                    Sent {
+                        lambertian,
+                        ..Sent::ZERO
                     }
                 })
             })
             .collect();
+        let mut exitant = Vec::new();
+        if let Some((reflectors, near)) = glossy {
+            // Glossy light from one glossy member to another, a sweep late.
+            let before = previous.map(|f| &f.exitant[..]);
+            if let Some(before) = before.filter(|e| e.len() == reflectors.surfaces().len()) {
+                self.send_glossy(reflectors, before, &mut sent);
+            }
+            exitant = self.glossy_exitant(reflectors, near, &sent);
+            self.send_glossy(reflectors, &exitant, &mut sent);
+        }
         let mut in_leaf_order = vec![Rgb::ZERO; self.clusters.members.len()];
         self.push_down(0, (None, &[]), &sent, &mut in_leaf_order);
         let mut at_roots = vec![Rgb::ZERO; self.roots.len()];
         for (&s, r) in self.clusters.members.iter().zip(in_leaf_order) {
             at_roots[s as usize] = r;
         }
-        FarField { sent, at_roots }
+        FarField {
+            sent,
+            exitant,
+            at_roots,
+        }
+    }
+
+    /// Whether any cluster link reaches surface `s`: one of its elements
+    /// is an end, or a cluster above it is.
+    pub fn reaches(&self, s: u32) -> bool {
+        let leaf = self.clusters.leaf_of[s as usize];
+        !self.at_surface.of(s).is_empty()
+            || std::iter::once(leaf)
+                .chain(self.clusters.ancestors(s))
+                .any(|c| !self.at_cluster.of(c).is_empty())
+    }
+
+    /// Every reflector's radiance per bin: its lobes' reflection of the
+    /// irradiance `near` (per reflector, per bin) and of what its cluster
+    /// links bring it from `sent`, each link's from the direction of the
+    /// other end's centre.
+    fn glossy_exitant(
+        &self,
+        reflectors: &GlossyReflectors,
+        mut near: Vec<Vec<Rgb>>,
+        sent: &[[Sent; 2]],
+    ) -> Vec<Vec<Rgb>> {
+        let other = |(link, side): (u32, u8)| {
+            self.center(self.links[link as usize].sides[1 - side as usize])
+        };
+        (near.par_iter_mut().zip(reflectors.surfaces()).enumerate())
+            .map(|(k, (bins, &s))| {
+                let root = &self.roots[s as usize];
+                let leaf = self.clusters.leaf_of[s as usize];
+                let above = std::iter::once(leaf).chain(self.clusters.ancestors(s));
+                for &at in above.flat_map(|c| self.at_cluster.of(c)) {
+                    let e = self.incoming(at, root.point, sent).received(root.normal) * PI;
+                    reflectors.receive(k, bins, other(at) - root.point, e);
+                }
+                for &at in self.at_surface.of(s) {
+                    if let Side::Element(e) = self.links[at.0 as usize].sides[at.1 as usize] {
+                        let m = &self.elements[e as usize];
+                        let e = self.incoming(at, m.point, sent).received(m.normal);
+                        let share = PI * m.area / root.area;
+                        reflectors.receive(k, bins, other(at) - m.point, e * share);
+                    }
+                }
+                reflectors.reflect(k, bins)
+            })
+            .collect()
+    }
+
+    /// Add to every side of `sent` the intensity its glossy members send
+    /// towards the other side's centre, A·cosθ·L_o from each member's
+    /// radiance per bin `exitant`.
+    fn send_glossy(
+        &self,
+        reflectors: &GlossyReflectors,
+        exitant: &[Vec<Rgb>],
+        sent: &mut [[Sent; 2]],
+    ) {
+        // The reflectors in leaf order, and how many precede each position.
+        let (mut glossy, mut before) = (Vec::new(), vec![0u32]);
+        for &s in &self.clusters.members {
+            if let Some(k) = reflectors.index(s) {
+                glossy.push((s, k));
+            }
+            before.push(glossy.len() as u32);
+        }
+        let towards = |k: usize, m: &Member, target: DVec3| {
+            let w = (target - m.point).normalize_or_zero();
+            let cos = m.normal.dot(w);
+            if cos > 0.0 {
+                reflectors.towards(k, &exitant[k], w) * (m.area * cos)
+            } else {
+                Rgb::ZERO
+            }
+        };
+        (sent.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {
+            let centers = t.sides.map(|s| self.center(s));
+            for (k, side) in sides.iter_mut().enumerate() {
+                let target = centers[1 - k];
+                side.glossy = match t.sides[k] {
+                    Side::Cluster(c) => {
+                        let r = &self.clusters.nodes[c as usize].members;
+                        let under =
+                            before[r.start as usize] as usize..before[r.end as usize] as usize;
+                        (glossy[under].iter())
+                            .map(|&(s, g)| towards(g, &self.roots[s as usize], target))
+                            .sum()
+                    }
+                    Side::Element(e) => {
+                        let m = &self.elements[e as usize];
+                        reflectors
+                            .index(m.surface)
+                            .map_or(Rgb::ZERO, |g| towards(g, m, target))
+                    }
+                };
+            }
+        });
     }
 
     /// Add to `gathered` (surface `p`'s tree) the light of reflectance
@@ -711,7 +863,7 @@ mod tests {
             })
             .collect();
         let transfers = ClusterTransfers::new(&scene, clusters.clone(), &trees, &links);
-        let far_field = transfers.far_field(&radiance);
+        let far_field = transfers.far_field(&radiance, None, None);
 
         // Each member of each end on its own: the sources that face the
         // other end's centre, seen from the receiver's own point.

@@ -34,10 +34,12 @@ use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::cluster_gather::{ClusterTransfers, FarField};
+use crate::solve::glossy_clusters::{GlossyReflectors, BINS};
 use crate::solve::push_pull::{reflection_limits, Gathered};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
+use std::f64::consts::PI;
 use std::ops::Range;
 
 /// Directional radiance L_{p→q} of a glossy surface p towards surface q.
@@ -156,9 +158,11 @@ pub struct ThreePointTransfer {
 /// Every link of a scene, arranged for gathering.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Interactions {
-    /// Incoming two-point transfers of every surface (empty for those
-    /// without a Lambertian lobe),
-    /// ordered by receiving node so the gather is deterministic.
+    /// Incoming two-point transfers of every surface that reflects (empty
+    /// for those with neither a Lambertian nor a glossy lobe; a glossy
+    /// surface's bring the light its lobes reflect through cluster links,
+    /// [`Interactions::far_field`]), ordered by receiving node so the
+    /// gather is deterministic.
     pub incoming: Vec<Vec<Transfer>>,
     /// The directional structures, ordered by (p, q).
     pub directional: Vec<Directional>,
@@ -360,8 +364,12 @@ impl Interactions {
         let mut shares_of = vec![Vec::new(); scene.surfaces.len()];
         for l in links {
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
-                if scene.surfaces[p as usize].brdf.lambertian().is_none() {
-                    continue; // they gather through three-point links alone
+                // A surface with neither lobe reflects nothing through two-point links.
+                let brdf = &scene.surfaces[p as usize].brdf;
+                if brdf.lambertian().is_none()
+                    && !brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+                {
+                    continue;
                 }
                 let receiver = node(p, a);
                 let (tree, exposure) = (&trees[p as usize], &out.exposure[p as usize]);
@@ -438,7 +446,7 @@ impl Interactions {
             .iter()
             .map(|d| vec![Rgb::ZERO; d.tree.nodes.len()])
             .collect();
-        let far = self.clusters.far_field(&unit);
+        let far = self.clusters.far_field(&unit, None, None);
         let limits: Vec<(Vec<f64>, usize)> = trees
             .par_iter()
             .enumerate()
@@ -691,6 +699,64 @@ impl Interactions {
                 l
             }
         }
+    }
+
+    /// The far field of cluster links ([`ClusterTransfers::far_field`]) of
+    /// the elements' `radiance` and the directional structures'
+    /// `directional`, its glossy members reflecting, through their lobes,
+    /// the light their two-point transfers bring (each from its source
+    /// element's direction) and their cluster links', these with the
+    /// glossy members' light of `previous` (the sweep before's far field,
+    /// if any).
+    pub fn far_field(
+        &self,
+        scene: &Scene,
+        trees: &[ElementTree],
+        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        previous: Option<&FarField>,
+    ) -> FarField {
+        if self.clusters.is_empty() {
+            return FarField::default();
+        }
+        let glossy = GlossyReflectors::of(scene, |s| self.clusters.reaches(s));
+        let near = glossy.as_ref().map(|g| {
+            (g.surfaces().par_iter().enumerate())
+                .map(|(k, &p)| self.near_incident(g, k, trees, p, (radiance, directional)))
+                .collect()
+        });
+        self.clusters
+            .far_field(radiance, glossy.as_ref().zip(near), previous)
+    }
+
+    /// The irradiance surface `p` (reflector `k` of `reflectors`), whose
+    /// tree is `trees[p]`, receives per bin through its two-point transfers,
+    /// averaged over its exposed area: π·T·L/A, each from the direction of
+    /// its source element's centroid.
+    fn near_incident(
+        &self,
+        reflectors: &GlossyReflectors,
+        k: usize,
+        trees: &[ElementTree],
+        p: u32,
+        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+    ) -> Vec<Rgb> {
+        let (tree, exposure) = (&trees[p as usize], &self.exposure[p as usize]);
+        let exposed_area = |node: usize| {
+            let e = exposure[node];
+            tree.nodes[node].patch.area() * if e > 0.0 { e } else { 1.0 }
+        };
+        let whole = exposed_area(0);
+        let mut bins = vec![Rgb::ZERO; BINS];
+        for t in &self.incoming[p as usize] {
+            let (r, c) = t.source.element();
+            let receiver = t.receiver as usize;
+            let from = trees[r as usize].nodes[c as usize].patch.centroid();
+            let towards = from - tree.nodes[receiver].patch.centroid();
+            let throughput = t.form_factor * exposed_area(receiver);
+            let l = self.read(&t.source, radiance, directional);
+            reflectors.receive(k, &mut bins, towards, l * (PI * throughput / whole));
+        }
+        bins
     }
 
     /// Radiance reflected at each node of diffuse surface `p` (whose tree

@@ -7,6 +7,7 @@
 pub mod checkpoint;
 pub mod cluster_gather;
 pub mod gather;
+pub mod glossy_clusters;
 pub mod push_pull;
 pub mod settings;
 pub mod shoot;
@@ -37,7 +38,7 @@ use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use checkpoint::{merged, runs_of, Run, RunSpan};
 pub use checkpoint::{resume, Checkpoint, CheckpointView, Saver, Unfinished};
-use cluster_gather::ClusterTransfers;
+use cluster_gather::{ClusterTransfers, FarField};
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
@@ -788,7 +789,8 @@ impl Solution {
     /// The light every diffuse element reflects (eq. 12 with no emission
     /// of its own) when the elements' radiance is `radiance` and the
     /// directional structures' `directional`, and the lights that are not
-    /// surfaces shine: one gathering sweep, Jacobi's, read from those.
+    /// surfaces shine: one gathering sweep, Jacobi's, read from those
+    /// (through cluster links, glossy members' Lambertian light only).
     /// Shaped as [`Solution::first_bounce`], which is this of the emission.
     pub fn reflection_of(
         &self,
@@ -799,7 +801,11 @@ impl Solution {
         if self.interactions.incoming.len() != scene.surfaces.len() {
             return None;
         }
-        let far = self.interactions.clusters.far_field(radiance);
+        // Cluster links carry the members' Lambertian light here, not the
+        // glossy light their lobes reflect: that is one more reflection
+        // than `radiance` holds (the emission's first bounce is not
+        // reflected twice), and the solution holds no state of it to read.
+        let far = self.interactions.clusters.far_field(radiance, None, None);
         let bounce = scene
             .surfaces
             .par_iter()
@@ -1035,11 +1041,12 @@ impl System {
         let bounces = bounces(scene);
         let sweeps = bounces.map_or(settings.max_iterations, |b| b.min(settings.max_iterations));
         progress.start("solving", u64::from(sweeps));
+        let mut far = FarField::default();
         while iterations < sweeps
             && residual > settings.tolerance
             && !(iterations >= MIN_SWEEPS && progress.interrupted())
         {
-            let far = interactions.clusters.far_field(radiance);
+            far = interactions.far_field(scene, trees, (radiance, directional), Some(&far));
             // With a bounce limit, the radiance before this sweep.
             let before = bounces.map(|_| (radiance.clone(), directional.clone()));
             for (p, surface) in scene.surfaces.iter().enumerate() {
