@@ -216,8 +216,9 @@ class Solution:
         items kept from the solve resumed, and refined by this one);
         ``three_point_items`` (surface triples of glossy surfaces planned),
         ``unplanned_triples`` (the scene's triples past a plan's most, left
-        out) and ``left_out_items`` (planned triples a limit left out before
-        they started), the last two without three-point links."""
+        out: their glossy surfaces reflect through distributions per bin
+        instead) and ``left_out_items`` (planned triples a limit left out
+        before they started), the last two without three-point links."""
     @property
     def checkpoint(self) -> tuple[int, int] | None:
         """For a solve cut short (``stats["stopped"]``), which

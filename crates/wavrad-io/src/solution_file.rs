@@ -723,6 +723,7 @@ mod tests {
     #[test]
     fn a_body_with_a_matching_checksum_is_checked_index_by_index() {
         use wavrad_core::solve::gather::{Shares, Source};
+        use wavrad_core::solve::glossy_clusters::NO_BIN;
         let dir = tempfile::tempdir().unwrap();
         let (solution, _) = solved(dir.path(), GLOSSY);
         let dir = dir.path();
@@ -730,7 +731,7 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 13] = [
+        let cases: [(&str, Edit); 14] = [
             (
                 // Found by fuzzing: the render allocated rays⁴ samples.
                 "the settings: quadrature orders 2 and 1073741824",
@@ -772,6 +773,7 @@ mod tests {
                         surface: 0,
                         node: 9999,
                         shares: Shares::NONE,
+                        towards: NO_BIN,
                     }
                 }),
             ),
@@ -782,6 +784,18 @@ mod tests {
                         surface: 77,
                         node: 0,
                         shares: Shares::NONE,
+                        towards: NO_BIN,
+                    }
+                }),
+            ),
+            (
+                "source bin 200 out of range",
+                Box::new(move |b| {
+                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
+                        surface: 0,
+                        node: 0,
+                        shares: Shares::NONE,
+                        towards: 200,
                     }
                 }),
             ),

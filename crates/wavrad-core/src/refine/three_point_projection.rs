@@ -283,12 +283,16 @@ fn finer_than_element(lobe: f64, glossy: &Patch, receiver: &Patch) -> bool {
 
 /// Most surface triples a plan projects ([`surface_triples`]). A glossy
 /// surface's triples are the square of the surfaces it exchanges light
-/// with element to element, so a glossy mesh of thousands of triangles
-/// plans hundreds of millions, more than any memory holds the links of;
-/// past this many the plan keeps a share and leaves the rest out (with no
-/// links), whatever the limits of the solve, so that a plan and its
-/// resumption agree on their items.
-pub const MAX_TRIPLES: usize = 1 << 24;
+/// with element to element, and each makes hundreds to thousands of
+/// three-point links, so a glossy mesh of a thousand triangles plans
+/// hundreds of thousands, more than any memory holds the links of (a
+/// concave one of 924 triangles took 24 GB and was killed). Past this many,
+/// the largest glossy surfaces keep all theirs, while they fit, and the
+/// rest have none: their lobes' light goes through their distributions
+/// per bin ([`crate::solve::glossy_clusters`]) to every receiver, as to the
+/// ends of their cluster links. Fixed, whatever the limits of the solve,
+/// so that a plan and its resumption agree on their items.
+pub const MAX_TRIPLES: usize = 1 << 13;
 
 /// The surface triples of a plan ([`surface_triples`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -297,15 +301,16 @@ pub struct SurfaceTriples {
     pub planned: Vec<(u32, u32, u32)>,
     /// Triples of the scene past [`MAX_TRIPLES`], left out of the plan.
     pub left_out: u64,
+    /// The glossy surfaces whose triples are left out.
+    pub binned: u64,
 }
 
 /// The surface triples (r, p, q) of three-point links: a glossy p with two
 /// surfaces r ≠ p (the source) and q ≠ p (the receiver) that each make one
 /// of `pairs` with it (the surface pairs that can exchange light, p < r),
-/// in order. Past [`MAX_TRIPLES`], those whose source emits come first (the
-/// light glossy surfaces reflect straight from the emitters); the rest,
-/// and where even those are too many they too, are kept evenly spread over
-/// the glossy surfaces and their pairs, and the others left out.
+/// in order of p. Past [`MAX_TRIPLES`], the glossy surfaces in order of
+/// decreasing area (then index) keep all their triples while the total
+/// fits, and the others none.
 pub fn surface_triples(scene: &Scene, pairs: &[(u32, u32)]) -> SurfaceTriples {
     surface_triples_at_most(scene, pairs, MAX_TRIPLES)
 }
@@ -321,47 +326,35 @@ fn surface_triples_at_most(scene: &Scene, pairs: &[(u32, u32)], most: usize) -> 
         n.sort_unstable();
         n.dedup();
     });
-    let glossy: Vec<usize> = (0..scene.surfaces.len())
+    let mut glossy: Vec<usize> = (0..scene.surfaces.len())
         .filter(|&p| (scene.surfaces[p].brdf.flags()).contains(BrdfFlags::GLOSSY_REFLECTION))
         .collect();
-    let emits = |r: u32| scene.surfaces[r as usize].emission.max_channel() > 0.0;
-    let all = || {
-        glossy.iter().flat_map(|&p| {
+    let triples = |p: usize| near[p].len() * near[p].len();
+    let total: usize = glossy.iter().map(|&p| triples(p)).sum();
+    let mut binned = 0;
+    if total > most {
+        let area = |p: usize| scene.surfaces[p].patch.area();
+        glossy.sort_by(|&a, &b| area(b).total_cmp(&area(a)).then(a.cmp(&b)));
+        let mut kept = 0;
+        glossy.retain(|&p| {
+            let fits = kept + triples(p) <= most;
+            kept += if fits { triples(p) } else { 0 };
+            binned += u64::from(!fits);
+            fits
+        });
+        glossy.sort_unstable();
+    }
+    let planned: Vec<(u32, u32, u32)> = (glossy.iter())
+        .flat_map(|&p| {
             let near = &near[p];
             near.iter()
                 .flat_map(move |&r| near.iter().map(move |&q| (r, p as u32, q)))
         })
-    };
-    // How many there are, and how many of them come from an emitter.
-    let (mut total, mut lit) = (0u64, 0u64);
-    for &p in &glossy {
-        let n = near[p].len() as u64;
-        total += n * n;
-        lit += near[p].iter().filter(|&&r| emits(r)).count() as u64 * n;
-    }
-    let most = most as u64;
-    if total <= most {
-        return SurfaceTriples {
-            planned: all().collect(),
-            left_out: 0,
-        };
-    }
-    // Keep `keep[tier]` of each tier, evenly spread over it.
-    let keep = [lit.min(most), most.saturating_sub(lit)];
-    let size = [lit, total - lit];
-    let mut seen = [0u64; 2];
-    let planned = all()
-        .filter(|&(r, _, _)| {
-            let tier = usize::from(!emits(r));
-            let i = seen[tier];
-            seen[tier] += 1;
-            // The i-th of the tier is kept when it starts a new share.
-            (i + 1) * keep[tier] / size[tier] > i * keep[tier] / size[tier]
-        })
-        .collect::<Vec<_>>();
+        .collect();
     SurfaceTriples {
-        left_out: total - planned.len() as u64,
+        left_out: (total - planned.len()) as u64,
         planned,
+        binned,
     }
 }
 
@@ -475,37 +468,35 @@ mod tests {
     }
 
     #[test]
-    fn a_plan_past_its_most_triples_keeps_the_emitters_first_and_spreads_the_rest() {
-        let scene = glossy_tiled_box(1);
+    fn a_plan_past_its_most_triples_keeps_the_largest_glossy_surfaces_whole() {
+        let mut scene = glossy_tiled_box(1);
+        // Tile 2 the largest of the four (still within the floor's plane).
+        if let Patch::Parallelogram { edge_s, .. } = &mut scene.surfaces[2].patch {
+            *edge_s *= 1.5;
+        }
         let pairs = all_pairs(&scene);
         let all = surface_triples_at_most(&scene, &pairs, usize::MAX);
-        assert_eq!(all.left_out, 0);
-        // Each of the 4 glossy tiles with the 6 other surfaces it meets
-        // (the other tiles are not in `pairs`' sense apart: all pairs are
-        // given, so with the 3 other tiles, 9), as sources and receivers.
+        assert_eq!((all.left_out, all.binned), (0, 0));
+        // Each of the 4 glossy tiles with the 9 other surfaces (all pairs
+        // are given), as sources and receivers.
         assert_eq!(all.planned.len(), 4 * 9 * 9);
         assert_eq!(surface_triples(&scene, &pairs), all);
-        let light = scene.surfaces.len() as u32 - 1;
-        let lit = all.planned.iter().filter(|t| t.0 == light).count();
-        assert_eq!(lit, 4 * 9);
-
-        let is_subsequence = |part: &[(u32, u32, u32)]| {
-            let mut whole = all.planned.iter();
-            part.iter().all(|t| whole.any(|w| w == t))
-        };
-        for most in [lit / 2, lit, lit + 8, all.planned.len() - 1] {
+        let of = |cut: &SurfaceTriples, p: u32| cut.planned.iter().filter(|t| t.1 == p).count();
+        for (most, kept) in [
+            (81, vec![2]),
+            (200, vec![0, 2]),
+            (323, vec![0, 1, 2]),
+            (80, vec![]),
+        ] {
             let cut = surface_triples_at_most(&scene, &pairs, most);
-            assert_eq!(cut.planned.len(), most);
-            assert_eq!(cut.left_out, (all.planned.len() - most) as u64);
-            assert!(is_subsequence(&cut.planned), "kept in plan order");
-            let kept_lit = cut.planned.iter().filter(|t| t.0 == light).count();
-            assert_eq!(kept_lit, lit.min(most), "emitters first");
-            // Each glossy tile keeps its share of what is kept.
             for p in 0..4 {
-                let of_p = |t: &&(u32, u32, u32)| t.1 == p;
-                let n = cut.planned.iter().filter(of_p).count();
-                assert!(n * 4 >= most - 4 && n * 4 <= most + 4, "{p}: {n} of {most}");
+                let whole = if kept.contains(&p) { 81 } else { 0 };
+                assert_eq!(of(&cut, p), whole, "tile {p} within {most}");
             }
+            assert_eq!(cut.binned, 4 - kept.len() as u64);
+            assert_eq!(cut.left_out, (all.planned.len() - cut.planned.len()) as u64);
+            let in_order = cut.planned.windows(2).all(|w| w[0].1 <= w[1].1);
+            assert!(in_order, "in order of the glossy surface");
         }
     }
 }

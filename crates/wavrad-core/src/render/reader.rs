@@ -12,6 +12,8 @@ use crate::sampling::Samples;
 use crate::scene::brdf::Brdf;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::Rgb;
+use crate::solve::cluster_gather::FarField;
+use crate::solve::glossy_clusters::{bin_of, NO_BIN};
 use crate::solve::{bounces, Solution};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -76,6 +78,9 @@ pub(super) struct SolutionReader {
     /// Where the scene limits the path length ([`bounces`]), `rest` as
     /// gather rays read it; `None` where that is `rest` itself.
     hit_rest: Option<Vec<Option<Vec<Rgb>>>>,
+    /// The glossy surfaces' light per bin ([`crate::solve::glossy_clusters`]),
+    /// read towards receivers they have no directional structure for.
+    lobes: FarField,
 }
 
 /// What a final gather finds at a point, in two parts: light that varies as
@@ -154,6 +159,13 @@ impl SolutionReader {
         {
             per_point[s] = true;
         }
+        // The glossy surfaces' light per bin, from the solution (twice:
+        // glossy light through cluster links between glossy surfaces
+        // arrives a far field late).
+        let state = (&solution.radiance[..], &solution.directional[..]);
+        let (interactions, trees) = (&solution.interactions, &solution.trees);
+        let once = interactions.far_field(&solution.scene, trees, state, None);
+        let lobes = (interactions.far_field(&solution.scene, trees, state, Some(&once))).lobes();
         let first = solution.first_bounce();
         let non_lambertian = surfaces
             .iter()
@@ -216,6 +228,7 @@ impl SolutionReader {
             },
             rest,
             hit_rest,
+            lobes,
         }
     }
 
@@ -397,7 +410,14 @@ impl SolutionReader {
         };
         if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
             let own = element(&solution.radiance[i], surface.emission);
-            let glossy = directional_radiance(solution, q, y, to.surface, to.position);
+            let structured = (solution.interactions.structure_of).contains_key(&(q, to.surface));
+            let glossy = match structured {
+                true => directional_radiance(solution, q, y, to.surface, to.position),
+                false => {
+                    let w = surface.frame().to_local(to.position - y);
+                    self.lobes.glossy(q, bin_of(w).map_or(NO_BIN, |b| b as u8))
+                }
+            };
             return own + glossy;
         }
         let near = (to.position - y).length_squared()

@@ -45,7 +45,7 @@ use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::refine::cluster_links::{ClusterLink, End};
 use crate::scene::{Rgb, Scene};
-use crate::solve::glossy_clusters::GlossyReflectors;
+use crate::solve::glossy_clusters::{GlossyReflectors, NO_BIN};
 use crate::solve::push_pull::Gathered;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -243,12 +243,37 @@ impl Sent {
 pub struct FarField {
     /// What each side sends towards the other.
     sent: Vec<[Sent; 2]>,
-    /// The radiance per bin of every glossy reflector
-    /// ([`crate::solve::glossy_clusters`]), when there are any.
+    /// The scene's glossy surfaces, when it has any and they were asked for.
+    reflectors: Option<GlossyReflectors>,
+    /// The radiance per bin of every one of them
+    /// ([`crate::solve::glossy_clusters`]).
     exitant: Vec<Vec<Rgb>>,
     /// What each surface's root receives through its clusters' links
     /// (irradiance over π, before reflectance).
     at_roots: Vec<Rgb>,
+}
+
+impl FarField {
+    /// Only its glossy surfaces' light per bin ([`FarField::glossy`]).
+    pub fn lobes(self) -> FarField {
+        FarField {
+            reflectors: self.reflectors,
+            exitant: self.exitant,
+            ..FarField::default()
+        }
+    }
+
+    /// The radiance glossy surface `s`'s lobes send into bin `bin` of its
+    /// hemisphere; zero for other surfaces, [`NO_BIN`], or a far field
+    /// made without its glossy surfaces.
+    pub fn glossy(&self, s: u32, bin: u8) -> Rgb {
+        match &self.reflectors {
+            Some(reflectors) if bin != NO_BIN => (reflectors.index(s))
+                .and_then(|k| self.exitant.get(k))
+                .map_or(Rgb::ZERO, |e| e[bin as usize]),
+            _ => Rgb::ZERO,
+        }
+    }
 }
 
 /// The cone of normals of every node of `clusters`, whose members are
@@ -574,22 +599,22 @@ impl ClusterTransfers {
     /// The far field of `radiance` (every surface's node averages): what
     /// every link's ends send, and what every surface's root receives
     /// through the clusters above it. With `glossy`, the scene's glossy
-    /// members that cluster links reach ([`ClusterTransfers::reaches`])
-    /// and the irradiance per bin their element links bring each: their
-    /// lobes reflect it, with what their cluster links bring from
-    /// `radiance` and from the glossy members' radiance per bin in
-    /// `previous` (the far field of the sweep before, if any), towards the
-    /// other ends of their cluster links ([`crate::solve::glossy_clusters`]).
+    /// surfaces and the irradiance per bin their two-point transfers bring
+    /// each: their lobes reflect it, with what their cluster links bring
+    /// from `radiance` and from the glossy surfaces' radiance per bin in
+    /// `previous` (the far field of the sweep before, if any), into every
+    /// bin ([`FarField::glossy`]) and towards the other ends of their
+    /// cluster links ([`crate::solve::glossy_clusters`]).
     pub fn far_field(
         &self,
         radiance: &[Vec<Rgb>],
-        glossy: Option<(&GlossyReflectors, Vec<Vec<Rgb>>)>,
+        glossy: Option<(GlossyReflectors, Vec<Vec<Rgb>>)>,
         previous: Option<&FarField>,
     ) -> FarField {
-        if self.links.is_empty() {
-            return FarField::default();
-        }
-        let sums = self.pull(radiance);
+        let sums = match self.links.is_empty() {
+            true => Vec::new(),
+            false => self.pull(radiance),
+        };
         let mut sent: Vec<[Sent; 2]> = self
             .links
             .par_iter()
@@ -619,14 +644,22 @@ impl ClusterTransfers {
             })
             .collect();
         let mut exitant = Vec::new();
-        if let Some((reflectors, near)) = glossy {
+        let reflectors = glossy.map(|(reflectors, near)| {
             // Glossy light from one glossy member to another, a sweep late.
             let before = previous.map(|f| &f.exitant[..]);
             if let Some(before) = before.filter(|e| e.len() == reflectors.surfaces().len()) {
-                self.send_glossy(reflectors, before, &mut sent);
+                self.send_glossy(&reflectors, before, &mut sent);
             }
-            exitant = self.glossy_exitant(reflectors, near, &sent);
-            self.send_glossy(reflectors, &exitant, &mut sent);
+            exitant = self.glossy_exitant(&reflectors, near, &sent);
+            self.send_glossy(&reflectors, &exitant, &mut sent);
+            reflectors
+        });
+        if self.links.is_empty() {
+            return FarField {
+                reflectors,
+                exitant,
+                ..FarField::default()
+            };
         }
         let mut in_leaf_order = vec![Rgb::ZERO; self.clusters.members.len()];
         self.push_down(0, (None, &[]), &sent, &mut in_leaf_order);
@@ -636,19 +669,10 @@ impl ClusterTransfers {
         }
         FarField {
             sent,
+            reflectors,
             exitant,
             at_roots,
         }
-    }
-
-    /// Whether any cluster link reaches surface `s`: one of its elements
-    /// is an end, or a cluster above it is.
-    pub fn reaches(&self, s: u32) -> bool {
-        let leaf = self.clusters.leaf_of[s as usize];
-        !self.at_surface.of(s).is_empty()
-            || std::iter::once(leaf)
-                .chain(self.clusters.ancestors(s))
-                .any(|c| !self.at_cluster.of(c).is_empty())
     }
 
     /// Every reflector's radiance per bin: its lobes' reflection of the
@@ -666,6 +690,9 @@ impl ClusterTransfers {
         };
         (near.par_iter_mut().zip(reflectors.surfaces()).enumerate())
             .map(|(k, (bins, &s))| {
+                if self.links.is_empty() {
+                    return reflectors.reflect(k, bins);
+                }
                 let root = &self.roots[s as usize];
                 let leaf = self.clusters.leaf_of[s as usize];
                 let above = std::iter::once(leaf).chain(self.clusters.ancestors(s));

@@ -21,7 +21,7 @@
 //! its specular lobe off, the same surface as a diffuse one) left the small
 //! box's sides next to it 11–45 % off their diffuse-floor values.
 
-use crate::geometry::hierarchy::{ElementRef, ElementTree, Hierarchy};
+use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree, Hierarchy};
 use crate::geometry::pair_tree::PairTree;
 use crate::geometry::texture::texture_scales;
 use crate::kernel::exposure::PairExposure;
@@ -34,7 +34,7 @@ use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::cluster_gather::{ClusterTransfers, FarField};
-use crate::solve::glossy_clusters::{GlossyReflectors, BINS};
+use crate::solve::glossy_clusters::{bin_of, GlossyReflectors, BINS, NO_BIN};
 use crate::solve::push_pull::{reflection_limits, Gathered};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -56,8 +56,10 @@ pub struct Directional {
 /// Where a transfer reads the radiance L_{c→a} it carries.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Source {
-    /// A diffuse source element: `radiance[surface][node]`, or its
-    /// children's by their `shares`.
+    /// A source element without a directional structure towards the
+    /// receiver: `radiance[surface][node]`, or its children's by their
+    /// `shares`; a glossy one's lobes add their light per bin towards the
+    /// receiver ([`FarField::glossy`]).
     Element {
         /// Source surface.
         surface: u32,
@@ -65,6 +67,11 @@ pub enum Source {
         node: u32,
         /// How its children share the link ([`Shares`]).
         shares: Shares,
+        /// On a glossy source, the bin of the direction from the source
+        /// element's centroid to the receiver's in its frame
+        /// ([`crate::solve::glossy_clusters::bin_of`]); [`NO_BIN`] on a
+        /// diffuse one.
+        towards: u8,
     },
     /// A glossy source: its element's own radiance,
     /// `radiance[surface][node]` (emission and Lambertian reflection; or
@@ -640,13 +647,10 @@ impl Interactions {
             .index_of(c)
             .expect("source element is in its tree");
         let structure = self.structure_of.get(&(r, p)).copied();
+        let glossy =
+            (scene.surfaces[r as usize].brdf.flags()).contains(BrdfFlags::GLOSSY_REFLECTION);
         match structure {
-            Some(structure)
-                if scene.surfaces[r as usize]
-                    .brdf
-                    .flags()
-                    .contains(BrdfFlags::GLOSSY_REFLECTION) =>
-            {
+            Some(structure) if glossy => {
                 let cover = self.directional[structure as usize].tree.overlaps(c, a);
                 Source::Glossy {
                     surface: r,
@@ -660,6 +664,17 @@ impl Interactions {
                 surface: r,
                 node,
                 shares: Shares::NONE,
+                towards: match glossy {
+                    true => {
+                        let centroid = |s: u32, id: ElementId| {
+                            id.patch(&trees[s as usize].nodes[0].patch).centroid()
+                        };
+                        let (from, to) = (centroid(r, c), centroid(p, a));
+                        let frame = scene.surfaces[r as usize].frame();
+                        bin_of(frame.to_local(to - from)).map_or(NO_BIN, |b| b as u8)
+                    }
+                    false => NO_BIN,
+                },
             },
         }
     }
@@ -683,6 +698,7 @@ impl Interactions {
                 surface,
                 node,
                 shares,
+                ..
             } => own(surface, node, shares),
             Source::Glossy {
                 surface,
@@ -701,31 +717,48 @@ impl Interactions {
         }
     }
 
+    /// [`Interactions::read`], plus on a glossy source without a
+    /// directional structure towards the receiver the light its lobes send
+    /// that way in `far` ([`FarField::glossy`]).
+    pub fn read_with_lobes(
+        &self,
+        source: &Source,
+        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        far: Option<&FarField>,
+    ) -> Rgb {
+        let l = self.read(source, radiance, directional);
+        match (source, far) {
+            (
+                &Source::Element {
+                    surface, towards, ..
+                },
+                Some(far),
+            ) => l + far.glossy(surface, towards),
+            _ => l,
+        }
+    }
+
     /// The far field of cluster links ([`ClusterTransfers::far_field`]) of
     /// the elements' `radiance` and the directional structures'
-    /// `directional`, its glossy members reflecting, through their lobes,
-    /// the light their two-point transfers bring (each from its source
-    /// element's direction) and their cluster links', these with the
-    /// glossy members' light of `previous` (the sweep before's far field,
-    /// if any).
+    /// `directional`, with the scene's glossy surfaces' light per bin: their
+    /// lobes reflect the light their two-point transfers bring (each from
+    /// its source element's direction) and their cluster links', these
+    /// with the glossy surfaces' light per bin of `previous` (the sweep
+    /// before's far field, if any).
     pub fn far_field(
         &self,
         scene: &Scene,
         trees: &[ElementTree],
-        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        state: (&[Vec<Rgb>], &[Vec<Rgb>]),
         previous: Option<&FarField>,
     ) -> FarField {
-        if self.clusters.is_empty() {
-            return FarField::default();
-        }
-        let glossy = GlossyReflectors::of(scene, |s| self.clusters.reaches(s));
-        let near = glossy.as_ref().map(|g| {
-            (g.surfaces().par_iter().enumerate())
-                .map(|(k, &p)| self.near_incident(g, k, trees, p, (radiance, directional)))
-                .collect()
+        let glossy = GlossyReflectors::of(scene).map(|g| {
+            let near = (g.surfaces().par_iter().enumerate())
+                .map(|(k, &p)| self.near_incident(&g, k, trees, p, state, previous))
+                .collect();
+            (g, near)
         });
-        self.clusters
-            .far_field(radiance, glossy.as_ref().zip(near), previous)
+        self.clusters.far_field(state.0, glossy, previous)
     }
 
     /// The irradiance surface `p` (reflector `k` of `reflectors`), whose
@@ -738,7 +771,8 @@ impl Interactions {
         k: usize,
         trees: &[ElementTree],
         p: u32,
-        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        state: (&[Vec<Rgb>], &[Vec<Rgb>]),
+        previous: Option<&FarField>,
     ) -> Vec<Rgb> {
         let (tree, exposure) = (&trees[p as usize], &self.exposure[p as usize]);
         let exposed_area = |node: usize| {
@@ -753,7 +787,7 @@ impl Interactions {
             let from = trees[r as usize].nodes[c as usize].patch.centroid();
             let towards = from - tree.nodes[receiver].patch.centroid();
             let throughput = t.form_factor * exposed_area(receiver);
-            let l = self.read(&t.source, radiance, directional);
+            let l = self.read_with_lobes(&t.source, state, previous);
             reflectors.receive(k, &mut bins, towards, l * (PI * throughput / whole));
         }
         bins
@@ -769,12 +803,12 @@ impl Interactions {
         p: usize,
         reflectance: Rgb,
         tree: &ElementTree,
-        (radiance, directional): (&[Vec<Rgb>], &[Vec<Rgb>]),
+        state: (&[Vec<Rgb>], &[Vec<Rgb>]),
         far: &FarField,
     ) -> Vec<Rgb> {
         let mut gathered = Gathered::new(tree.nodes.len());
         for t in &self.incoming[p] {
-            let l = self.read(&t.source, radiance, directional);
+            let l = self.read_with_lobes(&t.source, state, Some(far));
             let value = reflected(reflectance, t.form_factor, l);
             gathered.add(t.receiver as usize, value, t.gradient.as_dvec3());
         }
@@ -785,19 +819,21 @@ impl Interactions {
 
     /// Radiance reflected at each node of directional structure `s`:
     /// `Σ R · L_{c→a}` (eq. 13, before push–pull), and the light of the
-    /// scene's lights ([`Interactions::light_pairs`]).
+    /// scene's lights ([`Interactions::light_pairs`]); glossy sources
+    /// without a structure towards the pair's glossy surface read their
+    /// lobes' light in `far`.
     pub fn gather_three_point(
         &self,
         s: usize,
-        radiance: &[Vec<Rgb>],
-        directional: &[Vec<Rgb>],
+        state: (&[Vec<Rgb>], &[Vec<Rgb>]),
+        far: &FarField,
     ) -> Vec<Rgb> {
         let mut gathered = vec![Rgb::ZERO; self.directional[s].tree.nodes.len()];
         for &(node, l) in self.light_pairs.get(s).map_or(&[][..], |l| &l[..]) {
             gathered[node as usize] += l;
         }
         for t in &self.incoming_three_point[s] {
-            let l = self.read(&t.source, radiance, directional);
+            let l = self.read_with_lobes(&t.source, state, Some(far));
             let add = t.coefficient * l;
             for &(n, _) in &self.covers[t.receivers.start as usize..t.receivers.end as usize] {
                 gathered[n as usize] += add;

@@ -1,25 +1,31 @@
-//! Glossy members of cluster links ([`crate::solve::cluster_gather`]):
-//! the light a glossy surface's non-Lambertian lobes reflect towards the
-//! ends of its cluster links, and the light those links bring it.
+//! A glossy surface's light as distributions over bins of its hemisphere:
+//! what its lobes reflect towards the receivers no three-point link serves
+//! (the ends of its cluster links, [`crate::solve::cluster_gather`]; the
+//! receivers of its two-point transfers when it has no directional
+//! structure for them), and the light its links bring it.
 //!
 //! Three-point links (eq. 13) carry a glossy surface p's reflection only
-//! between the surfaces element-paired with it; a cluster link reads its
-//! members' radiance, which for a glossy member is its Lambertian part.
-//! Without more, the light a finely tessellated glossy object (each
-//! triangle a surface, linked to the room through clusters) reflects was
-//! lost: a rough aluminium sphere of 966 triangles in the Cornell box left
-//! the walls 5–13 % darker than with every pair linked element to element.
+//! between the surfaces element-paired with it, and only while the plan's
+//! surface triples fit ([`crate::refine::three_point_projection::MAX_TRIPLES`]);
+//! a cluster link reads its members' radiance, which for a glossy member is
+//! its Lambertian part. Without more, the light a finely tessellated glossy
+//! object (each triangle a surface, linked to the room through clusters)
+//! reflects was lost: a rough aluminium sphere of 966 triangles in the
+//! Cornell box left the walls 5–13 % darker than with every pair linked
+//! element to element; and a concave one, whose triangles each make tens of
+//! triples of hundreds of links, did not fit in memory.
 //!
 //! As Christensen, Lischinski, Stollnitz & Salesin (1997) do for glossy
-//! clusters, each glossy member keeps its light as directional
+//! clusters, each glossy surface keeps its light as directional
 //! distributions over a fixed partition of its hemisphere ([`BINS`] bins
-//! of equal projected solid angle, in the member's shading frame): the
-//! irradiance arriving from each bin (from its element links and its
-//! cluster links), and the radiance its lobes reflect into each,
+//! of equal projected solid angle, in its shading frame): the irradiance
+//! arriving from each bin (from its two-point transfers and its cluster
+//! links), and the radiance its lobes reflect into each,
 //! L_o(o) = Σ_i f̄(o, i)·E_i with f̄ the BRDF (less its Lambertian lobe)
 //! averaged over the pair of bins ([`BinMatrix`]). A cluster link's end
 //! then sends, on top of its members' Lambertian intensity, each glossy
-//! member's A·cosθ·L_o towards the other end.
+//! member's A·cosθ·L_o towards the other end, and a transfer from a glossy
+//! element reads L_o in the bin towards its receiver.
 
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Rgb, Scene};
@@ -32,6 +38,10 @@ const RINGS: usize = 8;
 const SECTORS: usize = 16;
 /// Bins of a hemisphere: each covers π/`BINS` of projected solid angle.
 pub const BINS: usize = RINGS * SECTORS;
+/// No bin: a direction that is not a glossy surface's, in a `u8`.
+pub const NO_BIN: u8 = u8::MAX;
+const _: () = assert!(BINS < NO_BIN as usize);
+
 /// Samples per bin along each of its two coordinates when a BRDF is
 /// averaged over a pair of bins.
 const SUBSAMPLES: usize = 2;
@@ -143,13 +153,12 @@ pub struct GlossyReflectors {
 }
 
 impl GlossyReflectors {
-    /// The glossy surfaces of `scene` for which `wanted` holds; `None` when
-    /// there are none.
-    pub fn of(scene: &Scene, wanted: impl Fn(u32) -> bool) -> Option<GlossyReflectors> {
+    /// The glossy surfaces of `scene`; `None` when there are none.
+    pub fn of(scene: &Scene) -> Option<GlossyReflectors> {
         let surfaces: Vec<u32> = (0..scene.surfaces.len() as u32)
             .filter(|&s| {
                 let brdf = &scene.surfaces[s as usize].brdf;
-                brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) && wanted(s)
+                brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
             })
             .collect();
         if surfaces.is_empty() {

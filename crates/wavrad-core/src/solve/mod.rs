@@ -231,6 +231,8 @@ pub struct Plan {
     /// The scene's triples past [`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES),
     /// left out of `triples`.
     unplanned_triples: u64,
+    /// The glossy surfaces whose triples those are.
+    binned: u64,
     times: PhaseTimes,
 }
 
@@ -310,10 +312,10 @@ pub fn plan(scene: &Scene, settings: &SolveSettings, progress: &dyn Progress) ->
     if plan.unplanned_triples > 0 {
         progress.warn(&format!(
             "the scene has {} surface triples (r, p, q) of glossy surfaces p, more than a plan \
-             holds: {} are left out, with no three-point links, so the light glossy surfaces \
-             reflect between those surfaces (beyond their Lambertian lobe) is missing from the \
-             solution",
+             holds: {} smaller glossy surfaces, with {} of them, get no three-point links; their \
+             lobes' light is carried, less sharply, as each surface's average over 128 directions",
             plan.triples.len() as u64 + plan.unplanned_triples,
+            plan.binned,
             plan.unplanned_triples
         ));
     }
@@ -456,6 +458,7 @@ impl Plan {
         let SurfaceTriples {
             planned: triples,
             left_out: unplanned_triples,
+            binned,
         } = surface_triples(&projector.scene, &pairs);
         Plan {
             projector,
@@ -464,6 +467,7 @@ impl Plan {
             pairs,
             triples,
             unplanned_triples,
+            binned,
             times,
         }
     }
@@ -1073,8 +1077,8 @@ impl System {
                 }
                 for &s in &structures_of[p] {
                     let gathered = match &before {
-                        Some((r, d)) => interactions.gather_three_point(s, r, d),
-                        None => interactions.gather_three_point(s, radiance, directional),
+                        Some((r, d)) => interactions.gather_three_point(s, (r, d), &far),
+                        None => interactions.gather_three_point(s, (radiance, directional), &far),
                     };
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);

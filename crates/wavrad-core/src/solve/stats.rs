@@ -126,9 +126,9 @@ pub struct Stats {
     pub three_point_items: usize,
     /// Surface triples of the scene past the plan's
     /// [`MAX_TRIPLES`](crate::refine::three_point_projection::MAX_TRIPLES),
-    /// left out of it: with no three-point links, the glossy surface does
-    /// not reflect light from r to q in the solution (its Lambertian lobe
-    /// still does).
+    /// left out of it: with no three-point links, their glossy surfaces
+    /// reflect through their distributions per bin
+    /// ([`crate::solve::glossy_clusters`]).
     pub unplanned_triples: u64,
     /// Surface triples of the plan left out, with no three-point links,
     /// because the solve was cut short before they started (linking them

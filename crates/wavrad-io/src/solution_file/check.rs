@@ -18,6 +18,7 @@ use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::{Camera, Projection, Rgb};
 use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::{Interactions, Shares, Source};
+use wavrad_core::solve::glossy_clusters::{BINS, NO_BIN};
 use wavrad_core::solve::{Solution, SolveSettings};
 
 use super::SolutionProblem;
@@ -274,6 +275,11 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
         let d = (interactions.directional.get(*structure as usize))
             .ok_or_else(|| format!("source structure {structure} out of range"))?;
         check_covers(interactions, nodes, d.tree.nodes.len()).map_err(|e| format!("source {e}"))?;
+    }
+    if let Source::Element { towards, .. } = *source {
+        if usize::from(towards) >= BINS && towards != NO_BIN {
+            return Err(format!("source bin {towards} out of range"));
+        }
     }
     let (Source::Element { shares, .. } | Source::Glossy { shares, .. }) = source;
     if *shares != Shares::NONE && tree.nodes[node as usize].first_child.is_none() {
