@@ -164,7 +164,9 @@ impl SolutionReader {
         // arrives a far field late).
         let state = (&solution.radiance[..], &solution.directional[..]);
         let (interactions, trees) = (&solution.interactions, &solution.trees);
-        let once = interactions.far_field(&solution.scene, trees, state, None);
+        let once = interactions
+            .far_field(&solution.scene, trees, state, None)
+            .lobes();
         let lobes = (interactions.far_field(&solution.scene, trees, state, Some(&once))).lobes();
         let first = solution.first_bounce();
         let non_lambertian = surfaces

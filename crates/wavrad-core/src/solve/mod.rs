@@ -1050,7 +1050,9 @@ impl System {
             && residual > settings.tolerance
             && !(iterations >= MIN_SWEEPS && progress.interrupted())
         {
-            far = interactions.far_field(scene, trees, (radiance, directional), Some(&far));
+            // The sweep before's glossy light alone, not its links' sends.
+            let lobes = std::mem::take(&mut far).lobes();
+            far = interactions.far_field(scene, trees, (radiance, directional), Some(&lobes));
             // With a bounce limit, the radiance before this sweep.
             let before = bounces.map(|_| (radiance.clone(), directional.clone()));
             for (p, surface) in scene.surfaces.iter().enumerate() {
