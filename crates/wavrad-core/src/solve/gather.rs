@@ -123,9 +123,14 @@ impl Shares {
 /// T / (|a| · exposed), the average over the exposed part (the whole
 /// element when none is).
 pub fn form_factor(tree: &ElementTree, exposure: &[f64], node: usize, throughput: f64) -> f64 {
+    throughput / exposed_area(tree, exposure, node)
+}
+
+/// The exposed area of element `node` of `tree`, whose nodes have the
+/// exposed fractions `exposure` (the whole element when none is exposed).
+fn exposed_area(tree: &ElementTree, exposure: &[f64], node: usize) -> f64 {
     let (area, exposed) = (tree.nodes[node].patch.area(), exposure[node]);
-    let exposed = if exposed > 0.0 { exposed } else { 1.0 };
-    throughput / (area * exposed)
+    area * if exposed > 0.0 { exposed } else { 1.0 }
 }
 
 /// The radiance a diffuse element of `reflectance` reflects from a
@@ -775,18 +780,14 @@ impl Interactions {
         previous: Option<&FarField>,
     ) -> Vec<Rgb> {
         let (tree, exposure) = (&trees[p as usize], &self.exposure[p as usize]);
-        let exposed_area = |node: usize| {
-            let e = exposure[node];
-            tree.nodes[node].patch.area() * if e > 0.0 { e } else { 1.0 }
-        };
-        let whole = exposed_area(0);
+        let whole = exposed_area(tree, exposure, 0);
         let mut bins = vec![Rgb::ZERO; BINS];
         for t in &self.incoming[p as usize] {
             let (r, c) = t.source.element();
             let receiver = t.receiver as usize;
             let from = trees[r as usize].nodes[c as usize].patch.centroid();
             let towards = from - tree.nodes[receiver].patch.centroid();
-            let throughput = t.form_factor * exposed_area(receiver);
+            let throughput = t.form_factor * exposed_area(tree, exposure, receiver);
             let l = self.read_with_lobes(&t.source, state, previous);
             reflectors.receive(k, &mut bins, towards, l * (PI * throughput / whole));
         }
