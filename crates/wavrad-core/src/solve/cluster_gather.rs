@@ -45,7 +45,8 @@ use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::refine::cluster_links::{ClusterLink, End};
 use crate::scene::{Rgb, Scene};
-use crate::solve::glossy_clusters::{GlossyReflectors, NO_BIN};
+use crate::solve::direction_cells::{self, CELLS};
+use crate::solve::glossy_clusters::{GlossyReflectors, BINS, NO_BIN};
 use crate::solve::push_pull::Gathered;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -56,6 +57,14 @@ use std::ops::AddAssign;
 /// A subtree with more members than this pushes its halves down in
 /// parallel.
 const PARALLEL_MEMBERS: usize = 2048;
+/// A subtree with more glossy members than this hands their light down
+/// its halves in parallel.
+const PARALLEL_REFLECTORS: usize = 256;
+/// A cluster of at least this many glossy members sums the fields of its
+/// links, and those from above, per direction cell before handing them
+/// down ([`ClusterTransfers::push_down_glossy`]); smaller ones hand their
+/// links down one by one.
+const MERGED_REFLECTORS: usize = 4;
 
 /// A member of a cluster link's end: where it is, which way it faces, how
 /// large it is.
@@ -235,6 +244,96 @@ impl Sent {
         lambertian: [DVec3::ZERO; 3],
         glossy: Rgb::ZERO,
     };
+}
+
+/// The glossy members of a cluster tree: (surface, reflector index) in
+/// leaf order, so that a node's are one run.
+struct GlossyMembers {
+    members: Vec<(u32, usize)>,
+    /// How many precede each position of the leaf order.
+    before: Vec<u32>,
+}
+
+impl GlossyMembers {
+    /// `reflectors` among the members of `clusters`.
+    fn of(clusters: &ClusterTree, reflectors: &GlossyReflectors) -> GlossyMembers {
+        let (mut members, mut before) = (Vec::new(), vec![0u32]);
+        for &s in &clusters.members {
+            if let Some(k) = reflectors.index(s) {
+                members.push((s, k));
+            }
+            before.push(members.len() as u32);
+        }
+        GlossyMembers { members, before }
+    }
+
+    /// Those under node `c` of `clusters`.
+    fn under(&self, clusters: &ClusterTree, c: u32) -> &[(u32, usize)] {
+        let r = &clusters.nodes[c as usize].members;
+        &self.members[self.before[r.start as usize] as usize..self.before[r.end as usize] as usize]
+    }
+}
+
+/// What the glossy members of some clusters send per direction cell
+/// ([`direction_cells`]): Σ A·cosθ·L_o(ω) over each one's members, ω the
+/// cell's centre (Christensen et al. 1997's directional distribution of a
+/// cluster's radiance), read by its link ends in one look-up.
+struct GlossyIntensities {
+    /// Each node's table in `tables`, `u32::MAX` if it has none.
+    slot: Vec<u32>,
+    tables: Vec<Vec<Rgb>>,
+}
+
+impl GlossyIntensities {
+    /// Node `c`'s table, if it has one.
+    fn of(&self, c: u32) -> Option<&[Rgb]> {
+        let j = self.slot[c as usize];
+        (j != u32::MAX).then(|| &self.tables[j as usize][..])
+    }
+}
+
+/// The fields of cluster links arriving at a cluster, summed per
+/// direction cell of their sources ([`direction_cells`]) and anchored at
+/// one point: the directional distribution of incident light that
+/// Christensen et al. (1997) push down to a glossy cluster's members.
+struct Arriving {
+    origin: DVec3,
+    /// (cell, field), in order of cell, each cell once.
+    cells: Vec<(usize, Field)>,
+}
+
+impl Arriving {
+    /// The same fields anchored at `x`, to first order.
+    fn moved_to(&self, x: DVec3) -> Arriving {
+        let cells = (self.cells.iter())
+            .map(|&(cell, field)| {
+                let f = Anchored {
+                    origin: self.origin,
+                    field,
+                };
+                (cell, f.at(x))
+            })
+            .collect();
+        Arriving { origin: x, cells }
+    }
+
+    /// These and `more` (anchored at the same point), each cell once.
+    fn merged(self, more: Vec<(usize, Field)>) -> Arriving {
+        let mut all = self.cells;
+        all.extend(more);
+        all.sort_by_key(|&(cell, _)| cell);
+        let mut cells: Vec<(usize, Field)> = Vec::with_capacity(all.len());
+        for (cell, field) in all {
+            match cells.last_mut() {
+                Some((last, sum)) if *last == cell => *sum += field,
+                _ => cells.push((cell, field)),
+            }
+        }
+        Arriving {
+            origin: self.origin,
+            cells,
+        }
+    }
 }
 
 /// One radiance state's far field: what every link's ends send, and what
@@ -511,7 +610,24 @@ impl ClusterTransfers {
     /// towards the other side's centre y, with its Jacobian in x (the
     /// glossy members' intensity taken as constant over the directions
     /// the receiver spans).
-    fn incoming(&self, (link, side): (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
+    fn incoming(&self, at: (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
+        self.link_field::<true>(at, x, sent)
+    }
+
+    /// [`ClusterTransfers::incoming`]'s value alone (a zero Jacobian): for
+    /// a receiver that reads it at `x` and no nearer.
+    fn incoming_value(&self, at: (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
+        self.link_field::<false>(at, x, sent)
+    }
+
+    /// The field of [`ClusterTransfers::incoming`], with its Jacobian if
+    /// `JACOBIAN`.
+    fn link_field<const JACOBIAN: bool>(
+        &self,
+        (link, side): (u32, u8),
+        x: DVec3,
+        sent: &[[Sent; 2]],
+    ) -> Field {
         let t = &self.links[link as usize];
         let u = self.center(t.sides[1 - side as usize]) - x;
         let d2 = u.length_squared();
@@ -528,6 +644,9 @@ impl ClusterTransfers {
             let s = -n.dot(u) + glossy * d;
             if s > 0.0 {
                 field.value[k] = u * (s * scale);
+                if !JACOBIAN {
+                    continue;
+                }
                 // ∂F/∂x = −∂F/∂u, with ∂s/∂u = −N + I_g·u/|u| and
                 // ∂d⁻⁴/∂u = −4u/d⁶.
                 let g = *n - u * (glossy / d) + u * (4.0 * s / d2);
@@ -558,7 +677,7 @@ impl ClusterTransfers {
             let exact = pending.iter().chain(links);
             out[0] = exact.fold(
                 folded.map_or(Rgb::ZERO, |f| f.at(m.point).received(m.normal)),
-                |sum, &at| sum + self.incoming(at, m.point, sent).received(m.normal),
+                |sum, &at| sum + self.incoming_value(at, m.point, sent).received(m.normal),
             );
             return;
         };
@@ -646,12 +765,14 @@ impl ClusterTransfers {
         let mut exitant = Vec::new();
         let reflectors = glossy.map(|(reflectors, near)| {
             // Glossy light from one glossy member to another, a sweep late.
+            let members = GlossyMembers::of(&self.clusters, &reflectors);
+            let glossy = (&reflectors, &members);
             let before = previous.map(|f| &f.exitant[..]);
             if let Some(before) = before.filter(|e| e.len() == reflectors.surfaces().len()) {
-                self.send_glossy(&reflectors, before, &mut sent);
+                self.send_glossy(glossy, before, &mut sent);
             }
-            exitant = self.glossy_exitant(&reflectors, near, &sent);
-            self.send_glossy(&reflectors, &exitant, &mut sent);
+            exitant = self.glossy_exitant(glossy, near, &sent);
+            self.send_glossy(glossy, &exitant, &mut sent);
             reflectors
         });
         if self.links.is_empty() {
@@ -678,32 +799,37 @@ impl ClusterTransfers {
     /// Every reflector's radiance per bin: its lobes' reflection of the
     /// irradiance `near` (per reflector, per bin) and of what its cluster
     /// links bring it from `sent`, each link's from the direction of the
-    /// other end's centre.
+    /// other end's centre: exactly for the links at its elements, through
+    /// [`ClusterTransfers::push_down_glossy`] for those at its clusters.
     fn glossy_exitant(
         &self,
-        reflectors: &GlossyReflectors,
+        (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
         mut near: Vec<Vec<Rgb>>,
         sent: &[[Sent; 2]],
     ) -> Vec<Vec<Rgb>> {
+        if !self.links.is_empty() {
+            let mut above = vec![Vec::new(); glossy.members.len()];
+            let none = Arriving {
+                origin: DVec3::ZERO,
+                cells: Vec::new(),
+            };
+            self.push_down_glossy(0, (&none, &[]), (reflectors, glossy), sent, &mut above);
+            for (&(_, k), bins) in glossy.members.iter().zip(above) {
+                for (n, b) in near[k].iter_mut().zip(bins) {
+                    *n += b;
+                }
+            }
+        }
         let other = |(link, side): (u32, u8)| {
             self.center(self.links[link as usize].sides[1 - side as usize])
         };
         (near.par_iter_mut().zip(reflectors.surfaces()).enumerate())
             .map(|(k, (bins, &s))| {
-                if self.links.is_empty() {
-                    return reflectors.reflect(k, bins);
-                }
                 let root = &self.roots[s as usize];
-                let leaf = self.clusters.leaf_of[s as usize];
-                let above = std::iter::once(leaf).chain(self.clusters.ancestors(s));
-                for &at in above.flat_map(|c| self.at_cluster.of(c)) {
-                    let e = self.incoming(at, root.point, sent).received(root.normal) * PI;
-                    reflectors.receive(k, bins, other(at) - root.point, e);
-                }
                 for &at in self.at_surface.of(s) {
                     if let Side::Element(e) = self.links[at.0 as usize].sides[at.1 as usize] {
                         let m = &self.elements[e as usize];
-                        let e = self.incoming(at, m.point, sent).received(m.normal);
+                        let e = self.incoming_value(at, m.point, sent).received(m.normal);
                         let share = PI * m.area / root.area;
                         reflectors.receive(k, bins, other(at) - m.point, e * share);
                     }
@@ -713,25 +839,95 @@ impl ClusterTransfers {
             .collect()
     }
 
-    /// Add to every side of `sent` the intensity its glossy members send
-    /// towards the other side's centre, A·cosθ·L_o from each member's
-    /// radiance per bin `exitant`.
+    /// Hand down, through cluster `c`, the light its glossy members
+    /// receive through the cluster links above it, writing each member's
+    /// irradiance per bin to `out` (its glossy members, in leaf order):
+    /// `above`, the fields of the links at clusters of at least
+    /// [`MERGED_REFLECTORS`] glossy members, summed per direction cell of
+    /// their sources and carried to first order in the position (as
+    /// [`ClusterTransfers::push_down`] carries the fields all members
+    /// face); `pending`, the (link, side) of those at smaller clusters,
+    /// each evaluated at each member. Each reaches a member's bin from the
+    /// direction of its field there.
+    fn push_down_glossy(
+        &self,
+        c: u32,
+        (above, pending): (&Arriving, &[(u32, u8)]),
+        (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
+        sent: &[[Sent; 2]],
+        out: &mut [Vec<Rgb>],
+    ) {
+        if out.is_empty() {
+            return;
+        }
+        let node = &self.clusters.nodes[c as usize];
+        let links = self.at_cluster.of(c);
+        let Some([a, b]) = node.children else {
+            let (s, k) = glossy.under(&self.clusters, c)[0];
+            let m = &self.roots[s as usize];
+            let mut bins = vec![Rgb::ZERO; BINS];
+            let cells = (above.cells.iter()).map(|&(_, field)| {
+                Anchored {
+                    origin: above.origin,
+                    field,
+                }
+                .at(m.point)
+            });
+            let exact =
+                (pending.iter().chain(links)).map(|&at| self.incoming_value(at, m.point, sent));
+            for f in cells.chain(exact) {
+                let e = f.received(m.normal) * PI;
+                if e != Rgb::ZERO {
+                    let towards = f.value[0] + f.value[1] + f.value[2];
+                    reflectors.receive(k, &mut bins, towards, e);
+                }
+            }
+            out[0] = bins;
+            return;
+        };
+        let (merged, listed);
+        let handed = if out.len() >= MERGED_REFLECTORS {
+            let x = node.centroid;
+            let own = (links.iter())
+                .map(|&at| {
+                    let source = self.links[at.0 as usize].sides[1 - at.1 as usize];
+                    let cell = direction_cells::cell_of(self.center(source) - x);
+                    (cell, self.incoming(at, x, sent))
+                })
+                .collect();
+            merged = above.moved_to(x).merged(own);
+            (&merged, pending)
+        } else if links.is_empty() {
+            (above, pending)
+        } else {
+            listed = [pending, links].concat();
+            (above, &listed[..])
+        };
+        let (left, right) = out.split_at_mut(glossy.under(&self.clusters, a).len());
+        let reflecting = (reflectors, glossy);
+        if left.len() + right.len() > PARALLEL_REFLECTORS {
+            rayon::join(
+                || self.push_down_glossy(a, handed, reflecting, sent, left),
+                || self.push_down_glossy(b, handed, reflecting, sent, right),
+            );
+        } else {
+            self.push_down_glossy(a, handed, reflecting, sent, left);
+            self.push_down_glossy(b, handed, reflecting, sent, right);
+        }
+    }
+
+    /// Add to every side of `sent` the intensity its glossy members
+    /// `glossy` send towards the other side's centre, A·cosθ·L_o from each
+    /// member's radiance per bin `exitant`: read from the cluster's
+    /// [`GlossyIntensities`] where it has them, summed over its members
+    /// otherwise.
     fn send_glossy(
         &self,
-        reflectors: &GlossyReflectors,
+        (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
         exitant: &[Vec<Rgb>],
         sent: &mut [[Sent; 2]],
     ) {
-        // The reflectors in leaf order, and how many precede each position.
-        let (mut glossy, mut before) = (Vec::new(), vec![0u32]);
-        for &s in &self.clusters.members {
-            if let Some(k) = reflectors.index(s) {
-                glossy.push((s, k));
-            }
-            before.push(glossy.len() as u32);
-        }
-        let towards = |k: usize, m: &Member, target: DVec3| {
-            let w = (target - m.point).normalize_or_zero();
+        let towards = |k: usize, m: &Member, w: DVec3| {
             let cos = m.normal.dot(w);
             if cos > 0.0 {
                 reflectors.towards(k, &exitant[k], w) * (m.area * cos)
@@ -739,28 +935,114 @@ impl ClusterTransfers {
                 Rgb::ZERO
             }
         };
+        let tables = self.glossy_intensities(glossy, &self.worth_tabling(glossy), &|s, k, w| {
+            towards(k, &self.roots[s as usize], w)
+        });
         (sent.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {
             let centers = t.sides.map(|s| self.center(s));
             for (k, side) in sides.iter_mut().enumerate() {
                 let target = centers[1 - k];
                 side.glossy = match t.sides[k] {
-                    Side::Cluster(c) => {
-                        let r = &self.clusters.nodes[c as usize].members;
-                        let under =
-                            before[r.start as usize] as usize..before[r.end as usize] as usize;
-                        (glossy[under].iter())
-                            .map(|&(s, g)| towards(g, &self.roots[s as usize], target))
-                            .sum()
-                    }
+                    Side::Cluster(c) => match tables.of(c) {
+                        Some(table) => {
+                            let w = target - centers[k];
+                            (direction_cells::bilinear(w).iter())
+                                .map(|&(cell, weight)| table[cell] * weight)
+                                .sum()
+                        }
+                        None => (glossy.under(&self.clusters, c).iter())
+                            .map(|&(s, g)| {
+                                let m = &self.roots[s as usize];
+                                towards(g, m, (target - m.point).normalize_or_zero())
+                            })
+                            .sum(),
+                    },
                     Side::Element(e) => {
                         let m = &self.elements[e as usize];
-                        reflectors
-                            .index(m.surface)
-                            .map_or(Rgb::ZERO, |g| towards(g, m, target))
+                        reflectors.index(m.surface).map_or(Rgb::ZERO, |g| {
+                            towards(g, m, (target - m.point).normalize_or_zero())
+                        })
                     }
                 };
             }
         });
+    }
+
+    /// Which clusters keep [`GlossyIntensities`]: those where a table
+    /// costs less than summing their glossy members `glossy` for each of
+    /// their link ends. Decided children first: a table is made from its
+    /// children's tables where they have them, from the members under the
+    /// others.
+    fn worth_tabling(&self, glossy: &GlossyMembers) -> Vec<bool> {
+        let nodes = &self.clusters.nodes;
+        // Costs in member evaluations; a table's look-up and adding a
+        // child's table cost a fraction of one per cell.
+        const TABLE_OP: f64 = 0.1;
+        const READ: f64 = 4.0 * TABLE_OP;
+        let mut tabled = vec![false; nodes.len()];
+        for c in (0..nodes.len()).rev() {
+            let Some(children) = nodes[c].children else {
+                continue;
+            };
+            let members = glossy.under(&self.clusters, c as u32).len() as f64;
+            let ends = self.at_cluster.of(c as u32).len() as f64;
+            let build: f64 = (children.iter())
+                .map(|&a| match tabled[a as usize] {
+                    true => TABLE_OP,
+                    false => glossy.under(&self.clusters, a).len() as f64,
+                })
+                .sum::<f64>()
+                * CELLS as f64;
+            tabled[c] = members > 0.0 && build + ends * READ < ends * members;
+        }
+        tabled
+    }
+
+    /// The [`GlossyIntensities`] of the clusters `tabled`, from
+    /// `intensity(s, k, ω)`, what member `s` of `glossy` (reflector `k`)
+    /// sends towards unit direction ω. A table is made from its children's
+    /// tables where they have them, from the members under the others.
+    fn glossy_intensities(
+        &self,
+        glossy: &GlossyMembers,
+        tabled: &[bool],
+        intensity: &(dyn Fn(u32, usize, DVec3) -> Rgb + Sync),
+    ) -> GlossyIntensities {
+        let nodes = &self.clusters.nodes;
+        let order: Vec<u32> = (0..nodes.len() as u32)
+            .filter(|&c| tabled[c as usize])
+            .collect();
+        let mut slot = vec![u32::MAX; nodes.len()];
+        for (i, &c) in order.iter().enumerate() {
+            slot[c as usize] = i as u32;
+        }
+        let children = |c: u32| nodes[c as usize].children.into_iter().flatten();
+        let mut tables: Vec<Vec<Rgb>> = (order.par_iter())
+            .map(|&c| {
+                let mut table = vec![Rgb::ZERO; CELLS];
+                for a in children(c).filter(|&a| slot[a as usize] == u32::MAX) {
+                    for &(s, k) in glossy.under(&self.clusters, a) {
+                        for (cell, v) in table.iter_mut().enumerate() {
+                            *v += intensity(s, k, direction_cells::center(cell));
+                        }
+                    }
+                }
+                table
+            })
+            .collect();
+        // Children come after their parents.
+        for i in (0..order.len()).rev() {
+            for a in children(order[i]) {
+                let j = slot[a as usize];
+                if j != u32::MAX {
+                    let (parent, rest) = tables.split_at_mut(j as usize);
+                    for (p, v) in parent[i].iter_mut().zip(&rest[0]) {
+                        *p += *v;
+                    }
+                }
+            }
+        }
+        GlossyIntensities { slot, tables }
     }
 
     /// Add to `gathered` (surface `p`'s tree) the light of reflectance
@@ -776,7 +1058,9 @@ impl ClusterTransfers {
         for &at in self.at_surface.of(p) {
             if let Side::Element(e) = self.links[at.0 as usize].sides[at.1 as usize] {
                 let m = &self.elements[e as usize];
-                let value = self.incoming(at, m.point, &far.sent).received(m.normal);
+                let value = self
+                    .incoming_value(at, m.point, &far.sent)
+                    .received(m.normal);
                 gathered.add(m.node as usize, reflectance * value, DVec3::ZERO);
             }
         }
@@ -989,5 +1273,126 @@ mod tests {
             }
         }
         assert_eq!(seen, [true; 3]);
+    }
+
+    #[test]
+    fn glossy_light_through_direction_cells_matches_the_sum_over_members() {
+        use crate::progress::Silent;
+        use crate::scene::brdf::conductor::RoughConductor;
+        use crate::scene::brdf::microfacet::{Microfacet, MicrofacetType};
+        use crate::scene::brdf::Brdf;
+        use crate::solve::{solve, SolveSettings};
+        // A ball of 112 rough aluminium-like triangles in a lit box, solved
+        // with its cluster links; three-point links of level 1 at most, for
+        // time.
+        let brdf = Brdf::RoughConductor(RoughConductor {
+            distribution: Microfacet::isotropic(MicrofacetType::Ggx, 0.2),
+            ..RoughConductor::default()
+        });
+        let scene = crate::testing::ball_in_a_box(8, brdf);
+        let settings = SolveSettings {
+            three_point_max_level: 1,
+            three_point_receiver_levels: 0,
+            ..SolveSettings::default()
+        };
+        let solution = solve(&scene, &settings, &Silent).unwrap();
+        let transfers = &solution.interactions.clusters;
+        let reflectors = GlossyReflectors::of(&scene).unwrap();
+        let glossy = GlossyMembers::of(&transfers.clusters, &reflectors);
+        let sent = transfers.far_field(&solution.radiance, None, None).sent;
+        let other = |(link, side): (u32, u8)| {
+            transfers.center(transfers.links[link as usize].sides[1 - side as usize])
+        };
+
+        // What the links at its clusters bring each member, per bin:
+        // handed down per direction cell, and each link on its own.
+        let none = Arriving {
+            origin: DVec3::ZERO,
+            cells: Vec::new(),
+        };
+        let mut pushed = vec![Vec::new(); glossy.members.len()];
+        transfers.push_down_glossy(0, (&none, &[]), (&reflectors, &glossy), &sent, &mut pushed);
+        let (mut total, mut misplaced, mut lit) = (0.0, 0.0, 0);
+        for (&(s, k), got) in glossy.members.iter().zip(&pushed) {
+            let m = &transfers.roots[s as usize];
+            let leaf = transfers.clusters.leaf_of[s as usize];
+            let above = std::iter::once(leaf).chain(transfers.clusters.ancestors(s));
+            let mut exact = vec![Rgb::ZERO; BINS];
+            for &at in above.flat_map(|c| transfers.at_cluster.of(c)) {
+                let e = transfers
+                    .incoming_value(at, m.point, &sent)
+                    .received(m.normal)
+                    * PI;
+                reflectors.receive(k, &mut exact, other(at) - m.point, e);
+            }
+            let sum = |bins: &[Rgb]| bins.iter().map(|e| e[1]).sum::<f64>();
+            let (a, b) = (sum(got), sum(&exact));
+            // The fields to first order across the cluster: measured
+            // within 0.71 %.
+            assert!(
+                (a - b).abs() <= 0.015 * b + 1e-12,
+                "member {s}: {a} against {b}"
+            );
+            total += b;
+            misplaced += (got.iter().zip(&exact))
+                .map(|(x, y)| (x[1] - y[1]).abs())
+                .sum::<f64>();
+            lit += usize::from(b > 0.0);
+        }
+        assert!(lit > glossy.members.len() / 2, "{lit} lit");
+        // Light summed per cell reaches a bin from its cell's mean
+        // direction: little lands in a neighbouring bin (measured 0.96 %).
+        assert!(misplaced < 0.02 * total, "{misplaced} of {total} misplaced");
+
+        // What every cluster end's glossy members send towards the other
+        // end, lit from every bin as well: read from tables (every cluster
+        // of glossy members has one here) against each member's own.
+        let exitant = transfers.glossy_exitant(
+            (&reflectors, &glossy),
+            vec![vec![Rgb::splat(0.1); BINS]; reflectors.surfaces().len()],
+            &sent,
+        );
+        let towards = |k: usize, m: &Member, w: DVec3| {
+            let cos = m.normal.dot(w);
+            match cos > 0.0 {
+                true => reflectors.towards(k, &exitant[k], w) * (m.area * cos),
+                false => Rgb::ZERO,
+            }
+        };
+        let tabled: Vec<bool> = (0..transfers.clusters.nodes.len() as u32)
+            .map(|c| glossy.under(&transfers.clusters, c).len() > 1)
+            .collect();
+        let tables = transfers.glossy_intensities(&glossy, &tabled, &|s, k, w| {
+            towards(k, &transfers.roots[s as usize], w)
+        });
+        let (mut total, mut error, mut read) = (0.0, 0.0, 0);
+        for (i, t) in transfers.links.iter().enumerate() {
+            for k in 0..2 {
+                let Side::Cluster(c) = t.sides[k] else {
+                    continue;
+                };
+                let Some(table) = tables.of(c) else {
+                    continue;
+                };
+                let target = other((i as u32, k as u8));
+                let w = target - transfers.center(t.sides[k]);
+                let got: f64 = (direction_cells::bilinear(w).iter())
+                    .map(|&(cell, weight)| table[cell][1] * weight)
+                    .sum();
+                let exact: f64 = (glossy.under(&transfers.clusters, c).iter())
+                    .map(|&(s, g)| {
+                        let m = &transfers.roots[s as usize];
+                        towards(g, m, (target - m.point).normalize_or_zero())[1]
+                    })
+                    .sum();
+                total += exact;
+                error += (got - exact).abs();
+                read += 1;
+            }
+        }
+        assert!(read > 50 && total > 0.0, "{read} ends read, {total}");
+        // Measured 1.27 % (the table is read from the cluster's centre,
+        // at cells 6–7° apart).
+        assert!(error < 0.025 * total, "{error} of {total}");
     }
 }

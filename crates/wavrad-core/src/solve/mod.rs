@@ -6,6 +6,7 @@
 
 pub mod checkpoint;
 pub mod cluster_gather;
+pub mod direction_cells;
 pub mod gather;
 pub mod glossy_clusters;
 pub mod push_pull;
