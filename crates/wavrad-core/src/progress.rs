@@ -92,7 +92,8 @@ impl std::fmt::Display for Stop {
 /// checkpoint's), so that the memory limit is reached when the process's
 /// memory plus this many times the links held ([`Progress::holding`])
 /// reaches it: the refinement stops where what follows it still fits.
-const LINK_COPIES: u64 = 2;
+/// What else a link costs the solve is held with a share per copy.
+pub const LINK_COPIES: u64 = 2;
 
 /// How often, at most, the resident memory is read.
 const MEMORY_CHECK_INTERVAL: Duration = Duration::from_millis(50);

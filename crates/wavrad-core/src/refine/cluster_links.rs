@@ -42,7 +42,7 @@
 use crate::geometry::cluster::ClusterTree;
 use crate::geometry::hierarchy::ElementRef;
 use crate::kernel::KernelContext;
-use crate::progress::Progress;
+use crate::progress::{Progress, LINK_COPIES};
 use crate::sampling::hash2;
 use crate::scene::Patch;
 use glam::DVec3;
@@ -127,6 +127,10 @@ pub struct ClusterSettings {
     /// link's visibility estimate may make in its receiver's radiance
     /// relative to its source's ([`rays_needed`]).
     pub threshold: f64,
+    /// Bytes the solve holds per cluster link, besides the link, to gather
+    /// through it: counted against the memory limit as links are made
+    /// ([`Progress::holding`]).
+    pub gather_bytes: u64,
 }
 
 /// Upper bound on the light a link between two ends carries, as a
@@ -315,8 +319,11 @@ impl Linker<'_> {
     /// Push the link between `x` and `y`, if they exchange light.
     fn push_link(&self, x: End, y: End, out: &mut Linking) {
         if let Some(link) = self.cluster_link(x, y) {
+            // The link, and a share of what gathering through it holds
+            // with each of the link's copies.
+            let gathering = self.settings.gather_bytes.div_ceil(LINK_COPIES);
             self.progress
-                .holding(std::mem::size_of::<ClusterLink>() as u64);
+                .holding(std::mem::size_of::<ClusterLink>() as u64 + gathering);
             out.cluster_links.push(link);
         }
     }
@@ -697,6 +704,7 @@ mod tests {
         ratio: 0.25,
         max_level: 5,
         threshold: 1e-3,
+        gather_bytes: 0,
     };
 
     /// Each pair of surfaces of `ctx`'s scene that face each other is

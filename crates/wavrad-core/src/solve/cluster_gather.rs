@@ -66,6 +66,13 @@ const PARALLEL_REFLECTORS: usize = 256;
 /// links down one by one.
 const MERGED_REFLECTORS: usize = 4;
 
+/// Bytes that gathering through one cluster link holds besides the link:
+/// its arranged form, its two incidences, and what its ends send in the far
+/// field being made ([`FarField`]; one at a time).
+pub const GATHER_BYTES_PER_LINK: u64 = (std::mem::size_of::<Transfer>()
+    + 2 * std::mem::size_of::<(u32, u8)>()
+    + std::mem::size_of::<[Sent; 2]>()) as u64;
+
 /// A member of a cluster link's end: where it is, which way it faces, how
 /// large it is.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -318,22 +325,29 @@ impl Arriving {
     }
 
     /// These and `more` (anchored at the same point), each cell once.
-    fn merged(self, more: Vec<(usize, Field)>) -> Arriving {
-        let mut all = self.cells;
-        all.extend(more);
-        all.sort_by_key(|&(cell, _)| cell);
-        let mut cells: Vec<(usize, Field)> = Vec::with_capacity(all.len());
-        for (cell, field) in all {
-            match cells.last_mut() {
-                Some((last, sum)) if *last == cell => *sum += field,
-                _ => cells.push((cell, field)),
-            }
+    fn merged(self, more: Vec<Option<Field>>) -> Arriving {
+        let mut cells = more;
+        for (cell, field) in self.cells {
+            *cells[cell].get_or_insert(Field::ZERO) += field;
         }
+        let cells = (cells.into_iter().enumerate())
+            .filter_map(|(cell, field)| Some((cell, field?)))
+            .collect();
         Arriving {
             origin: self.origin,
             cells,
         }
     }
+}
+
+/// Fields per direction cell, `None` where none arrives.
+fn add_cells(mut a: Vec<Option<Field>>, b: Vec<Option<Field>>) -> Vec<Option<Field>> {
+    for (x, y) in a.iter_mut().zip(b) {
+        if let Some(y) = y {
+            *x.get_or_insert(Field::ZERO) += y;
+        }
+    }
+    a
 }
 
 /// One radiance state's far field: what every link's ends send, and what
@@ -888,13 +902,19 @@ impl ClusterTransfers {
         let (merged, listed);
         let handed = if out.len() >= MERGED_REFLECTORS {
             let x = node.centroid;
-            let own = (links.iter())
-                .map(|&at| {
-                    let source = self.links[at.0 as usize].sides[1 - at.1 as usize];
-                    let cell = direction_cells::cell_of(self.center(source) - x);
-                    (cell, self.incoming(at, x, sent))
-                })
-                .collect();
+            // Summed per cell as they are made: a cluster high in the
+            // tree can hold millions of links.
+            let own = (links.par_iter().with_min_len(4096))
+                .fold(
+                    || vec![None; CELLS],
+                    |mut cells, &at| {
+                        let source = self.links[at.0 as usize].sides[1 - at.1 as usize];
+                        let cell = direction_cells::cell_of(self.center(source) - x);
+                        *cells[cell].get_or_insert(Field::ZERO) += self.incoming(at, x, sent);
+                        cells
+                    },
+                )
+                .reduce(|| vec![None; CELLS], add_cells);
             merged = above.moved_to(x).merged(own);
             (&merged, pending)
         } else if links.is_empty() {

@@ -1210,6 +1210,7 @@ impl SolveSettings {
             ratio: self.cluster_ratio,
             max_level: self.refine.max_level,
             threshold: self.refine.threshold,
+            gather_bytes: cluster_gather::GATHER_BYTES_PER_LINK,
         }
     }
 
