@@ -5,6 +5,7 @@ see each other) or by a bowl (concave: they do), at any triangle count.
 
     python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes   # writes scene.xml + mesh
     python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes metal   # rough aluminium
+    python3 benches/mesh_scenes.py sphere 4000 /tmp/scenes metal point   # ... lit by a point light
     python3 benches/mesh_scenes.py bunny.ply /tmp/scenes     # any PLY/OBJ, fitted in
 
 Standard library only. The meshes are written as binary PLY.
@@ -150,16 +151,34 @@ METAL = (
 )
 
 
-def make(kind: str, triangles: int, out: Path, metal: bool = False) -> Path:
+# A point light 0.09 under the ceiling's centre in place of the ceiling's
+# area light: half that light's L·A as its intensity (the area light sends
+# π·L·A into a hemisphere, this one 4π·I into the sphere).
+POINT_LIGHT = (
+    '<emitter type="point"><point name="position" x="0" y="0.9" z="0"/>'
+    '<rgb name="intensity" value="1.607, 1.222, 0.590"/></emitter>'
+)
+
+
+def make(
+    kind: str, triangles: int, out: Path, metal: bool = False, point: bool = False
+) -> Path:
     """Write `out/scene.xml` with a sphere or bowl of about `triangles`
     triangles, 0.45 in radius, its centre 0.5 above the floor, white or
-    (`metal`) rough aluminium; return the scene's path."""
+    (`metal`) rough aluminium, lit by the Cornell box's light or (`point`)
+    a point light; return the scene's path."""
     out.mkdir(parents=True, exist_ok=True)
     verts, faces = grid_sphere(triangles, rows_for_bowl=(kind == "bowl"))
     write_ply(out / "mesh.ply", verts, faces)
     material = METAL if metal else '<ref id="white"/>'
     two_sided = f'<bsdf type="twosided">{material}</bsdf>'
-    return room("mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else material)
+    path = room("mesh.ply", 0.45, [0, -0.5, 0], out, two_sided if kind == "bowl" else material)
+    if point:
+        xml = path.read_text()
+        light = re.search(r'    <shape type="rectangle" id="light">.*?</shape>', xml, re.S)
+        assert light, "the Cornell box's light shape"
+        path.write_text(xml.replace(light.group(0), "    " + POINT_LIGHT))
+    return path
 
 
 def make_from(mesh: Path, out: Path) -> Path:
@@ -179,7 +198,8 @@ def make_from(mesh: Path, out: Path) -> Path:
 
 if __name__ == "__main__":
     if sys.argv[1] in ("sphere", "bowl"):
-        metal = sys.argv[4:] == ["metal"]
-        print(make(sys.argv[1], int(sys.argv[2]), Path(sys.argv[3]), metal))
+        options = sys.argv[4:]
+        metal, point = "metal" in options, "point" in options
+        print(make(sys.argv[1], int(sys.argv[2]), Path(sys.argv[3]), metal, point))
     else:
         print(make_from(Path(sys.argv[1]), Path(sys.argv[2])))

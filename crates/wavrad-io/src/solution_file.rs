@@ -77,7 +77,7 @@ pub const MAGIC: [u8; 8] = *b"wavradSF";
 /// The version of the format [`write_solution`] writes and
 /// [`read_solution`] reads; a change of the body, or of any type it holds,
 /// needs a new one.
-pub const FORMAT_VERSION: u32 = 12;
+pub const FORMAT_VERSION: u32 = 13;
 
 /// Bytes before the body.
 const HEADER_LEN: usize = 56;
@@ -731,7 +731,7 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 14] = [
+        let cases: [(&str, Edit); 16] = [
             (
                 // Found by fuzzing: the render allocated rays⁴ samples.
                 "the settings: quadrature orders 2 and 1073741824",
@@ -798,6 +798,18 @@ mod tests {
                         towards: 200,
                     }
                 }),
+            ),
+            (
+                "the lights' bins: surface 0's bin 130 of",
+                Box::new(|b| {
+                    let bins = &mut b.interactions.to_mut().light_bins;
+                    bins.resize(b.scene.surfaces.len(), Vec::new());
+                    bins[0].push((130, Rgb::splat(1.0)));
+                }),
+            ),
+            (
+                "the lights' bins: 1 lists for",
+                Box::new(|b| b.interactions.to_mut().light_bins = vec![Vec::new(); 1]),
             ),
             (
                 &format!("surface {s}'s incoming transfer 0: node 70000 out of range"),

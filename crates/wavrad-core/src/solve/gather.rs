@@ -34,7 +34,7 @@ use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::cluster_gather::{ClusterTransfers, FarField};
-use crate::solve::glossy_clusters::{bin_of, GlossyReflectors, BINS, NO_BIN};
+use crate::solve::glossy_clusters::{self, bin_of, GlossyReflectors, BINS, NO_BIN};
 use crate::solve::push_pull::{reflection_limits, Gathered};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -209,6 +209,10 @@ pub struct Interactions {
     /// the same lights: (leaf node, L_{a→b}), averaged over the pair's
     /// exposed part.
     pub light_pairs: Vec<Vec<(u32, Rgb)>>,
+    /// What the same lights bring every glossy surface per bin of its
+    /// hemisphere, averaged over its exposed part: (bin, irradiance), the
+    /// bins lit ([`glossy_clusters::light_bins`]); empty for the others.
+    pub light_bins: Vec<Vec<(u8, Rgb)>>,
     /// Factor a texture puts on the light every node of a textured
     /// surface's tree reflects (empty for other surfaces;
     /// [`crate::geometry::texture::texture_scales`]).
@@ -345,6 +349,7 @@ impl Interactions {
             limited_leaves: 0,
             lights: Vec::new(),
             light_pairs: Vec::new(),
+            light_bins: Vec::new(),
             texture: Vec::new(),
             children: (trees.iter())
                 .map(|t| {
@@ -504,9 +509,19 @@ impl Interactions {
         }
         if scene.lights.iter().all(|l| l.is_dark()) {
             self.light_pairs = vec![Vec::new(); self.directional.len()];
+            self.light_bins = vec![Vec::new(); scene.surfaces.len()];
             return;
         }
         let sky = grid(SKY_GRID / 2);
+        self.light_bins = (scene.surfaces.par_iter().enumerate())
+            .map(|(s, surface)| {
+                if !surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) {
+                    return Vec::new();
+                }
+                let at = (s as u32, &trees[s].nodes[0].patch, self.exposure[s][0]);
+                glossy_clusters::light_bins(scene, ctx.tracer, at, (ctx.quadrature.points, &sky))
+            })
+            .collect();
         self.light_pairs = (self.directional.par_iter().zip(&self.pair_exposure))
             .map(|(d, exposure)| {
                 let brdf = scene.surfaces[d.p as usize].brdf.without_lambertian();
@@ -782,6 +797,9 @@ impl Interactions {
         let (tree, exposure) = (&trees[p as usize], &self.exposure[p as usize]);
         let whole = exposed_area(tree, exposure, 0);
         let mut bins = vec![Rgb::ZERO; BINS];
+        for &(b, e) in self.light_bins.get(p as usize).map_or(&[][..], |l| &l[..]) {
+            bins[usize::from(b)] += e;
+        }
         for t in &self.incoming[p as usize] {
             let (r, c) = t.source.element();
             let receiver = t.receiver as usize;

@@ -113,6 +113,7 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
         }
     }
     check_directional(solution).map_err(|(part, e)| inconsistent(part, e))?;
+    check_light_bins(interactions, surfaces).map_err(|e| inconsistent("the lights' bins", e))?;
     if let Some((p, r)) = (solution.pairs.iter()).find(|&&(p, r)| p.max(r) as usize >= surfaces) {
         return Err(inconsistent(
             "the solution",
@@ -284,6 +285,24 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
     let (Source::Element { shares, .. } | Source::Glossy { shares, .. }) = source;
     if *shares != Shares::NONE && tree.nodes[node as usize].first_child.is_none() {
         return Err(format!("source node {node} has shares but no children"));
+    }
+    Ok(())
+}
+
+/// Check the lights' light per bin of the glossy surfaces: none, or a
+/// list per surface, each bin within a hemisphere's and finite.
+fn check_light_bins(interactions: &Interactions, surfaces: usize) -> Result<(), String> {
+    let bins = &interactions.light_bins;
+    if !bins.is_empty() && bins.len() != surfaces {
+        return Err(format!("{} lists for {surfaces} surfaces", bins.len()));
+    }
+    for (s, list) in bins.iter().enumerate() {
+        if let Some((b, e)) = list
+            .iter()
+            .find(|(b, e)| usize::from(*b) >= BINS || !rgb_finite(*e))
+        {
+            return Err(format!("surface {s}'s bin {b} of {e:?}"));
+        }
     }
     Ok(())
 }
