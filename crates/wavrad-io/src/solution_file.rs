@@ -731,7 +731,7 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
-        let cases: [(&str, Edit); 16] = [
+        let cases: [(&str, Edit); 18] = [
             (
                 // Found by fuzzing: the render allocated rays⁴ samples.
                 "the settings: quadrature orders 2 and 1073741824",
@@ -805,6 +805,24 @@ mod tests {
                     let bins = &mut b.interactions.to_mut().light_bins;
                     bins.resize(b.scene.surfaces.len(), Vec::new());
                     bins[0].push((130, Rgb::splat(1.0)));
+                }),
+            ),
+            (
+                "the lights' light per surface: item 0's node 5000",
+                Box::new(|b| {
+                    let lights = &mut b.interactions.to_mut().lights;
+                    lights.resize(b.scene.surfaces.len(), Vec::new());
+                    lights[0].push((5000, Rgb::splat(1.0)));
+                }),
+            ),
+            (
+                "the lights' light per directional structure: item 0's node 0",
+                Box::new(|b| {
+                    let interactions = b.interactions.to_mut();
+                    let structures = interactions.directional.len();
+                    let pairs = &mut interactions.light_pairs;
+                    pairs.resize(structures, Vec::new());
+                    pairs[0].push((0, Rgb::splat(f64::INFINITY)));
                 }),
             ),
             (

@@ -114,6 +114,13 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     }
     check_directional(solution).map_err(|(part, e)| inconsistent(part, e))?;
     check_light_bins(interactions, surfaces).map_err(|e| inconsistent("the lights' bins", e))?;
+    let tree_nodes = |s: usize| solution.trees[s].nodes.len();
+    check_light_nodes(&interactions.lights, surfaces, tree_nodes)
+        .map_err(|e| inconsistent("the lights' light per surface", e))?;
+    let pair_nodes = |d: usize| interactions.directional[d].tree.nodes.len();
+    let structures = interactions.directional.len();
+    check_light_nodes(&interactions.light_pairs, structures, pair_nodes)
+        .map_err(|e| inconsistent("the lights' light per directional structure", e))?;
     if let Some((p, r)) = (solution.pairs.iter()).find(|&&(p, r)| p.max(r) as usize >= surfaces) {
         return Err(inconsistent(
             "the solution",
@@ -285,6 +292,29 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
     let (Source::Element { shares, .. } | Source::Glossy { shares, .. }) = source;
     if *shares != Shares::NONE && tree.nodes[node as usize].first_child.is_none() {
         return Err(format!("source node {node} has shares but no children"));
+    }
+    Ok(())
+}
+
+/// Check lists of the lights' light per node: none, or one per item
+/// (`items` of them), each node within item i's `nodes(i)` and each value
+/// finite.
+fn check_light_nodes(
+    lists: &[Vec<(u32, Rgb)>],
+    items: usize,
+    nodes: impl Fn(usize) -> usize,
+) -> Result<(), String> {
+    if !lists.is_empty() && lists.len() != items {
+        return Err(format!("{} lists for {items}", lists.len()));
+    }
+    for (i, list) in lists.iter().enumerate() {
+        let n = nodes(i);
+        if let Some((node, l)) = list
+            .iter()
+            .find(|(node, l)| *node as usize >= n || !rgb_finite(*l))
+        {
+            return Err(format!("item {i}'s node {node} (of {n}) of {l:?}"));
+        }
     }
     Ok(())
 }
