@@ -731,6 +731,12 @@ mod tests {
             .find(|(_, t)| !t.is_empty())
             .expect("a surface that gathers");
         type Edit = Box<dyn FnOnce(&mut Body)>;
+        let element = |surface, node, towards| Source::Element {
+            surface,
+            node,
+            shares: Shares::NONE,
+            towards,
+        };
         let cases: [(&str, Edit); 18] = [
             (
                 // Found by fuzzing: the render allocated rays⁴ samples.
@@ -769,34 +775,19 @@ mod tests {
             (
                 "node 9999 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
-                        surface: 0,
-                        node: 9999,
-                        shares: Shares::NONE,
-                        towards: NO_BIN,
-                    }
+                    b.interactions.to_mut().incoming[s][0].source = element(0, 9999, NO_BIN)
                 }),
             ),
             (
                 "source surface 77 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
-                        surface: 77,
-                        node: 0,
-                        shares: Shares::NONE,
-                        towards: NO_BIN,
-                    }
+                    b.interactions.to_mut().incoming[s][0].source = element(77, 0, NO_BIN)
                 }),
             ),
             (
                 "source bin 200 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = Source::Element {
-                        surface: 0,
-                        node: 0,
-                        shares: Shares::NONE,
-                        towards: 200,
-                    }
+                    b.interactions.to_mut().incoming[s][0].source = element(0, 0, 200)
                 }),
             ),
             (

@@ -781,12 +781,13 @@ impl ClusterTransfers {
             // Glossy light from one glossy member to another, a sweep late.
             let members = GlossyMembers::of(&self.clusters, &reflectors);
             let glossy = (&reflectors, &members);
+            let tabled = self.worth_tabling(&members);
             let before = previous.map(|f| &f.exitant[..]);
             if let Some(before) = before.filter(|e| e.len() == reflectors.surfaces().len()) {
-                self.send_glossy(glossy, before, &mut sent);
+                self.send_glossy(glossy, &tabled, before, &mut sent);
             }
             exitant = self.glossy_exitant(glossy, near, &sent);
-            self.send_glossy(glossy, &exitant, &mut sent);
+            self.send_glossy(glossy, &tabled, &exitant, &mut sent);
             reflectors
         });
         if self.links.is_empty() {
@@ -939,11 +940,12 @@ impl ClusterTransfers {
     /// Add to every side of `sent` the intensity its glossy members
     /// `glossy` send towards the other side's centre, A·cosθ·L_o from each
     /// member's radiance per bin `exitant`: read from the cluster's
-    /// [`GlossyIntensities`] where it has them, summed over its members
-    /// otherwise.
+    /// [`GlossyIntensities`] where it has them (the clusters `tabled`),
+    /// summed over its members otherwise.
     fn send_glossy(
         &self,
         (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
+        tabled: &[bool],
         exitant: &[Vec<Rgb>],
         sent: &mut [[Sent; 2]],
     ) {
@@ -955,7 +957,7 @@ impl ClusterTransfers {
                 Rgb::ZERO
             }
         };
-        let tables = self.glossy_intensities(glossy, &self.worth_tabling(glossy), &|s, k, w| {
+        let tables = self.glossy_intensities(glossy, tabled, &|s, k, w| {
             towards(k, &self.roots[s as usize], w)
         });
         (sent.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {

@@ -296,45 +296,48 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
     Ok(())
 }
 
-/// Check lists of the lights' light per node: none, or one per item
-/// (`items` of them), each node within item i's `nodes(i)` and each value
-/// finite.
-fn check_light_nodes(
-    lists: &[Vec<(u32, Rgb)>],
-    items: usize,
-    nodes: impl Fn(usize) -> usize,
+/// Check lists of the lights' light, none or one per `noun` (`items` of
+/// them): `problem(i, entry)` says what is wrong with an entry of item
+/// i's list, if anything.
+fn check_light_lists<T>(
+    lists: &[Vec<T>],
+    (items, noun): (usize, &str),
+    problem: impl Fn(usize, &T) -> Option<String>,
 ) -> Result<(), String> {
     if !lists.is_empty() && lists.len() != items {
-        return Err(format!("{} lists for {items}", lists.len()));
+        return Err(format!("{} lists for {items} {noun}s", lists.len()));
     }
     for (i, list) in lists.iter().enumerate() {
-        let n = nodes(i);
-        if let Some((node, l)) = list
-            .iter()
-            .find(|(node, l)| *node as usize >= n || !rgb_finite(*l))
-        {
-            return Err(format!("item {i}'s node {node} (of {n}) of {l:?}"));
+        if let Some(p) = list.iter().find_map(|entry| problem(i, entry)) {
+            return Err(format!("{noun} {i}'s {p}"));
         }
     }
     Ok(())
 }
 
-/// Check the lights' light per bin of the glossy surfaces: none, or a
-/// list per surface, each bin within a hemisphere's and finite.
+/// Check lists of the lights' light per node, one per item (`items` of
+/// them): each node within item i's `nodes(i)`, each value finite.
+fn check_light_nodes(
+    lists: &[Vec<(u32, Rgb)>],
+    items: usize,
+    nodes: impl Fn(usize) -> usize,
+) -> Result<(), String> {
+    check_light_lists(lists, (items, "item"), |i, &(node, l)| {
+        let n = nodes(i);
+        (node as usize >= n || !rgb_finite(l)).then(|| format!("node {node} (of {n}) of {l:?}"))
+    })
+}
+
+/// Check the lights' light per bin of the glossy surfaces: one list per
+/// surface, each bin within a hemisphere's and finite.
 fn check_light_bins(interactions: &Interactions, surfaces: usize) -> Result<(), String> {
-    let bins = &interactions.light_bins;
-    if !bins.is_empty() && bins.len() != surfaces {
-        return Err(format!("{} lists for {surfaces} surfaces", bins.len()));
-    }
-    for (s, list) in bins.iter().enumerate() {
-        if let Some((b, e)) = list
-            .iter()
-            .find(|(b, e)| usize::from(*b) >= BINS || !rgb_finite(*e))
-        {
-            return Err(format!("surface {s}'s bin {b} of {e:?}"));
-        }
-    }
-    Ok(())
+    check_light_lists(
+        &interactions.light_bins,
+        (surfaces, "surface"),
+        |_, &(b, e)| {
+            (usize::from(b) >= BINS || !rgb_finite(e)).then(|| format!("bin {b} of {e:?}"))
+        },
+    )
 }
 
 /// Check that `range` lies within the cover lists, and each node in it
