@@ -3,7 +3,7 @@
 //! Sobol sequence keyed the same way, so images do not depend on the number
 //! of threads or on the order of work.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 /// Two uniform numbers in [0,1) from a seed and an index (SplitMix64
 /// finaliser).
@@ -43,7 +43,8 @@ pub enum Stream {
     /// [`Samples::third`] a lobe).
     Brdf,
     /// A camera ray's choice between reflection and transmission where it
-    /// meets glass, one per interface ([`Samples::interface`]).
+    /// meets glass, and of a rough interface's microfacet normal, one per
+    /// interface ([`Samples::interface`]).
     Interface,
 }
 
@@ -153,21 +154,23 @@ impl Samples {
         }
     }
 
-    /// The number in [0, 1) that chooses between reflection and
-    /// transmission at the `depth`-th glass interface a camera ray meets
-    /// (0 the first): each depth draws from a sequence of its own, so that
-    /// a pixel's camera rays stratify their choices at every depth.
-    pub fn interface(self, depth: u32) -> f64 {
+    /// The numbers in [0, 1) of the `depth`-th glass interface a camera
+    /// ray meets (0 the first): `x` chooses between reflection and
+    /// transmission, `(y, z)` a rough interface's microfacet normal
+    /// ([`crate::scene::glass::Dielectric::scatter`]). Each depth draws
+    /// from a sequence of its own, so that a pixel's camera rays stratify
+    /// their choices at every depth.
+    pub fn interface(self, depth: u32) -> DVec3 {
         let level = u64::from(depth + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        match self {
+        let samples = match self {
             Samples::Hashed(seed) => Samples::Hashed(seed ^ level),
             Samples::Pixel { scramble, block } => Samples::Pixel {
                 scramble: scramble ^ level,
                 block,
             },
-        }
-        .point(Stream::Interface, 1, 0)
-        .x
+        };
+        let point = samples.point(Stream::Interface, 1, 0);
+        DVec3::new(point.x, point.y, samples.third(Stream::Interface, 1, 0))
     }
 
     /// A seed for the estimates nested in this one (light leaving a point

@@ -2,7 +2,7 @@
 //! and what `--approximate` puts in place of the rest.
 
 use glam::{DVec2, DVec3};
-use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
+use wavrad_core::scene::brdf::microfacet::{MicrofacetType, MIN_ALPHA};
 use wavrad_core::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Principled};
 use wavrad_core::scene::texture::Texture;
 use wavrad_core::scene::{Patch, Rgb, Scene};
@@ -111,8 +111,8 @@ fn plastic_and_conductor_are_their_rough_models_smooth_limits() {
 fn unsupported_plugins_name_their_line_and_suggest_approximate() {
     for (body, plugin) in [
         (
-            r#"<bsdf type="roughdielectric"/>"#,
-            "bsdf \"roughdielectric\"",
+            r#"<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.4"/></bsdf>"#,
+            "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal",
         ),
         (
             r#"<bsdf type="principled"><float name="clearcoat" value="0.5"/></bsdf>"#,
@@ -145,9 +145,14 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
 #[test]
 fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     let loaded = load(
-        r#"<shape type="rectangle"><bsdf type="roughdielectric"/></shape>
+        r#"<shape type="rectangle"><bsdf type="roughdielectric">
+                   <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.4"/>
+               </bsdf></shape>
                <shape type="cube"><bsdf type="thindielectric"/></shape>
-               <shape type="rectangle"><bsdf type="roughdielectric"/></shape>
+               <shape type="rectangle"><bsdf type="roughdielectric">
+                   <string name="distribution" value="ggx"/>
+                   <float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.2"/>
+               </bsdf></shape>
                <shape type="rectangle"><bsdf type="principled">
                    <rgb name="base_color" value="0.8, 0.1, 0.1"/>
                    <float name="roughness" value="0.3"/>
@@ -163,7 +168,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     let messages: Vec<String> = loaded.warnings.iter().map(|w| w.to_string()).collect();
     assert_eq!(messages.len(), 3, "{messages:#?}");
     for plugin in [
-        "bsdf \"roughdielectric\": smooth glass",
+        "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal: isotropic",
         "bsdf \"principled\" with sheen: its reflection without them",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
@@ -173,8 +178,8 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         );
     }
     let s = loaded.scene;
-    // Rough glass is smooth glass (thin glass is supported as it is), not
-    // a surface; principled without its sheen is a red Burley lobe,
+    // Anisotropic rough glass is isotropic (thin glass is supported as it
+    // is), not a surface; principled without its sheen is a red Burley lobe,
     // carried as a Lambertian lobe of its albedo at roughness 0.3, under a
     // GGX lobe of α = 0.3²; the bump map's nested diffuse stays.
     let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
@@ -191,6 +196,27 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
         .map(|g| (g.interface.thin, g.faces.len()))
         .collect();
     assert_eq!(glass, [(false, 1), (true, 6), (false, 1)]);
+    let roughness: Vec<Option<(MicrofacetType, f64, f64)>> = (s.glass.iter())
+        .map(|g| {
+            g.interface
+                .roughness
+                .map(|m| (m.kind, m.alpha_u, m.alpha_v))
+        })
+        .collect();
+    let isotropic = |kind, alpha: f64| {
+        move |r: Option<(MicrofacetType, f64, f64)>| {
+            r.is_some_and(|(k, u, v)| k == kind && (u - alpha).abs() < 1e-12 && u == v)
+        }
+    };
+    assert!(
+        isotropic(MicrofacetType::Beckmann, 0.2)(roughness[0]),
+        "{roughness:?}"
+    );
+    assert_eq!(roughness[1], None);
+    assert!(
+        isotropic(MicrofacetType::Ggx, 0.06f64.sqrt())(roughness[2]),
+        "{roughness:?}"
+    );
 }
 
 #[test]

@@ -104,10 +104,7 @@ fn unsupported_bsdfs() {
             "blendbsdf",
             "unsupported bsdf plugin \"blendbsdf\" (supported: diffuse, twosided",
         ),
-        (
-            "roughdielectric",
-            "bsdf \"roughdielectric\" is not supported",
-        ),
+        ("normalmap", "bsdf \"normalmap\" is not supported"),
     ] {
         assert_error(
             &format!(

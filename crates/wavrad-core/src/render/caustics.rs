@@ -55,6 +55,11 @@ pub fn photons_per_shape(shapes: usize) -> u32 {
 /// one branch at each, by its probability.
 pub const SPLIT_DEPTH: u32 = 2;
 
+/// Where a photon's hash indices for the microfacet normals it meets
+/// start (one per interface), clear of those of its source, direction and
+/// branches.
+const FACETS: u64 = 1 << 32;
+
 /// Photons a density estimate gathers.
 pub const NEAREST: usize = 128;
 
@@ -428,7 +433,11 @@ impl Shot<'_> {
             _ => return,
         };
         let (dir, interface) = (ray.direction, glass.interface);
+        // A rough interface's microfacet normal, drawn once for both
+        // branches.
+        let facet = hash2(key, FACETS + u64::from(depth));
         let mut branch = |u: f64, share: f64| {
+            let u = DVec3::new(u, facet.x, facet.y);
             let (direction, weight) = interface.scatter(dir, glass.normal, u, Transport::Power);
             let next = Ray {
                 origin: glass.position,
@@ -445,7 +454,8 @@ impl Shot<'_> {
             );
         };
         if depth < SPLIT_DEPTH {
-            let r = interface.reflectance_at(-dir.dot(glass.normal));
+            let m = interface.facet(dir, glass.normal, facet);
+            let r = interface.reflectance_at(-dir.dot(m));
             if r > 0.0 {
                 branch(0.5 * r, r);
             }

@@ -181,16 +181,17 @@ impl GlassTracer {
     /// Follow `ray`, carrying `transport` (a camera ray's radiance, a
     /// photon's power), through the glass it meets before any surface of
     /// `tracer`: at the `k`-th interface (0 the first) it is reflected when
-    /// `choose(k)` falls below the Fresnel reflectance and refracted
-    /// otherwise ([`Dielectric::scatter`]). `None` when the chain passes
-    /// more than `limit` interfaces.
+    /// `choose(k).x` falls below the Fresnel reflectance and refracted
+    /// otherwise, about the microfacet normal `choose(k).yz` draws on a
+    /// rough interface ([`Dielectric::scatter`]). `None` when the chain
+    /// passes more than `limit` interfaces.
     pub fn follow(
         &self,
         scene: &Scene,
         tracer: &SceneTracer,
         (ray, transport): (Ray, Transport),
         limit: u32,
-        mut choose: impl FnMut(u32) -> f64,
+        mut choose: impl FnMut(u32) -> DVec3,
     ) -> Option<ChainEnd> {
         let mut end = ChainEnd {
             ray,

@@ -703,15 +703,20 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                             (px + (f64::from(k % 4) + 0.5) / 4.0) / w as f64,
                             (py + (f64::from(k / 4) + 0.5) / 4.0) / h as f64,
                         );
-                        // Past the glass, following its likelier branch;
-                        // and whether the glass mirrors an emitter.
+                        // Past the glass, following its likelier branch
+                        // (about a rough interface's median facet); and
+                        // whether the glass mirrors an emitter.
                         let ray = camera.ray(at, aspect);
                         let tracer = &solution.tracer;
-                        let end = glass.follow(scene, tracer, (ray, Radiance), interfaces, |_| 0.5);
+                        let end = glass.follow(scene, tracer, (ray, Radiance), interfaces, |_| {
+                            DVec3::splat(0.5)
+                        });
                         let through = end.is_none_or(|end| end.interfaces > 0);
                         let mirrors = through
                             && glass
-                                .follow(scene, tracer, (ray, Radiance), interfaces, |_| 0.0)
+                                .follow(scene, tracer, (ray, Radiance), interfaces, |_| {
+                                    DVec3::new(0.0, 0.5, 0.5)
+                                })
                                 .and_then(|end| {
                                     let ray = end.ray;
                                     tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max)

@@ -31,6 +31,7 @@
 //! | `dielectric`     | `int_ior`, `ext_ior` (number or name)            | `<float>`/`<string>` | `bk7`, `air`    |
 //! |                  | `specular_reflectance`, `specular_transmittance` | colour               | 1, 1            |
 //! | `thindielectric` | as `dielectric`                                  | as above             | as above        |
+//! | `roughdielectric` | as `dielectric`; `distribution`, `alpha` (or `alpha_u`, `alpha_v`) | as above | as above; `beckmann`, 0.1 |
 //! | `twosided`       | one or two nested BSDFs (front, back)            |                      |                 |
 //! | `mask`           | `opacity` 1 and one nested BSDF                  | `<float>`            | 1               |
 //!
@@ -56,7 +57,7 @@
 //!
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
-//! | `roughdielectric`                               | `dielectric` of its indices and tints (smooth glass)     |
+//! | `roughdielectric` with `alpha_u` ≠ `alpha_v`     | isotropic, of roughness √(`alpha_u`·`alpha_v`)           |
 //! | `principled` with `spec_trans`, `clearcoat`, `sheen` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
@@ -122,11 +123,10 @@ const MAX_NESTING: usize = 8;
 /// The BSDF plugins wavrad reads, for messages.
 const SUPPORTED: &str =
     "diffuse, twosided, ward, roughconductor, conductor, roughplastic, plastic, \
-                         principled, dielectric, thindielectric, mask (opaque)";
+                         principled, dielectric, thindielectric, roughdielectric, mask (opaque)";
 
-/// What `--approximate` puts in place of rough glass.
-const ROUGH_GLASS: &str = "smooth glass (dielectric) of the same indices: sharp reflections and \
-                           refraction instead of blurred ones";
+/// What `--approximate` puts in place of anisotropic rough glass.
+const ANISOTROPIC_GLASS: &str = "isotropic, of roughness sqrt(alpha_u * alpha_v)";
 
 /// What `--approximate` puts in place of a `principled` with the parts
 /// wavrad does not model.
@@ -273,16 +273,6 @@ fn parse_nested(bsdf: Nested, doc: &Document, depth: usize) -> Result<Material> 
             nested_only(obj, doc, depth)
         }
         "dielectric" | "thindielectric" | "roughdielectric" => {
-            if obj.plugin == "roughdielectric" {
-                doc.approximate(obj.at(), &plugin, ROUGH_GLASS)?;
-                obj.ignore(&[
-                    "distribution",
-                    "alpha",
-                    "alpha_u",
-                    "alpha_v",
-                    "sample_visible",
-                ]);
-            }
             let glass = parse_dielectric(&mut obj, doc)?;
             if let Some(n) = obj.nested.first() {
                 return Err(obj.unexpected(n));
@@ -732,9 +722,24 @@ fn parse_ior(obj: &mut Object, name: &'static str, default: f64) -> Result<f64> 
     Ok(ior)
 }
 
-/// `dielectric` or `thindielectric` (or `roughdielectric`, approximated
-/// as the first): Mitsuba's defaults, BK7 glass in air.
+/// `dielectric`, `thindielectric` or `roughdielectric`: Mitsuba's
+/// defaults, BK7 glass in air. An anisotropic `roughdielectric` is made
+/// isotropic (with `--approximate`), of roughness √(α_u·α_v): glass faces
+/// carry no tangents.
 fn parse_dielectric(obj: &mut Object, doc: &Document) -> Result<Dielectric> {
+    let roughness = match obj.plugin {
+        "roughdielectric" => {
+            let distribution = parse_microfacet(obj)?;
+            let (au, av) = (distribution.alpha_u, distribution.alpha_v);
+            if au != av {
+                let at = obj.location_of("alpha_u").clone();
+                let plugin = "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal";
+                doc.approximate(&at, plugin, ANISOTROPIC_GLASS)?;
+            }
+            Some(Microfacet::isotropic(distribution.kind, (au * av).sqrt()))
+        }
+        _ => None,
+    };
     let int_ior = parse_ior(obj, "int_ior", 1.5046)?;
     let ext_ior = parse_ior(obj, "ext_ior", 1.000277)?;
     let reflectance = constant_color(obj, "specular_reflectance", 1.0, doc)?;
@@ -746,6 +751,7 @@ fn parse_dielectric(obj: &mut Object, doc: &Document) -> Result<Dielectric> {
         thin: obj.plugin == "thindielectric",
         reflectance,
         transmittance,
+        roughness,
     })
 }
 

@@ -14,6 +14,7 @@ use glam::DVec3;
 use wavrad_core::kernel::Quadrature;
 use wavrad_core::render::settings::MAX_SAMPLES_PER_PIXEL;
 use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::brdf::microfacet::MIN_ALPHA;
 use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::{Camera, Projection, Rgb};
 use wavrad_core::setting::Described;
@@ -139,7 +140,8 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
 /// use 2 ([`Quadrature::default`]); rendering allocates the square of the
 /// square of it per element point.
 /// A glass shape as the loader makes one: a positive, finite index, tints
-/// in [0, 1], and faces within [`MAX_COORDINATE`].
+/// in [0, 1], a rough interface's isotropic roughness within the loader's
+/// bounds, and faces within [`MAX_COORDINATE`].
 fn check_glass(glass: &Glass) -> Result<(), String> {
     let interface = &glass.interface;
     if !(interface.eta > 0.0 && interface.eta.is_finite()) {
@@ -151,6 +153,17 @@ fn check_glass(glass: &Glass) -> Result<(), String> {
             "its tints {} and {} (each in [0, 1])",
             interface.reflectance, interface.transmittance
         ));
+    }
+    if let Some(m) = interface.roughness {
+        if interface.thin
+            || m.alpha_u != m.alpha_v
+            || !(m.alpha_u.is_finite() && m.alpha_u >= MIN_ALPHA)
+        {
+            return Err(format!(
+                "its roughness {} × {} (isotropic, finite, at least {MIN_ALPHA:e}, on a solid's boundary)",
+                m.alpha_u, m.alpha_v
+            ));
+        }
     }
     let within = |v: &DVec3| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE;
     if let Some((centre, radius)) = glass.sphere {
@@ -385,4 +398,49 @@ fn check_values<T: std::fmt::Debug>(
 
 fn rgb_finite(v: Rgb) -> bool {
     v.0.iter().all(|c| c.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wavrad_core::scene::brdf::microfacet::{Microfacet, MicrofacetType};
+    use wavrad_core::scene::glass::Dielectric;
+
+    #[test]
+    fn glass_is_checked_as_the_loader_makes_it() {
+        let glass = |eta, thin, roughness| Glass {
+            name: "glass".into(),
+            interface: Dielectric {
+                eta,
+                thin,
+                reflectance: Rgb::splat(1.0),
+                transmittance: Rgb::splat(0.9),
+                roughness,
+            },
+            faces: Vec::new(),
+            sphere: Some((DVec3::ZERO, 1.0)),
+        };
+        let rough = |au, av| {
+            Some(Microfacet {
+                kind: MicrofacetType::Ggx,
+                alpha_u: au,
+                alpha_v: av,
+            })
+        };
+        assert_eq!(check_glass(&glass(1.5, false, None)), Ok(()));
+        assert_eq!(check_glass(&glass(1.5, true, None)), Ok(()));
+        assert_eq!(check_glass(&glass(1.5, false, rough(0.3, 0.3))), Ok(()));
+        for (case, bad) in [
+            ("index", glass(-1.5, false, None)),
+            ("rough pane", glass(1.5, true, rough(0.3, 0.3))),
+            ("anisotropic", glass(1.5, false, rough(0.3, 0.1))),
+            (
+                "below Mitsuba's least roughness",
+                glass(1.5, false, rough(0.0, 0.0)),
+            ),
+            ("not a number", glass(1.5, false, rough(f64::NAN, f64::NAN))),
+        ] {
+            assert!(check_glass(&bad).is_err(), "{case}");
+        }
+    }
 }
