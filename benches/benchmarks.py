@@ -79,6 +79,9 @@ SCENES: dict[str, SceneSpec] = {
     "glossy-cornell-box": SceneSpec("glossy-cornell-box/scene.xml", ("path",), "path", 2048),
     # A solid glass sphere: camera rays' specular chains, photons' caustic.
     "glass-cornell-box": SceneSpec("glass-cornell-box/scene.xml", ("path",), "path", 4096),
+    # The same sphere frosted (roughdielectric): sampled microfacet normals.
+    "rough-glass-cornell-box": SceneSpec("rough-glass-cornell-box/scene.xml", ("path",), "path",
+                                         4096),
     # The paper's experiment: emitter -> Ward reflector -> diffuse receiver,
     # seen from the receiver. Its receiver is lit mostly through the
     # reflector, a path the light tracer samples far better.
