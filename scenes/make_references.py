@@ -60,6 +60,8 @@ overridable with --spp/--res/--pass-spp/--integrator):
   lights-envmap       scenes/lights/envmap.xml -> reference-envmap.exr
                       path, 64x64, 16384 spp (the Cornell box with its area
                       light replaced: point, spot, directional, constant sky, envmap)
+  lights-envmap-glass scenes/lights/envmap-glass.xml -> reference-envmap-glass.exr
+                      path, 64x64, 262144 spp (envmap.xml with a glass sphere)
 
   The ward BSDF (Mitsuba 0.6; Mitsuba 3 has none) comes from
   scenes/ward_bsdf.py, registered before any scene is loaded.
@@ -128,6 +130,11 @@ for _light in ("point", "spot", "directional", "sky", "envmap"):
     SCENES[f"lights-{_light}"] = (os.path.join(HERE, "lights", f"{_light}.xml"),
                                   os.path.join(HERE, "lights", f"reference-{_light}.exr"),
                                   64, 16384, 1024, "path")
+# The envmap box with a glass sphere: the sun's caustic through it needs
+# many more paths.
+SCENES["lights-envmap-glass"] = (os.path.join(HERE, "lights", "envmap-glass.xml"),
+                                 os.path.join(HERE, "lights", "reference-envmap-glass.exr"),
+                                 64, 262144, 1024, "path")
 
 
 def find_libllvm():

@@ -4,8 +4,9 @@
 //! reflectance at normal incidence), whether the slab is a solid
 //! (`dielectric`, refracting in and out) or a thin pane
 //! (`thindielectric`); a tilted slab shifts what is seen through it
-//! sideways by Snell's law; and glass between a light and a floor dims the
-//! floor by its transmittance (the photons of `render/caustics.rs`).
+//! sideways by Snell's law; and glass between a light (or the sky) and a
+//! floor dims the floor by its transmittance (the photons of
+//! `render/caustics.rs`).
 
 use std::path::Path;
 
@@ -291,4 +292,92 @@ fn glass_dims_point_and_directional_lights_as_it_dims_emitters() {
         );
         assert!(worst < 0.05, "{bsdf}: {worst}");
     }
+}
+
+/// Mitsuba's unpolarised Fresnel reflectance of a dielectric interface of
+/// relative index `eta`, light arriving at angle θ with cos θ = `cos_i`
+/// from outside (Born & Wolf's equations).
+fn fresnel(cos_i: f64, eta: f64) -> f64 {
+    let sin_t = (1.0 - cos_i * cos_i).sqrt() / eta;
+    let cos_t = (1.0 - sin_t * sin_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+#[test]
+fn glass_dims_the_skys_light_by_its_transmittance_over_the_directions_it_covers() {
+    // A constant sky of radiance L over a wide floor, under a thin pane of
+    // half-width a at height h, the camera between them looking down: a
+    // floor point p has lost L ∫ (1 − T(θ)) cos θ dω over the directions
+    // through the pane, T(θ) = (1 − R)/(1 + R) the pane's transmittance at
+    // incidence θ; over the pane's points q, dω cos θ = h² / |q − p|⁴ dA.
+    // (What the pane reflects down comes from the floor, which the sky's
+    // photons do not carry: light reflected by surfaces passes glass
+    // unchanged.)
+    let (a, h) = (3.0, 1.0);
+    let sky = r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#;
+    let pane = format!(
+        r#"<shape type="rectangle"><transform name="to_world"><scale value="{a}"/><translate z="{h}"/></transform>
+            <bsdf type="thindielectric"><float name="int_ior" value="{ETA}"/><float name="ext_ior" value="1"/></bsdf>
+        </shape>"#
+    );
+    let (res, fov, camera_z) = (8usize, 90.0, 0.9);
+    let floor = |glass: &str| {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+            {}
+            <shape type="rectangle"><transform name="to_world"><scale value="50"/></transform>
+                <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+            {sky}
+            {glass}
+        </scene>"#,
+            sensor(camera_z, (fov, res as u32, 16)),
+        );
+        let scene = wavrad_io::load_scene_str(&xml, Path::new("."), "sky.xml", &[])
+            .unwrap()
+            .scene;
+        (render(&scene), scene.camera.unwrap())
+    };
+    let ((open, camera), (covered, _)) = (floor(""), floor(&pane));
+    let lost = |p: DVec2| {
+        let n = 400;
+        let step = 2.0 * a / f64::from(n);
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let q = DVec2::new(
+                    -a + (f64::from(i) + 0.5) * step,
+                    -a + (f64::from(j) + 0.5) * step,
+                );
+                let r2 = (q - p).length_squared() + h * h;
+                let r = fresnel(h / r2.sqrt(), ETA);
+                sum += (1.0 - (1.0 - r) / (1.0 + r)) * h * h / (r2 * r2) * step * step;
+            }
+        }
+        sum / std::f64::consts::PI
+    };
+    let mut worst: f64 = 0.0;
+    let (mut seen, mut expected) = (0.0, 0.0);
+    for (k, (c, o)) in covered.iter().zip(&open).enumerate() {
+        let film = DVec2::new((k % res) as f64 + 0.5, (k / res) as f64 + 0.5) / res as f64;
+        let ray = camera.ray(film, 1.0);
+        let at = ray.origin + ray.direction * (-ray.origin.z / ray.direction.z);
+        let ratio = 1.0 - lost(DVec2::new(at.x, at.y));
+        worst = worst.max((c / o / ratio - 1.0).abs());
+        (seen, expected) = (seen + c / o, expected + ratio);
+    }
+    let (seen, expected) = (seen / open.len() as f64, expected / open.len() as f64);
+    eprintln!(
+        "sky through a pane: covered/open {seen:.5} against {expected:.5}, worst pixel {worst:.4}"
+    );
+    // The pane takes away a tenth of the sky's light.
+    assert!(expected < 0.9);
+    assert!(
+        (seen / expected - 1.0).abs() < 0.005,
+        "{seen} against {expected}"
+    );
+    // Photons from grazing directions carry most of the loss, so the
+    // density estimate is noisier than under one light.
+    assert!(worst < 0.06, "{worst}");
 }

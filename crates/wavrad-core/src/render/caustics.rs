@@ -20,8 +20,9 @@
 //! shape's bounding sphere subtends (the sphere around it, from inside), and
 //! a directional light's from a disc across its path as wide as that
 //! sphere, so that nearly all of them meet glass. The sky (`constant`,
-//! `envmap`) shoots none: its light through glass stays as if the glass
-//! were not there.
+//! `envmap`) shoots its photons as a directional light would, along a
+//! direction drawn for each: uniformly over the sphere for `constant`, by
+//! the map's luminance for `envmap`.
 
 use super::discrete::{DiscreteDistribution, SurfaceDistribution};
 use super::emitters::SphereEmitter;
@@ -102,8 +103,7 @@ impl std::fmt::Debug for CausticMap {
 
 impl CausticMap {
     /// Shoot the photons of `scene`'s glass: `None` without glass, without
-    /// emitting surfaces or point, spot or directional lights, or where no
-    /// photon comes to rest.
+    /// emitting surfaces or lights, or where no photon comes to rest.
     pub fn shoot(scene: &Scene, tracer: &SceneTracer, glass: &GlassTracer) -> Option<CausticMap> {
         if glass.is_empty() {
             return None;
@@ -252,8 +252,9 @@ impl Sources {
                 power * solid_angle(centre) * cos.max(0.01) / PI
             })
             .sum();
+        let cross_section = PI * target.radius * target.radius;
         let lights: Vec<(usize, f64)> = (scene.lights.iter().enumerate())
-            .filter(|(_, l)| l.is_delta() && !l.is_dark())
+            .filter(|(_, l)| !l.is_dark())
             .map(|(k, light)| {
                 let weight = match *light {
                     Light::Point {
@@ -265,10 +266,10 @@ impl Sources {
                         intensity,
                         ..
                     } => intensity.average() * solid_angle(position),
-                    Light::Directional { irradiance, .. } => {
-                        irradiance.average() * PI * target.radius * target.radius
-                    }
-                    Light::Constant { .. } | Light::Envmap(_) => 0.0,
+                    Light::Directional { irradiance, .. } => irradiance.average() * cross_section,
+                    // Radiance from every direction onto the cross-section.
+                    Light::Constant { radiance } => radiance.average() * 4.0 * PI * cross_section,
+                    Light::Envmap(ref map) => map.mean_radiance() * 4.0 * PI * cross_section,
                 };
                 (k, weight)
             })
@@ -302,6 +303,7 @@ impl Sources {
         key: u64,
     ) -> Option<(Ray, Rgb)> {
         let (u_source, u_direction) = (hash2(key, 0), hash2(key, 1));
+        let cross_section = PI * target.radius * target.radius;
         let drawn = self.choice.sample(u_source.x, 0..0)?;
         let u = DVec2::new(drawn.u, u_source.y);
         let share = drawn.probability * count as f64;
@@ -340,18 +342,39 @@ impl Sources {
             Light::Directional {
                 direction,
                 irradiance,
-            } => {
-                // From a disc across the light's path, as wide as the
-                // target and beyond the scene.
-                let (t, b) = direction.any_orthonormal_pair();
-                let disc = target.radius * square_to_uniform_disk_concentric(u);
-                let origin = target.center - self.far * direction + disc.x * t + disc.y * b;
-                let area = PI * target.radius * target.radius;
-                (from(origin, direction), irradiance * area)
+            } => (
+                self.across(target, direction, u),
+                irradiance * cross_section,
+            ),
+            Light::Constant { radiance } => {
+                let towards = uniform_sphere(u_direction);
+                let ray = self.across(target, -towards, u);
+                (ray, radiance * (4.0 * PI * cross_section))
             }
-            Light::Constant { .. } | Light::Envmap(_) => return None,
+            Light::Envmap(ref map) => {
+                let (towards, pdf) = map.sample(u_direction);
+                if pdf <= 0.0 {
+                    return None;
+                }
+                let ray = self.across(target, -towards, u);
+                (ray, map.radiance(towards) * (cross_section / pdf))
+            }
         };
         (power.max_channel() > 0.0).then(|| (ray, power / share))
+    }
+
+    /// A ray of parallel light travelling along `direction` through the
+    /// point `u` ∈ \[0,1)² draws on a disc across its path as wide as
+    /// `target`, from beyond the scene.
+    fn across(&self, target: &SphereEmitter, direction: DVec3, u: DVec2) -> Ray {
+        let (t, b) = direction.any_orthonormal_pair();
+        let disc = target.radius * square_to_uniform_disk_concentric(u);
+        Ray {
+            origin: target.center - self.far * direction + disc.x * t + disc.y * b,
+            direction,
+            t_min: 1e-7,
+            t_max: f64::INFINITY,
+        }
     }
 }
 
