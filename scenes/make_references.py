@@ -36,6 +36,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
                       path, 64x64, 65536 spp (a principled floor with a
                       checkerboard base_color, a principled cube, a point
                       light; max_depth 3)
+  principled-coated   scenes/principled-floor/coated.xml -> reference-coated.exr
+                      path, 64x64, 65536 spp (the same with clearcoat and
+                      sheen on floor and cube)
   metal-ball-cornell-box scenes/metal-ball-cornell-box/scene.xml -> reference.exr
                       path, 64x64, 65536 spp (the small box replaced by a
                       ball of about 1 000 rough aluminium triangles)
@@ -112,6 +115,9 @@ SCENES = {
     "principled-floor": (os.path.join(HERE, "principled-floor", "scene.xml"),
                          os.path.join(HERE, "principled-floor", "reference.exr"),
                          64, 65536, 1024, "path"),
+    "principled-coated": (os.path.join(HERE, "principled-floor", "coated.xml"),
+                          os.path.join(HERE, "principled-floor", "reference-coated.exr"),
+                          64, 65536, 1024, "path"),
     "metal-ball-cornell-box": (os.path.join(HERE, "metal-ball-cornell-box", "scene.xml"),
                                os.path.join(HERE, "metal-ball-cornell-box", "reference.exr"),
                                64, 65536, 1024, "path"),

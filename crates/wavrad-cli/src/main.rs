@@ -99,8 +99,8 @@ struct SolveArgs {
     /// Set a scene parameter declared with `<default>`, as NAME=VALUE (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE", help_heading = "Scene options")]
     define: Vec<String>,
-    /// Replace every unsupported BSDF or texture (glass, `principled` with clearcoat,
-    /// `normalmap`, …) by the nearest supported model, with one warning per
+    /// Replace every unsupported BSDF or texture (anisotropic rough glass,
+    /// `principled` with transmission, `normalmap`, …) by the nearest supported model, with one warning per
     /// plugin saying what was substituted, instead of refusing the scene.
     #[arg(long, help_heading = "Scene options")]
     approximate: bool,

@@ -85,6 +85,18 @@ fn models() -> Vec<(String, Brdf)> {
             ..PrincipledParams::default()
         })),
     ));
+    v.push((
+        "principled clearcoat 0.8 sheen 0.5".to_string(),
+        Brdf::Principled(Principled::new(PrincipledParams {
+            base_color: Rgb([0.5, 0.4, 0.3]),
+            roughness: 0.5,
+            clearcoat: 0.8,
+            clearcoat_gloss: 0.6,
+            sheen: 0.5,
+            sheen_tint: 0.5,
+            ..PrincipledParams::default()
+        })),
+    ));
     v
 }
 

@@ -1,5 +1,5 @@
-//! The glossy BRDFs against Mitsuba: `roughconductor` and `roughplastic`
-//! evaluated by Mitsuba 3.9.1 itself, `ward` by a line-for-line Python port
+//! The glossy BRDFs against Mitsuba: `roughconductor`, `roughplastic` and
+//! `principled` (with clearcoat and sheen) evaluated by Mitsuba 3.9.1 itself, `ward` by a line-for-line Python port
 //! of Mitsuba 0.6's `ward.cpp` run as a Mitsuba 3 plugin. The table is
 //! written by `tests/data/make_mitsuba_brdf_table.py`; this test only reads
 //! it.
@@ -8,8 +8,8 @@ use glam::DVec3;
 use serde_json::Value;
 use wavrad_core::scene::brdf::fresnel::{conductor_ior, dielectric_ior};
 use wavrad_core::scene::brdf::{
-    Brdf, BrdfModel, Microfacet, MicrofacetType, RoughConductor, RoughPlastic, RoughPlasticParams,
-    Ward, WardVariant,
+    Brdf, BrdfModel, Microfacet, MicrofacetType, Principled, PrincipledParams, RoughConductor,
+    RoughPlastic, RoughPlasticParams, Ward, WardVariant,
 };
 use wavrad_core::scene::Rgb;
 
@@ -97,6 +97,24 @@ fn brdf(params: &Value) -> Brdf {
                 specular_reflectance: color(params, "specular_reflectance", 0.2),
                 diffuse_reflectance: color(params, "diffuse_reflectance", 0.5),
             })
+        }
+        "principled" => {
+            let defaults = PrincipledParams::default();
+            let or = |key: &str, default: f64| float(params, key).unwrap_or(default);
+            Brdf::Principled(Principled::new(PrincipledParams {
+                base_color: color(params, "base_color", 0.5),
+                roughness: or("roughness", defaults.roughness),
+                anisotropic: or("anisotropic", defaults.anisotropic),
+                metallic: or("metallic", defaults.metallic),
+                specular: or("specular", defaults.specular),
+                eta: float(params, "eta"),
+                spec_tint: or("spec_tint", defaults.spec_tint),
+                spec_trans: or("spec_trans", defaults.spec_trans),
+                clearcoat: or("clearcoat", defaults.clearcoat),
+                clearcoat_gloss: or("clearcoat_gloss", defaults.clearcoat_gloss),
+                sheen: or("sheen", defaults.sheen),
+                sheen_tint: or("sheen_tint", defaults.sheen_tint),
+            }))
         }
         other => panic!("unknown model {other}"),
     }

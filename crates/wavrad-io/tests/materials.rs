@@ -115,8 +115,8 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
             "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal",
         ),
         (
-            r#"<bsdf type="principled"><float name="clearcoat" value="0.5"/></bsdf>"#,
-            "bsdf \"principled\" with clearcoat",
+            r#"<bsdf type="principled"><float name="flatness" value="0.5"/></bsdf>"#,
+            "bsdf \"principled\" with flatness",
         ),
         (
             r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
@@ -156,7 +156,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
                <shape type="rectangle"><bsdf type="principled">
                    <rgb name="base_color" value="0.8, 0.1, 0.1"/>
                    <float name="roughness" value="0.3"/>
-                   <float name="sheen" value="0.2"/>
+                   <float name="flatness" value="0.2"/>
                </bsdf></shape>
                <shape type="rectangle"><bsdf type="bumpmap">
                    <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
@@ -169,7 +169,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     assert_eq!(messages.len(), 3, "{messages:#?}");
     for plugin in [
         "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal: isotropic",
-        "bsdf \"principled\" with sheen: its reflection without them",
+        "bsdf \"principled\" with flatness (fake subsurface): its reflection without them",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
         assert!(
@@ -179,7 +179,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     }
     let s = loaded.scene;
     // Anisotropic rough glass is isotropic (thin glass is supported as it
-    // is), not a surface; principled without its sheen is a red Burley lobe,
+    // is), not a surface; principled without its flatness is a red Burley lobe,
     // carried as a Lambertian lobe of its albedo at roughness 0.3, under a
     // GGX lobe of α = 0.3²; the bump map's nested diffuse stays.
     let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
@@ -269,24 +269,33 @@ fn principled(params: &str, approximate: bool) -> (Principled, Vec<String>) {
     (p, loaded.warnings.iter().map(|w| w.to_string()).collect())
 }
 
-/// Without transmission, clearcoat, sheen or flatness, `principled` is
-/// read as it is, with no warning, whatever the tints, gloss and sampling
-/// rates of the lobes that are off; a parameter it does not have is an
-/// error at its line.
+/// Without transmission or flatness, `principled` is read as it is, with
+/// no warning, clearcoat and sheen included, whatever the sampling rates;
+/// a parameter it does not have is an error at its line.
 #[test]
 fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
     let (p, warnings) = principled(
         r#"<rgb name="base_color" value="0.8, 0.8, 0.8"/>
            <float name="roughness" value="0.4"/>
            <float name="spec_trans" value="0"/>
-           <float name="clearcoat" value="0"/>
-           <float name="clearcoat_gloss" value="0.17"/>
+           <float name="clearcoat" value="0.6"/>
+           <float name="clearcoat_gloss" value="0.5"/>
+           <float name="sheen" value="0.4"/>
            <float name="sheen_tint" value="0.5"/>
            <float name="diffuse_reflectance_sampling_rate" value="2"/>"#,
         false,
     );
     assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!((p.burley, p.roughness), (Rgb::splat(0.8), 0.4));
+    // The clearcoat's GTR1 roughness halfway between 0.1 and 0.001; a grey
+    // base tints the sheen not at all.
+    assert_eq!(p.clearcoat, 0.6);
+    assert!((p.clearcoat_alpha - 0.0505).abs() < 1e-12);
+    assert!(
+        (0..3).all(|c| (p.sheen[c] - 0.4).abs() < 1e-12),
+        "{}",
+        p.sheen
+    );
     let e = load(
         r#"<shape type="rectangle">
            <bsdf type="principled"><float name="glossiness" value="0.5"/></bsdf></shape>"#,

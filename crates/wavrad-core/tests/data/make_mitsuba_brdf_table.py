@@ -5,7 +5,7 @@ test (which only reads the JSON; CI needs no Mitsuba).
     python -m venv venv && venv/bin/pip install mitsuba==3.9.1 drjit==1.5.0
     venv/bin/python crates/wavrad-core/tests/data/make_mitsuba_brdf_table.py
 
-`roughconductor` and `roughplastic` are Mitsuba 3's own plugins
+`roughconductor`, `roughplastic` and `principled` are Mitsuba 3's own plugins
 (`scalar_rgb`). Mitsuba 3 has no `ward`; it is re-implemented below line by
 line from Mitsuba 0.6's `src/bsdfs/ward.cpp` as a Mitsuba 3 Python BSDF
 plugin and evaluated through the same `BSDF.eval` call. Mitsuba's `eval`
@@ -99,9 +99,16 @@ PARAMETER_SETS = [
     {"type": "ward", "variant": "balanced", "alpha_u": 0.1, "alpha_v": 0.3},
     {"type": "ward", "variant": "balanced", "alpha": 0.25,
      "specular_reflectance": [0.3, 0.2, 0.1], "diffuse_reflectance": [0.4, 0.5, 0.6]},
+    {"type": "principled", "base_color": [0.8, 0.5, 0.3], "roughness": 0.6, "metallic": 0.2},
+    {"type": "principled", "base_color": [0.2, 0.4, 0.7], "roughness": 0.3, "clearcoat": 0.8,
+     "clearcoat_gloss": 0.7},
+    {"type": "principled", "base_color": [0.9, 0.3, 0.2], "roughness": 0.8, "sheen": 0.9,
+     "sheen_tint": 0.6, "spec_tint": 0.3},
+    {"type": "principled", "base_color": [0.5, 0.5, 0.5], "roughness": 0.4, "anisotropic": 0.5,
+     "metallic": 0.5, "clearcoat": 1.0, "clearcoat_gloss": 0.2, "sheen": 0.5},
 ]
 
-COLOR_KEYS = {"eta", "k", "specular_reflectance", "diffuse_reflectance"}
+COLOR_KEYS = {"eta", "k", "specular_reflectance", "diffuse_reflectance", "base_color"}
 
 
 def mitsuba_dict(params):

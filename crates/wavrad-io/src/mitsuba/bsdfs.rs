@@ -27,7 +27,8 @@
 //! | `plastic`        | `int_ior`, `ext_ior`, `specular_reflectance`, `diffuse_reflectance`, `nonlinear` | as above | as above |
 //! | `principled`     | `base_color`                                     | colour               | 0.5             |
 //! |                  | `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`), `spec_tint` | `<float>` | 0.5, 0, 0, 0.5, 0 |
-//! |                  | `spec_trans`, `clearcoat`, `sheen`, `flatness`: 0 (see below) | `<float>` | 0       |
+//! |                  | `clearcoat`, `clearcoat_gloss`, `sheen`, `sheen_tint` | `<float>`       | 0               |
+//! |                  | `spec_trans`, `flatness`: 0 (see below)          | `<float>`            | 0               |
 //! | `dielectric`     | `int_ior`, `ext_ior` (number or name)            | `<float>`/`<string>` | `bk7`, `air`    |
 //! |                  | `specular_reflectance`, `specular_transmittance` | colour               | 1, 1            |
 //! | `thindielectric` | as `dielectric`                                  | as above             | as above        |
@@ -58,7 +59,7 @@
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
 //! | `roughdielectric` with `alpha_u` ≠ `alpha_v`     | isotropic, of roughness √(`alpha_u`·`alpha_v`)           |
-//! | `principled` with `spec_trans`, `clearcoat`, `sheen` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe |
+//! | `principled` with `spec_trans` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe, clearcoat and sheen |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
 //! | a texture on another parameter                  | the texture's mean                                       |
@@ -132,24 +133,18 @@ const ANISOTROPIC_GLASS: &str = "isotropic, of roughness sqrt(alpha_u * alpha_v)
 /// wavrad does not model.
 const PRINCIPLED: &str =
     "its reflection without them: Burley's diffuse lobe of base_color·(1−metallic)·(1−spec_trans) \
-     plus its GGX specular lobe (roughness, anisotropic, metallic, specular or eta, spec_tint as \
-     Mitsuba)";
+     plus its GGX specular lobe, clearcoat and sheen (as Mitsuba)";
 
 /// The parameters of `principled` that [`Principled`] does not model, each
 /// with what it adds where it is above 0.
-const PRINCIPLED_UNMODELLED: [(&str, &str); 4] = [
+const PRINCIPLED_UNMODELLED: [(&str, &str); 2] = [
     ("spec_trans", "specular transmission"),
-    ("clearcoat", "clearcoat"),
-    ("sheen", "sheen"),
     ("flatness", "flatness (fake subsurface)"),
 ];
 
-/// Parameters of `principled` that change nothing wavrad computes: the
-/// tints and gloss of the unmodelled lobes, which are off, and sampling
+/// Parameters of `principled` that change nothing wavrad computes: sampling
 /// rates, which change the noise of Mitsuba's estimate, not its value.
-const PRINCIPLED_IGNORED: [&str; 6] = [
-    "sheen_tint",
-    "clearcoat_gloss",
+const PRINCIPLED_IGNORED: [&str; 4] = [
     "diffuse_reflectance_sampling_rate",
     "specular_reflectance_sampling_rate",
     "spec_trans_sampling_rate",
@@ -316,14 +311,15 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
 }
 
 /// Mitsuba 3's `principled`: its reflection as [`Principled`] (Burley's
-/// diffuse lobe and its GGX specular lobe as Mitsuba evaluates them), from
-/// `base_color`, `roughness`, `anisotropic`, `metallic`, `specular` (or
-/// `eta`), `spec_tint` and `spec_trans`. A texture on `base_color` of a
-/// surface without `metallic` and `spec_tint` is the texture of its diffuse
-/// lobe's albedo (as on a `diffuse` reflectance); any other texture becomes
-/// its mean (with `--approximate`). Where `spec_trans`, `clearcoat`, `sheen`
-/// or `flatness` is above 0, the parts they add are dropped (with
-/// `--approximate`; an error naming them without).
+/// diffuse lobe, its GGX specular lobe, clearcoat and sheen as Mitsuba
+/// evaluates them), from `base_color`, `roughness`, `anisotropic`,
+/// `metallic`, `specular` (or `eta`), `spec_tint`, `spec_trans`,
+/// `clearcoat`, `clearcoat_gloss`, `sheen` and `sheen_tint`. A texture on
+/// `base_color` of a surface without `metallic`, `spec_tint` and tinted
+/// sheen is the texture of its diffuse lobe's albedo (as on a `diffuse`
+/// reflectance); any other texture becomes its mean (with `--approximate`).
+/// Where `spec_trans` or `flatness` is above 0, the parts they add are
+/// dropped (with `--approximate`; an error naming them without).
 fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
     let mut unmodelled = Vec::new();
     for (name, what) in PRINCIPLED_UNMODELLED {
@@ -358,6 +354,10 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         eta,
         spec_tint: constant_float(obj, "spec_tint", defaults.spec_tint, doc)?,
         spec_trans: constant_float(obj, "spec_trans", defaults.spec_trans, doc)?,
+        clearcoat: constant_float(obj, "clearcoat", defaults.clearcoat, doc)?,
+        clearcoat_gloss: constant_float(obj, "clearcoat_gloss", defaults.clearcoat_gloss, doc)?,
+        sheen: constant_float(obj, "sheen", defaults.sheen, doc)?,
+        sheen_tint: constant_float(obj, "sheen_tint", defaults.sheen_tint, doc)?,
     };
     if params.spec_trans > 0.0 {
         unmodelled.insert(0, PRINCIPLED_UNMODELLED[0].1);
@@ -371,7 +371,11 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         Albedo::Constant(_) => None,
         // Without metallic and spec_tint the base colours only the diffuse
         // lobe: its texture is that lobe's albedo, scaled as the lobe is.
-        Albedo::Texture(index) if principled.metallic == 0.0 && principled.spec_tint == 0.0 => {
+        Albedo::Texture(index)
+            if principled.metallic == 0.0
+                && principled.spec_tint == 0.0
+                && (params.sheen <= 0.0 || params.sheen_tint <= 0.0) =>
+        {
             let weight = (1.0 - params.spec_trans.clamp(0.0, 1.0))
                 * burley_albedo(params.roughness.clamp(0.0, 1.0));
             let scaled = doc.with_texture(index, |t| t.scaled(Rgb::splat(weight)));

@@ -1,7 +1,8 @@
 //! The reflection of Mitsuba 3's `principled` BSDF (Burley, *Physically
 //! Based Shading at Disney*, SIGGRAPH 2012 course; Mitsuba 3's
 //! `src/bsdfs/principled.cpp` and `principledhelpers.h`) that the radiosity
-//! solution can carry: a Lambertian lobe plus its GGX specular lobe.
+//! solution can carry: a Lambertian lobe plus its GGX specular lobe, its
+//! clearcoat and its sheen.
 //!
 //! | parameter     | meaning                                                        | default |
 //! |---------------|----------------------------------------------------------------|---------|
@@ -12,6 +13,10 @@
 //! | `specular`    | index η = 2 / (1 − √(0.08·specular)) − 1 of the dielectric part | 0.5    |
 //! | `spec_tint`   | share of the dielectric Fresnel tinted towards `base_color`    | 0       |
 //! | `spec_trans`  | share of the base that transmits (the transmission is dropped) | 0       |
+//! | `clearcoat`   | weight of a second, colourless GTR1 specular lobe               | 0       |
+//! | `clearcoat_gloss` | its α = 0.1 (gloss 0) to 0.001 (gloss 1), linearly          | 0       |
+//! | `sheen`       | weight of a retro-reflective lobe that brightens grazing views  | 0       |
+//! | `sheen_tint`  | share of the sheen tinted towards `base_color`                  | 0       |
 //!
 //! With h the half vector and c = wo·h, the front-side BRDF is
 //!
@@ -29,20 +34,33 @@
 //! Lambertian's ([`burley_albedo`]), so a surface under uniform light
 //! reflects the same power. The Lambertian lobe goes through the solution's
 //! two-point links ([`super::Brdf::lambertian`]), the specular one through
-//! three-point links. Clearcoat, sheen, flatness and the specular
-//! transmission are not modelled (the scene reader warns).
+//! three-point links.
 //!
-//! Sampling picks the specular lobe with probability ρ̄_s / (ρ̄_s + ρ̄_d),
-//! ρ̄_s the channel mean of F at normal incidence, draws a visible normal
-//! and reflects; the Lambertian lobe is cosine-sampled. The density is the
-//! mixture of both.
+//! Clearcoat and sheen are added as Mitsuba 3.9's `principled.cpp` adds
+//! them (which departs from Burley's notes: its clearcoat has no
+//! 1/(4 cos θ_i cos θ_o), its sheen no 1/π):
+//!
+//! f_cc = ¼ c S(0.04, wo·h) D₁(h) G₁(wo) G₁(wi), f_sh = s (1 − m) C_sh (1 − wi·h)⁵,
+//!
+//! D₁ Burley's GTR1 of α = lerp(0.1, 0.001, `clearcoat_gloss`), G₁ Smith's
+//! GGX masking at α = 0.25, C_sh = lerp(1, base/lum, `sheen_tint`); the
+//! sheen only where the diffuse lobe is, as there. Both are among the
+//! specular part the three-point links carry, not the Lambertian lobe.
+//! Flatness and the specular transmission are not modelled (the scene
+//! reader warns).
+//!
+//! Sampling picks the specular lobe, the clearcoat and the cosine-sampled
+//! diffuse and sheen lobes in proportion to ρ̄_s, ¼c and ρ̄_d + s̄, ρ̄_s the
+//! channel mean of F at normal incidence; the specular lobe draws a visible
+//! normal, the clearcoat a GTR1 normal (Burley's inversion), each
+//! reflected. The density is the mixture of the three.
 
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::{cosine_hemisphere_pdf, reflect, Microfacet, MicrofacetType};
 use super::{cosine_hemisphere, BrdfFlags, BrdfModel, BrdfSample};
 use crate::scene::Rgb;
 use glam::{DVec2, DVec3};
-use std::f64::consts::FRAC_1_PI;
+use std::f64::consts::{FRAC_1_PI, PI};
 
 /// Burley's diffuse plus GGX reflection of a `principled` surface, with
 /// the Lambertian lobe the solution carries for the diffuse one.
@@ -72,6 +90,12 @@ pub struct Principled {
     pub eta: f64,
     /// The GGX distribution of the specular lobe.
     pub distribution: Microfacet,
+    /// `clearcoat`, in [0, 1]: the clearcoat lobe's weight (¼ of it).
+    pub clearcoat: f64,
+    /// The clearcoat's GTR1 roughness, lerp(0.1, 0.001, `clearcoat_gloss`).
+    pub clearcoat_alpha: f64,
+    /// The sheen lobe's colour s (1 − m) C_sh, zero without a diffuse lobe.
+    pub sheen: Rgb,
 }
 
 /// The parameters of Mitsuba 3's `principled` that [`Principled`] models.
@@ -93,6 +117,14 @@ pub struct PrincipledParams {
     pub spec_tint: f64,
     /// `spec_trans`.
     pub spec_trans: f64,
+    /// `clearcoat`.
+    pub clearcoat: f64,
+    /// `clearcoat_gloss`.
+    pub clearcoat_gloss: f64,
+    /// `sheen`.
+    pub sheen: f64,
+    /// `sheen_tint`.
+    pub sheen_tint: f64,
 }
 
 impl Default for PrincipledParams {
@@ -107,6 +139,10 @@ impl Default for PrincipledParams {
             eta: None,
             spec_tint: 0.0,
             spec_trans: 0.0,
+            clearcoat: 0.0,
+            clearcoat_gloss: 0.0,
+            sheen: 0.0,
+            sheen_tint: 0.0,
         }
     }
 }
@@ -131,6 +167,16 @@ impl Principled {
         let base_color = p.base_color.map(unit);
         let burley = base_color.map(|c| c * (1.0 - metallic) * (1.0 - spec_trans));
         let roughness = unit(p.roughness);
+        let lum = base_color.luminance();
+        let sheen_tint = unit(p.sheen_tint);
+        let sheen = match (1.0 - metallic) * (1.0 - spec_trans) > 0.0 {
+            true => base_color.map(|c| {
+                let tint = if lum > 0.0 { c / lum } else { 1.0 };
+                unit(p.sheen) * (1.0 - metallic) * (1.0 + sheen_tint * (tint - 1.0))
+            }),
+            false => Rgb::ZERO,
+        };
+        let gloss = unit(p.clearcoat_gloss);
         Principled {
             diffuse_reflectance: burley.map(|c| c * burley_albedo(roughness)),
             burley,
@@ -141,6 +187,9 @@ impl Principled {
             spec_tint,
             eta,
             distribution,
+            clearcoat: unit(p.clearcoat),
+            clearcoat_alpha: 0.1 + gloss * (0.001 - 0.1),
+            sheen,
         }
     }
 
@@ -181,6 +230,28 @@ impl Principled {
         self.fresnel(wo.dot(h)).map(|f| f * value)
     }
 
+    /// The clearcoat lobe alone (no cosine), as Mitsuba 3.9 evaluates it.
+    fn clearcoat(&self, wo: DVec3, wi: DVec3) -> f64 {
+        let h = (wi + wo).normalize();
+        if self.clearcoat == 0.0 || wo.dot(h) <= 0.0 || wi.dot(h) <= 0.0 {
+            return 0.0;
+        }
+        let g = ggx_masking(wo, h, CLEARCOAT_G_ALPHA) * ggx_masking(wi, h, CLEARCOAT_G_ALPHA);
+        0.25 * self.clearcoat
+            * schlick(0.04, wo.dot(h), self.eta)
+            * gtr1(h.z, self.clearcoat_alpha)
+            * g
+    }
+
+    /// The sheen lobe alone (no cosine), as Mitsuba 3.9 evaluates it.
+    fn sheen(&self, wo: DVec3, wi: DVec3) -> Rgb {
+        if self.sheen == Rgb::ZERO {
+            return Rgb::ZERO;
+        }
+        let cos_d = (wi + wo).normalize_or_zero().dot(wi).abs();
+        self.sheen * (1.0 - cos_d).clamp(0.0, 1.0).powi(5)
+    }
+
     /// Burley's diffuse lobe (Mitsuba's `f_diff + f_retro` times
     /// base/π, without `flatness`) less the Lambertian lobe removed.
     fn diffuse(&self, wo: DVec3, wi: DVec3) -> Rgb {
@@ -191,18 +262,63 @@ impl Principled {
         (self.burley.map(|b| b * shape) - self.lambertian_removed).map(|r| r * FRAC_1_PI)
     }
 
-    /// Probability of sampling the specular lobe.
-    fn specular_probability(&self) -> f64 {
-        if fresnel_dielectric(1.0, self.eta).0 <= 0.0 {
-            return 0.0;
-        }
-        let (s, d) = (self.fresnel(1.0).average(), self.burley.average());
-        if s + d > 0.0 {
-            s / (s + d)
+    /// Probabilities of sampling the specular lobe and the clearcoat (the
+    /// rest: the cosine-sampled diffuse and sheen).
+    fn lobe_probabilities(&self) -> (f64, f64) {
+        let s = match fresnel_dielectric(1.0, self.eta).0 > 0.0 {
+            true => self.fresnel(1.0).average(),
+            false => 0.0,
+        };
+        let c = 0.25 * self.clearcoat;
+        let d = self.burley.average() + self.sheen.average();
+        let total = s + c + d;
+        if total > 0.0 {
+            (s / total, c / total)
         } else {
-            0.0
+            (0.0, 0.0)
         }
     }
+}
+
+/// The roughness of the clearcoat's Smith masking (Mitsuba's, Burley's).
+const CLEARCOAT_G_ALPHA: f64 = 0.25;
+
+/// Burley's GTR1 distribution of roughness `alpha` at a normal of cosine
+/// `cos_theta` (Mitsuba's `GTR1Isotropic::eval`): normalised so that
+/// ∫ D cos θ dω = 1.
+fn gtr1(cos_theta: f64, alpha: f64) -> f64 {
+    let a2 = alpha * alpha;
+    let d = (a2 - 1.0) / (PI * a2.ln() * (1.0 + (a2 - 1.0) * cos_theta * cos_theta));
+    if d * cos_theta > 1e-20 {
+        d
+    } else {
+        0.0
+    }
+}
+
+/// A normal drawn from GTR1 of roughness `alpha` in proportion to
+/// D cos θ by `u` ∈ \[0,1)² (Burley's inversion, as Mitsuba's
+/// `GTR1Isotropic::sample`).
+fn sample_gtr1(u: DVec2, alpha: f64) -> DVec3 {
+    let a2 = alpha * alpha;
+    let cos2 = (1.0 - a2.powf(1.0 - u.y)) / (1.0 - a2);
+    let (sin, cos) = ((1.0 - cos2).max(0.0).sqrt(), cos2.max(0.0).sqrt());
+    let phi = 2.0 * PI * u.x;
+    DVec3::new(phi.cos() * sin, phi.sin() * sin, cos)
+}
+
+/// Smith's isotropic GGX masking of direction `v` (local) at roughness
+/// `alpha`, zero where `v` sees the back of `h` (Mitsuba's `smith_ggx1`).
+fn ggx_masking(v: DVec3, h: DVec3, alpha: f64) -> f64 {
+    if v.dot(h) * v.z <= 0.0 {
+        return 0.0;
+    }
+    if v.z == 1.0 {
+        return 1.0;
+    }
+    let cos2 = v.z * v.z;
+    let tan2 = (1.0 - cos2) / cos2;
+    2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
 }
 
 /// Schlick's Fresnel approximation with normal reflectance `r0` at c = wo·h
@@ -261,29 +377,41 @@ impl BrdfModel for Principled {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return Rgb::ZERO;
         }
-        self.diffuse(wo, wi) + self.specular(wo, wi)
+        self.diffuse(wo, wi)
+            + self.specular(wo, wi)
+            + self.sheen(wo, wi)
+            + Rgb::splat(self.clearcoat(wo, wi))
     }
 
     fn pdf(&self, wo: DVec3, wi: DVec3) -> f64 {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
-        let ps = self.specular_probability();
+        let (ps, pc) = self.lobe_probabilities();
         let h = (wi + wo).normalize();
-        let spec = if ps > 0.0 && wo.dot(h) > 0.0 && wi.dot(h) > 0.0 {
+        let facing = wo.dot(h) > 0.0 && wi.dot(h) > 0.0;
+        let spec = if ps > 0.0 && facing {
             self.distribution.eval(h) * self.distribution.smith_g1(wo, h) / (4.0 * wo.z)
         } else {
             0.0
         };
-        ps * spec + (1.0 - ps) * cosine_hemisphere_pdf(wi)
+        let coat = if pc > 0.0 && facing {
+            gtr1(h.z, self.clearcoat_alpha) * h.z / (4.0 * wo.dot(h))
+        } else {
+            0.0
+        };
+        ps * spec + pc * coat + (1.0 - ps - pc) * cosine_hemisphere_pdf(wi)
     }
 
     fn sample(&self, wo: DVec3, u: DVec2, lobe: f64) -> Option<BrdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = if lobe < self.specular_probability() {
+        let (ps, pc) = self.lobe_probabilities();
+        let wi = if lobe < ps {
             reflect(wo, self.distribution.sample(wo, u).0)
+        } else if lobe < ps + pc {
+            reflect(wo, sample_gtr1(u, self.clearcoat_alpha))
         } else {
             cosine_hemisphere(u)
         };
