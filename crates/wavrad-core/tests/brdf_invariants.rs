@@ -86,7 +86,7 @@ fn models() -> Vec<(String, Brdf)> {
         })),
     ));
     v.push((
-        "principled clearcoat 0.8 sheen 0.5".to_string(),
+        "principled clearcoat 0.8 sheen 0.5 flatness 0.6".to_string(),
         Brdf::Principled(Principled::new(PrincipledParams {
             base_color: Rgb([0.5, 0.4, 0.3]),
             roughness: 0.5,
@@ -94,6 +94,7 @@ fn models() -> Vec<(String, Brdf)> {
             clearcoat_gloss: 0.6,
             sheen: 0.5,
             sheen_tint: 0.5,
+            flatness: 0.6,
             ..PrincipledParams::default()
         })),
     ));

@@ -114,6 +114,7 @@ fn brdf(params: &Value) -> Brdf {
                 clearcoat_gloss: or("clearcoat_gloss", defaults.clearcoat_gloss),
                 sheen: or("sheen", defaults.sheen),
                 sheen_tint: or("sheen_tint", defaults.sheen_tint),
+                flatness: or("flatness", defaults.flatness),
             }))
         }
         other => panic!("unknown model {other}"),

@@ -115,8 +115,8 @@ fn unsupported_plugins_name_their_line_and_suggest_approximate() {
             "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal",
         ),
         (
-            r#"<bsdf type="principled"><float name="flatness" value="0.5"/></bsdf>"#,
-            "bsdf \"principled\" with flatness",
+            r#"<bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf>"#,
+            "bsdf \"principled\" with specular transmission",
         ),
         (
             r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
@@ -156,7 +156,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
                <shape type="rectangle"><bsdf type="principled">
                    <rgb name="base_color" value="0.8, 0.1, 0.1"/>
                    <float name="roughness" value="0.3"/>
-                   <float name="flatness" value="0.2"/>
+                   <float name="spec_trans" value="0.2"/>
                </bsdf></shape>
                <shape type="rectangle"><bsdf type="bumpmap">
                    <texture type="bitmap"><string name="filename" value="wall.png"/></texture>
@@ -169,7 +169,7 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     assert_eq!(messages.len(), 3, "{messages:#?}");
     for plugin in [
         "bsdf \"roughdielectric\" with alpha_u and alpha_v unequal: isotropic",
-        "bsdf \"principled\" with flatness (fake subsurface): its reflection without them",
+        "bsdf \"principled\" with specular transmission: its reflection without it",
         "bsdf \"bumpmap\": its nested BSDF",
     ] {
         assert!(
@@ -179,18 +179,18 @@ fn approximate_substitutes_the_nearest_model_with_one_warning_per_plugin() {
     }
     let s = loaded.scene;
     // Anisotropic rough glass is isotropic (thin glass is supported as it
-    // is), not a surface; principled without its flatness is a red Burley lobe,
-    // carried as a Lambertian lobe of its albedo at roughness 0.3, under a
-    // GGX lobe of α = 0.3²; the bump map's nested diffuse stays.
-    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3);
+    // is), not a surface; principled without its transmission is a red
+    // Burley lobe of 0.8 its base, carried as a Lambertian lobe of its
+    // albedo at roughness 0.3, under a GGX lobe of α = 0.3²; the bump map's
+    // nested diffuse stays.
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.3, 0.0);
+    let expected = Rgb([0.8, 0.1, 0.1]).map(|c| c * 0.8 * burley);
+    let close = |a: Rgb| (0..3).all(|c| (a[c] - expected[c]).abs() < 1e-12);
     assert!(matches!(&s.surfaces[0].brdf,
-        Brdf::Principled(p) if p.diffuse_reflectance == Rgb([0.8, 0.1, 0.1]).map(|c| c * burley)
+        Brdf::Principled(p) if close(p.diffuse_reflectance)
             && (p.distribution.alpha_u - 0.09).abs() < 1e-12
             && (p.eta - 1.5).abs() < 1e-12));
-    assert_eq!(
-        s.surfaces[0].brdf.lambertian(),
-        Some(Rgb([0.8, 0.1, 0.1]).map(|c| c * burley))
-    );
+    assert!(s.surfaces[0].brdf.lambertian().is_some_and(close));
     assert_eq!(s.surfaces[1].brdf, Brdf::diffuse(Rgb::splat(0.5)));
     let glass: Vec<(bool, usize)> = (s.glass.iter())
         .map(|g| (g.interface.thin, g.faces.len()))
@@ -269,8 +269,8 @@ fn principled(params: &str, approximate: bool) -> (Principled, Vec<String>) {
     (p, loaded.warnings.iter().map(|w| w.to_string()).collect())
 }
 
-/// Without transmission or flatness, `principled` is read as it is, with
-/// no warning, clearcoat and sheen included, whatever the sampling rates;
+/// Without transmission, `principled` is read as it is, with no warning,
+/// clearcoat, sheen and flatness included, whatever the sampling rates;
 /// a parameter it does not have is an error at its line.
 #[test]
 fn principled_without_its_unmodelled_lobes_needs_no_approximation() {
@@ -320,7 +320,7 @@ fn principled_base_color_texture_is_its_diffuse_lobes() {
     let loaded = load(&xml, false).unwrap_or_else(|e| panic!("{e}"));
     assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
     let s = &loaded.scene;
-    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.7);
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.7, 0.0);
     let Some(mapping) = s.surfaces[0].texture else {
         panic!("no texture")
     };
@@ -364,7 +364,7 @@ fn approximate_principled_keeps_metallic_eta_and_the_diffuse_weight() {
     );
     // base (1 − metallic)(1 − spec_trans), times Burley's albedo at the
     // default roughness 0.5; η as given; α = 0.25 stretched by √(1 − 0.45).
-    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.5);
+    let burley = wavrad_core::scene::brdf::principled::burley_albedo(0.5, 0.0);
     let expect = Rgb([0.9, 0.6, 0.2]).map(|c| c * 0.75 * 0.5 * burley);
     assert!((0..3).all(|c| (p.diffuse_reflectance.0[c] - expect.0[c]).abs() < 1e-12));
     assert_eq!((p.metallic, p.eta), (0.25, 1.33));

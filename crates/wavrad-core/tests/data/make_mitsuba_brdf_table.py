@@ -106,6 +106,9 @@ PARAMETER_SETS = [
      "sheen_tint": 0.6, "spec_tint": 0.3},
     {"type": "principled", "base_color": [0.5, 0.5, 0.5], "roughness": 0.4, "anisotropic": 0.5,
      "metallic": 0.5, "clearcoat": 1.0, "clearcoat_gloss": 0.2, "sheen": 0.5},
+    {"type": "principled", "base_color": [0.6, 0.7, 0.4], "roughness": 0.7, "flatness": 0.6},
+    {"type": "principled", "base_color": [0.3, 0.5, 0.9], "roughness": 0.2, "flatness": 1.0,
+     "spec_tint": 0.5, "sheen": 0.3},
 ]
 
 COLOR_KEYS = {"eta", "k", "specular_reflectance", "diffuse_reflectance", "base_color"}

@@ -28,7 +28,8 @@
 //! | `principled`     | `base_color`                                     | colour               | 0.5             |
 //! |                  | `roughness`, `anisotropic`, `metallic`, `specular` (or `eta`), `spec_tint` | `<float>` | 0.5, 0, 0, 0.5, 0 |
 //! |                  | `clearcoat`, `clearcoat_gloss`, `sheen`, `sheen_tint` | `<float>`       | 0               |
-//! |                  | `spec_trans`, `flatness`: 0 (see below)          | `<float>`            | 0               |
+//! |                  | `flatness`                                       | `<float>`            | 0               |
+//! |                  | `spec_trans`: 0 (see below)                      | `<float>`            | 0               |
 //! | `dielectric`     | `int_ior`, `ext_ior` (number or name)            | `<float>`/`<string>` | `bk7`, `air`    |
 //! |                  | `specular_reflectance`, `specular_transmittance` | colour               | 1, 1            |
 //! | `thindielectric` | as `dielectric`                                  | as above             | as above        |
@@ -59,7 +60,7 @@
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
 //! | `roughdielectric` with `alpha_u` ≠ `alpha_v`     | isotropic, of roughness √(`alpha_u`·`alpha_v`)           |
-//! | `principled` with `spec_trans` or `flatness` > 0 | its reflection ([`Principled`]) without them: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe, clearcoat and sheen |
+//! | `principled` with `spec_trans` > 0              | its reflection ([`Principled`]) without it: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe, clearcoat and sheen |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
 //! | a texture on another parameter                  | the texture's mean                                       |
@@ -132,15 +133,8 @@ const ANISOTROPIC_GLASS: &str = "isotropic, of roughness sqrt(alpha_u * alpha_v)
 /// What `--approximate` puts in place of a `principled` with the parts
 /// wavrad does not model.
 const PRINCIPLED: &str =
-    "its reflection without them: Burley's diffuse lobe of base_color·(1−metallic)·(1−spec_trans) \
+    "its reflection without it: Burley's diffuse lobe of base_color·(1−metallic)·(1−spec_trans) \
      plus its GGX specular lobe, clearcoat and sheen (as Mitsuba)";
-
-/// The parameters of `principled` that [`Principled`] does not model, each
-/// with what it adds where it is above 0.
-const PRINCIPLED_UNMODELLED: [(&str, &str); 2] = [
-    ("spec_trans", "specular transmission"),
-    ("flatness", "flatness (fake subsurface)"),
-];
 
 /// Parameters of `principled` that change nothing wavrad computes: sampling
 /// rates, which change the noise of Mitsuba's estimate, not its value.
@@ -314,19 +308,13 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
 /// diffuse lobe, its GGX specular lobe, clearcoat and sheen as Mitsuba
 /// evaluates them), from `base_color`, `roughness`, `anisotropic`,
 /// `metallic`, `specular` (or `eta`), `spec_tint`, `spec_trans`,
-/// `clearcoat`, `clearcoat_gloss`, `sheen` and `sheen_tint`. A texture on
+/// `clearcoat`, `clearcoat_gloss`, `sheen`, `sheen_tint` and `flatness`. A texture on
 /// `base_color` of a surface without `metallic`, `spec_tint` and tinted
 /// sheen is the texture of its diffuse lobe's albedo (as on a `diffuse`
 /// reflectance); any other texture becomes its mean (with `--approximate`).
-/// Where `spec_trans` or `flatness` is above 0, the parts they add are
-/// dropped (with `--approximate`; an error naming them without).
+/// Where `spec_trans` is above 0, the transmission it adds is dropped (with
+/// `--approximate`; an error naming it without).
 fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
-    let mut unmodelled = Vec::new();
-    for (name, what) in PRINCIPLED_UNMODELLED {
-        if name != "spec_trans" && constant_float(obj, name, 0.0, doc)? > 0.0 {
-            unmodelled.push(what);
-        }
-    }
     obj.ignore(&PRINCIPLED_IGNORED);
     let defaults = PrincipledParams::default();
     let eta = match obj.has("eta") {
@@ -358,13 +346,11 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         clearcoat_gloss: constant_float(obj, "clearcoat_gloss", defaults.clearcoat_gloss, doc)?,
         sheen: constant_float(obj, "sheen", defaults.sheen, doc)?,
         sheen_tint: constant_float(obj, "sheen_tint", defaults.sheen_tint, doc)?,
+        flatness: constant_float(obj, "flatness", defaults.flatness, doc)?,
     };
     if params.spec_trans > 0.0 {
-        unmodelled.insert(0, PRINCIPLED_UNMODELLED[0].1);
-    }
-    if !unmodelled.is_empty() {
-        let plugin = format!("bsdf \"principled\" with {}", unmodelled.join(", "));
-        doc.approximate(obj.at(), &plugin, PRINCIPLED)?;
+        let plugin = "bsdf \"principled\" with specular transmission";
+        doc.approximate(obj.at(), plugin, PRINCIPLED)?;
     }
     let principled = Principled::new(params);
     let texture = match base {
@@ -377,7 +363,7 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
                 && (params.sheen <= 0.0 || params.sheen_tint <= 0.0) =>
         {
             let weight = (1.0 - params.spec_trans.clamp(0.0, 1.0))
-                * burley_albedo(params.roughness.clamp(0.0, 1.0));
+                * burley_albedo(principled.roughness, principled.flatness);
             let scaled = doc.with_texture(index, |t| t.scaled(Rgb::splat(weight)));
             Some(doc.add_texture(scaled))
         }
