@@ -48,6 +48,9 @@ overridable with --spp/--res/--pass-spp/--integrator):
   rough-glass-cornell-box scenes/rough-glass-cornell-box/scene.xml -> reference.exr
                       path, 64x64, 65536 spp (the glass sphere frosted:
                       roughdielectric, Beckmann 0.25)
+  principled-glass-cornell-box scenes/rough-glass-cornell-box/principled.xml
+                      -> reference-principled.exr: path, 64x64, 65536 spp
+                      (the sphere a transmissive principled, tinted)
   figure3-specular    scenes/figure3/specular.xml -> reference-specular.exr
                       ptracer (light tracer), 64x64, 1048576 spp
                       (the receiver is lit only via the glossy reflector, a
@@ -127,6 +130,10 @@ SCENES = {
     "rough-glass-cornell-box": (os.path.join(HERE, "rough-glass-cornell-box", "scene.xml"),
                                 os.path.join(HERE, "rough-glass-cornell-box", "reference.exr"),
                                 64, 65536, 1024, "path"),
+    "principled-glass-cornell-box": (
+        os.path.join(HERE, "rough-glass-cornell-box", "principled.xml"),
+        os.path.join(HERE, "rough-glass-cornell-box", "reference-principled.exr"),
+        64, 65536, 1024, "path"),
     "figure3-specular": (os.path.join(HERE, "figure3", "specular.xml"),
                          os.path.join(HERE, "figure3", "reference-specular.exr"),
                          64, 1048576, 1024, "ptracer"),

@@ -522,3 +522,38 @@ fn curved_shapes_carry_mitsubas_texture_coordinates() {
         / sphere.surfaces.iter().map(|s| s.patch.area()).sum::<f64>();
     assert!((mean - 0.3).abs() < 0.01, "{mean}");
 }
+
+/// A `principled` whose base all transmits is the glass Mitsuba evaluates
+/// it as: a rough dielectric of η from `specular`, GGX α = roughness², its
+/// transmission tinted by √`base_color`; partly transmitting, or metallic,
+/// it is approximated (its reflection without the transmission).
+#[test]
+fn a_wholly_transmissive_principled_is_rough_glass() {
+    let loaded = load(
+        r#"<shape type="sphere"><bsdf type="twosided"><bsdf type="principled">
+               <rgb name="base_color" value="0.81, 0.64, 0.25"/>
+               <float name="spec_trans" value="1"/>
+               <float name="roughness" value="0.4"/>
+           </bsdf></bsdf></shape>"#,
+        false,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert!(loaded.warnings.is_empty(), "{:?}", loaded.warnings);
+    let glass = &loaded.scene.glass[0].interface;
+    assert!((glass.eta - 1.5).abs() < 1e-12 && !glass.thin);
+    assert_eq!(glass.reflectance, Rgb::splat(1.0));
+    assert!((0..3).all(|c| (glass.transmittance[c] - [0.9, 0.8, 0.5][c]).abs() < 1e-12));
+    let m = glass.roughness.unwrap();
+    assert_eq!(m.kind, MicrofacetType::Ggx);
+    assert!((m.alpha_u - 0.16).abs() < 1e-12 && m.alpha_u == m.alpha_v);
+    for partly in [
+        r#"<float name="spec_trans" value="0.5"/>"#,
+        r#"<float name="spec_trans" value="1"/><float name="metallic" value="0.3"/>"#,
+    ] {
+        let xml =
+            format!(r#"<shape type="rectangle"><bsdf type="principled">{partly}</bsdf></shape>"#);
+        let e = load(&xml, false).unwrap_err().to_string();
+        assert!(e.contains("specular transmission"), "{e}");
+        assert!(load(&xml, true).unwrap().scene.glass.is_empty());
+    }
+}

@@ -60,7 +60,7 @@
 //! | plugin                                          | replaced by                                              |
 //! |-------------------------------------------------|----------------------------------------------------------|
 //! | `roughdielectric` with `alpha_u` ≠ `alpha_v`     | isotropic, of roughness √(`alpha_u`·`alpha_v`)           |
-//! | `principled` with `spec_trans` > 0              | its reflection ([`Principled`]) without it: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe, clearcoat and sheen |
+//! | `principled` with 0 < `spec_trans` < 1, or 1 with `metallic`, `spec_tint` or `clearcoat` | its reflection ([`Principled`]) without the transmission: Burley's diffuse lobe of `base_color`·(1−`metallic`)·(1−`spec_trans`) plus its GGX lobe, clearcoat and sheen |
 //! | `normalmap`, `bumpmap`                          | the nested BSDF, with the surface's own normals          |
 //! | `mask` with `opacity` < 1 or textured           | the nested BSDF, opaque                                  |
 //! | a texture on another parameter                  | the texture's mean                                       |
@@ -78,6 +78,7 @@ use wavrad_core::scene::Rgb;
 
 use super::params::{Document, FloatOrString, Nested, Object};
 use super::textures::{parse_texture, texture_mean};
+use super::Location;
 use crate::error::Result;
 
 /// One side of a material: its BRDF and the texture on the albedo of its
@@ -312,8 +313,10 @@ fn nested_only(obj: Object, doc: &Document, depth: usize) -> Result<Material> {
 /// `base_color` of a surface without `metallic`, `spec_tint` and tinted
 /// sheen is the texture of its diffuse lobe's albedo (as on a `diffuse`
 /// reflectance); any other texture becomes its mean (with `--approximate`).
-/// Where `spec_trans` is above 0, the transmission it adds is dropped (with
-/// `--approximate`; an error naming it without).
+/// With `spec_trans` 1 and neither `metallic`, `spec_tint` nor `clearcoat`
+/// it is glass ([`transmissive_principled`]); with any other `spec_trans`
+/// above 0, the transmission it adds is dropped (with `--approximate`; an
+/// error naming it without).
 fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
     obj.ignore(&PRINCIPLED_IGNORED);
     let defaults = PrincipledParams::default();
@@ -348,6 +351,13 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         sheen_tint: constant_float(obj, "sheen_tint", defaults.sheen_tint, doc)?,
         flatness: constant_float(obj, "flatness", defaults.flatness, doc)?,
     };
+    if params.spec_trans >= 1.0
+        && params.metallic <= 0.0
+        && params.spec_tint <= 0.0
+        && params.clearcoat <= 0.0
+    {
+        return transmissive_principled(params, (base, base_at), doc);
+    }
     if params.spec_trans > 0.0 {
         let plugin = "bsdf \"principled\" with specular transmission";
         doc.approximate(obj.at(), plugin, PRINCIPLED)?;
@@ -380,6 +390,38 @@ fn principled(obj: &mut Object, doc: &Document) -> Result<Material> {
         },
         back: None,
     })
+}
+
+/// A `principled` whose base all transmits (`spec_trans` 1), neither
+/// metallic nor tinted and without clearcoat, as the glass it is: Mitsuba
+/// 3's `principled` then has no diffuse lobe (nor sheen), and its specular
+/// reflection and transmission are a `roughdielectric`'s of GGX roughness
+/// α = max(0.001, `roughness`²) (made isotropic of √(α_u·α_v), with
+/// `--approximate`, where `anisotropic` is above 0) whose transmission is
+/// tinted by √`base_color` (its mean, with `--approximate`, where
+/// textured).
+fn transmissive_principled(
+    params: PrincipledParams,
+    (base, base_at): (Albedo, &Location),
+    doc: &Document,
+) -> Result<Material> {
+    let model = Principled::new(params);
+    if let Albedo::Texture(_) = base {
+        let what = "a texture on base_color of a transmissive bsdf \"principled\"";
+        doc.approximate(base_at, what, "its mean value")?;
+    }
+    let (au, av) = (model.distribution.alpha_u, model.distribution.alpha_v);
+    if au != av {
+        let what = "bsdf \"principled\" with spec_trans 1 and anisotropic";
+        doc.approximate(base_at, what, ANISOTROPIC_GLASS)?;
+    }
+    Ok(Material::Glass(Dielectric {
+        eta: model.eta,
+        thin: false,
+        reflectance: Rgb::splat(1.0),
+        transmittance: model.base_color.map(f64::sqrt),
+        roughness: Some(Microfacet::isotropic(MicrofacetType::Ggx, (au * av).sqrt())),
+    }))
 }
 
 /// A reflectance given as a colour or as a texture.
