@@ -458,10 +458,10 @@ impl Shot<'_> {
         let (dir, interface) = (ray.direction, glass.interface);
         // A rough interface's microfacet normal, drawn once for both
         // branches.
-        let facet = hash2(key, FACETS + u64::from(depth));
+        let m = interface.facet(dir, glass.normal, hash2(key, FACETS + u64::from(depth)));
         let mut branch = |u: f64, share: f64| {
-            let u = DVec3::new(u, facet.x, facet.y);
-            let (direction, weight) = interface.scatter(dir, glass.normal, u, Transport::Power);
+            let (direction, weight) =
+                interface.scatter_at(dir, (glass.normal, m), u, Transport::Power);
             let next = Ray {
                 origin: glass.position,
                 direction,
@@ -477,7 +477,6 @@ impl Shot<'_> {
             );
         };
         if depth < SPLIT_DEPTH {
-            let m = interface.facet(dir, glass.normal, facet);
             let r = interface.reflectance_at(-dir.dot(m));
             if r > 0.0 {
                 branch(0.5 * r, r);

@@ -133,17 +133,30 @@ impl Dielectric {
         transport: Transport,
     ) -> (DVec3, Rgb) {
         let m = self.facet(dir, normal, DVec2::new(u.y, u.z));
+        self.scatter_at(dir, (normal, m), u.x, transport)
+    }
+
+    /// [`Dielectric::scatter`] about the facet `m` already drawn
+    /// ([`Dielectric::facet`]; `normal` on a smooth interface), choosing
+    /// reflection when `u` ∈ [0, 1) falls below its Fresnel reflectance.
+    pub fn scatter_at(
+        &self,
+        dir: DVec3,
+        (normal, m): (DVec3, DVec3),
+        u: f64,
+        transport: Transport,
+    ) -> (DVec3, Rgb) {
         let cos_theta_i = -dir.dot(m);
         let reflect = || dir + 2.0 * cos_theta_i * m;
         if self.thin {
-            return if u.x < self.reflectance_at(cos_theta_i) {
+            return if u < self.reflectance_at(cos_theta_i) {
                 (reflect(), self.reflectance)
             } else {
                 (dir, self.transmittance)
             };
         }
         let (r, cos_theta_t, _, eta_ti) = fresnel_dielectric(cos_theta_i, self.eta);
-        let (out, weight) = if u.x < r {
+        let (out, weight) = if u < r {
             (reflect(), self.reflectance)
         } else {
             // Mitsuba's refract(): −η_ti·wi's tangential part, plus cosθt·m.
