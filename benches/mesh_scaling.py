@@ -10,13 +10,19 @@ columns compare renders (64², default render and `--mode direct`, the
 solution read directly) of the clustered solve with the same scene solved
 with `--cluster-ratio 0` (every pair of surfaces linked, as the paper
 does), for the sizes where that is affordable: they are what clustering
-costs, not the error against a path tracer. Writes docs/scaling.md,
-keeping what follows its `<!-- notes -->` line. Standard library only.
+costs, not the error against a path tracer. With `--mitsuba-spp N` every
+sphere and bowl is also rendered by Mitsuba 3's path tracer (two halves of
+N/2 spp, independent seeds) and the same two renders are compared with it,
+the reference's own noise taken out in quadrature: the whole error at each
+size, clustering included. Writes docs/scaling.md, keeping what follows
+its `<!-- notes -->` line. Standard library only, and Mitsuba 3 with numpy
+for `--mitsuba-spp` (run it with the Python of `make python`).
 
     cargo build --release -p wavrad-cli
     python3 benches/mesh_scaling.py                          # 10^3 … 10^6 (an hour or more)
     python3 benches/mesh_scaling.py --sizes 1000 10000 --compare-up-to 10000
     python3 benches/mesh_scaling.py --mesh path/to/bunny.ply  # add a real mesh
+    .venv/bin/python benches/mesh_scaling.py --mitsuba-spp 16384  # error against Mitsuba
     python3 benches/mesh_scaling.py --sizes --bowl-sizes --scene veach-bidir \
         --scene-args "--approximate --time-limit 300 --max-memory 8"   # a real scene
 
@@ -90,6 +96,35 @@ def relative_rmse(wavrad: Path, image: Path, reference: Path) -> float:
     return float(out.split()[-1])
 
 
+def mitsuba_error(wavrad: Path, scene: Path, folder: Path, spp: int) -> dict:
+    """The default render's and `--mode direct`'s relRMSE against Mitsuba 3
+    at `spp` (two halves of spp/2, seeds 0 and 1), the halves' noise taken
+    out in quadrature; also that noise and Mitsuba's time."""
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
+    start = time.perf_counter()
+    loaded = mi.load_file(str(scene), res=64)
+    halves = [
+        np.array(mi.render(loaded, spp=spp // 2, seed=seed), dtype=np.float64) for seed in (0, 1)
+    ]
+    seconds = time.perf_counter() - start
+    reference = 0.5 * (halves[0] + halves[1])
+    # The mean of two halves has half the variance of either: its noise is
+    # relRMSE(A, B) / 2 (A − B has twice a half's variance).
+    noise = float(np.sqrt(np.mean((halves[0] - halves[1]) ** 2)) / np.mean(reference)) / 2
+    mi.Bitmap(reference.astype(np.float32)).write(str(folder / "mitsuba.exr"))
+    errors = {"noise": noise, "mitsuba_s": seconds}
+    for label, mode in [("gather", []), ("direct", ["--mode", "direct"])]:
+        image = folder / f"c-{label}.exr"
+        if not image.exists():
+            render(wavrad, scene, image, mode)
+        e = relative_rmse(wavrad, image, folder / "mitsuba.exr")
+        errors[label] = math.sqrt(max(e * e - noise * noise, 0.0))
+    return errors
+
+
 def slope(xs: list[float], ys: list[float]) -> float:
     lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
     mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
@@ -125,6 +160,9 @@ def measure(args, notes: str) -> list[dict]:
                     errors[label] = relative_rmse(args.wavrad, a, b)
                 row["clustering_error"] = errors
                 row["unclustered"] = solve(args.wavrad, scene, ["--cluster-ratio", "0"])
+            if args.mitsuba_spp:
+                print("  rendering with Mitsuba 3", file=sys.stderr, flush=True)
+                row["mitsuba_error"] = mitsuba_error(args.wavrad, scene, folder, args.mitsuba_spp)
             rows.append(row)
             args.out.write_text(report(rows, args, notes))
             print(f"  {s['wall_s']:.1f} s, {s['peak_rss_bytes'] / 2**20:.0f} MiB", file=sys.stderr)
@@ -146,20 +184,26 @@ def measure(args, notes: str) -> list[dict]:
 def table(rows: list[dict]) -> list[str]:
     lines = [
         "| case | triangles | solve s | peak MiB | elements | element links | cluster links "
-        "| surface pairs | unclustered s / MiB | clustering error: render, direct |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| surface pairs | unclustered s / MiB | clustering error: render, direct "
+        "| error against Mitsuba: render, direct (its noise) |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         s = r["stats"]
-        u, e = r.get("unclustered"), r.get("clustering_error")
+        u, e, m = r.get("unclustered"), r.get("clustering_error"), r.get("mitsuba_error")
         mib = s["peak_rss_bytes"] / 2**20
         unclustered = f"{u['wall_s']:.1f} / {u['peak_rss_bytes'] / 2**20:.0f}" if u else "–"
         error = f"{100 * e['gather']:.2f} %, {100 * e['direct']:.2f} %" if e else "–"
+        against = (
+            f"{100 * m['gather']:.2f} %, {100 * m['direct']:.2f} % ({100 * m['noise']:.2f} %)"
+            if m
+            else "–"
+        )
         triangles = r.get("triangles", s["surfaces"] - 6)
         lines.append(
             f"| {r['case']} | {triangles} | {s['wall_s']:.1f} | {mib:.0f} "
             f"| {s['two_point_nodes']} | {s['two_point_interactions']} | {s['cluster_links']} "
-            f"| {s['exchanging_pairs']} | {unclustered} | {error} |"
+            f"| {s['exchanging_pairs']} | {unclustered} | {error} | {against} |"
         )
     return lines
 
@@ -179,7 +223,10 @@ def report(rows: list[dict], args, notes: str) -> str:
         "six rectangles. Solve = the whole `wavrad solve` process (loading included); memory = "
         "its peak resident set. Elements and element links are the two-point nodes and "
         "interactions; clustering error = relRMSE at 64² between the clustered solve and the "
-        "same scene with `--cluster-ratio 0` (default render, and `--mode direct`). A public "
+        "same scene with `--cluster-ratio 0` (default render, and `--mode direct`); error "
+        "against Mitsuba = the same two renders' relRMSE against Mitsuba 3's path tracer on "
+        "the same XML (`--mitsuba-spp`), the reference's noise (in brackets) taken out in "
+        "quadrature. A public "
         "scene's row (`--scene`) is solved as it is, with the arguments it names; its "
         "triangles are scenes/public/scenes.json's count.",
         "",
@@ -212,6 +259,12 @@ def main() -> int:
         type=int,
         default=10000,
         help="largest surface count solved unclustered too",
+    )
+    parser.add_argument(
+        "--mitsuba-spp",
+        type=int,
+        default=0,
+        help="also compare each sphere and bowl with Mitsuba 3 at this many spp (0: no)",
     )
     parser.add_argument("--mesh", type=Path, help="a real mesh (PLY/OBJ) to fit into the box")
     parser.add_argument(
