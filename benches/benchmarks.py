@@ -148,6 +148,13 @@ def bench_xml(name: str, sampler: str, folder: str) -> str:
         text = f.read()
     text, filters = re.subn(r'<rfilter type="\w+"\s*/>', '<rfilter type="box"/>', text)
     text, samplers = re.subn(r'<sampler type="\w+">', f'<sampler type="{sampler}">', text)
+    # A film sized by `resx` and `resy` (Bitterli's scenes) takes the
+    # benchmark's square `res` like the bundled ones.
+    declared = re.findall(r'<default\s+name="(\w+)"', text)
+    if "res" not in declared and {"resx", "resy"} <= set(declared):
+        text = text.replace("$resx", "$res").replace("$resy", "$res")
+        text = re.sub(r'(<default\s+name="resx")', r'<default name="res" value="256"/>\1', text,
+                      count=1)
     text, scenes = re.subn(r'(<scene\b[^>]*>)',
                            rf'\1<path value="{os.path.dirname(source)}"/>', text, count=1)
     if filters != 1 or samplers != 1 or scenes != 1:
