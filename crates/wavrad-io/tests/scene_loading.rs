@@ -839,3 +839,43 @@ fn a_mesh_without_normals_gets_smooth_ones_unless_face_normals() {
     assert_eq!(checked, 6);
     assert!(flat.iter().all(|x| x.shading.is_none()));
 }
+
+/// A closed two-sided mesh with nothing inside loses the sides that face
+/// its inside (no light reaches them); with a surface inside, it keeps
+/// them.
+#[test]
+fn closed_twosided_meshes_lose_their_empty_insides() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "cube.obj",
+        b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+          f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n",
+    );
+    let load = |extra: &str| {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+                <shape type="obj"><string name="filename" value="cube.obj"/>
+                    <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+                {extra}
+            </scene>"#
+        );
+        load_scene_str(&xml, dir.path(), "t.xml", &[])
+            .unwrap_or_else(|e| panic!("{e}"))
+            .scene
+    };
+    let empty = load("");
+    assert_eq!(empty.surfaces.len(), 12);
+    let centre = DVec3::splat(0.5);
+    for s in &empty.surfaces {
+        assert!(
+            s.patch.normal().dot(s.patch.centroid() - centre) > 0.0,
+            "{s:?}"
+        );
+    }
+    let holding = load(
+        r#"<shape type="rectangle"><transform name="to_world">
+            <scale value="0.1"/><translate x="0.5" y="0.5" z="0.5"/></transform></shape>"#,
+    );
+    assert_eq!(holding.surfaces.len(), 2 * 12 + 1);
+}

@@ -10,6 +10,7 @@ pub mod analytic;
 pub mod bounds;
 pub mod brdf;
 mod color;
+pub mod enclosed;
 pub mod envmap;
 mod filter;
 pub mod glass;

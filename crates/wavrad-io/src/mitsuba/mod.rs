@@ -71,6 +71,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use wavrad_core::scene::bounds::MAX_COORDINATE;
+use wavrad_core::scene::enclosed::enclosed_sides;
 use wavrad_core::scene::{Film, RenderHints, Scene, Sensor as SceneSensor, Surface};
 
 use crate::error::{Error, Result};
@@ -283,7 +284,7 @@ fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
         },
     });
     let first = sensors.next();
-    Ok(Scene {
+    let scene = Scene {
         surfaces: built.surfaces,
         camera: first.map(|s| s.camera),
         film: first.map_or_else(Film::default, |s| s.film),
@@ -299,7 +300,9 @@ fn build_scene(root: &Element, doc: &Document, legacy: bool) -> Result<Scene> {
         textures: doc.take_textures(),
         shapes: built.curved,
         glass: built.glass,
-    })
+    };
+    let enclosed = enclosed_sides(&scene, &built.two_sided);
+    Ok(scene.without_surfaces(&enclosed))
 }
 
 /// The core's bound on coordinates ([`MAX_COORDINATE`]), checked for the

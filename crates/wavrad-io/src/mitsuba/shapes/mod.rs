@@ -39,6 +39,7 @@ mod tessellation;
 
 use glam::{DMat4, DVec3, Vec2};
 use wavrad_core::scene::analytic::{AnalyticShape, ShapeKind};
+use wavrad_core::scene::enclosed::SidedShape;
 use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::shading::ShadingNormals;
 use wavrad_core::scene::texture::{flipped_uv, TextureMapping};
@@ -260,6 +261,10 @@ pub(crate) struct Built {
     pub curved: Vec<AnalyticShape>,
     /// The glass shapes, which are not surfaces.
     pub glass: Vec<Glass>,
+    /// The flat shapes with a `twosided` material, whose inner sides are
+    /// left out when they are closed and empty
+    /// ([`wavrad_core::scene::enclosed`]).
+    pub two_sided: Vec<SidedShape>,
 }
 
 /// Append the surfaces of shape `shape` to `built`, all named by the
@@ -354,26 +359,29 @@ pub(crate) fn build_shape<'a>(
     // Surfaces: the front carries the emission; twosided adds the back.
     let (out, shapes) = (&mut built.surfaces, &mut built.curved);
     let first = out.len();
+    let mut sided = SidedShape::default();
     for placed in patches {
         let mut surface = textured(&front, placed, doc);
         surface.name.clone_from(&name);
         surface.emission = emission;
+        sided.fronts.push(out.len() as u32);
         out.push(surface);
         if let Some(back) = &back {
             let mut surface = textured(back, flip(&placed), doc);
             surface.name.clone_from(&name);
+            sided.backs.push(out.len() as u32);
             out.push(surface);
         }
     }
     let range = u32::try_from(first).ok().zip(u32::try_from(out.len()).ok());
-    if let (Some((kind, world_from_shape)), Some((start, end))) =
-        (geometry.exact(&world_from_local), range)
-    {
-        shapes.push(AnalyticShape {
+    match (geometry.exact(&world_from_local), range) {
+        (Some((kind, world_from_shape)), Some((start, end))) => shapes.push(AnalyticShape {
             kind,
             world_from_shape,
             surfaces: start..end,
-        });
+        }),
+        _ if back.is_some() => built.two_sided.push(sided),
+        _ => {}
     }
     Ok(emitter)
 }
