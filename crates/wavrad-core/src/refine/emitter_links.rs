@@ -42,10 +42,7 @@ pub fn resolve_emitter_links(
         let surface = &scene.surfaces[s as usize];
         surface.brdf.lambertian().is_some() && !surface.is_emitter()
     };
-    // The emitters' light is what a cut-short solve must still place: a
-    // link left whole spreads a spotlight's beam evenly over every wall in
-    // front of it. So this resolution goes on after the budget is spent.
-    refine_each("emitter links", links, &Unstopped(progress), |l| {
+    refine_each("emitter links", links, progress, |l| {
         // (receiver, element, emitter, element), and the link's orientation.
         let (receiver, a, emitter, c, flipped) = match (emits(l.p), emits(l.r)) {
             (false, true) if receives(l.p) => (l.p, l.a, l.r, l.c, false),
@@ -106,27 +103,6 @@ pub fn resolve_emitter_links(
         }
         out
     })
-}
-
-/// `progress`, except that it never asks the work to stop.
-struct Unstopped<'a>(&'a dyn Progress);
-
-impl Progress for Unstopped<'_> {
-    fn start(&self, phase: &str, total: u64) {
-        self.0.start(phase, total);
-    }
-    fn advance(&self, steps: u64) {
-        self.0.advance(steps);
-    }
-    fn finish(&self) {
-        self.0.finish();
-    }
-    fn holding(&self, bytes: u64) {
-        self.0.holding(bytes);
-    }
-    fn warn(&self, message: &str) {
-        self.0.warn(message);
-    }
 }
 
 #[cfg(test)]
@@ -219,43 +195,5 @@ mod tests {
         let root = link(&ctx);
         let (same, changed) = resolve(&ctx, root);
         assert_eq!((same, changed), (vec![root], 0));
-    }
-
-    /// A spent budget stops refinement, but not this: the light of a link
-    /// left whole would be spread evenly over its receiver.
-    #[test]
-    fn emitter_links_are_resolved_after_the_budget_is_spent() {
-        struct Spent;
-        impl Progress for Spent {
-            fn interrupted(&self) -> bool {
-                true
-            }
-        }
-        let scene = crate::testing::light_over_a_corner(0.3);
-        let tracer = SceneTracer::new(&scene);
-        let ctx = context(&scene, &tracer);
-        let (floor, light) = (scene.surfaces[0].patch, scene.surfaces[1].patch);
-        let throughput = ctx.throughput(
-            KernelElement {
-                patch: &floor,
-                surface: 0,
-            },
-            KernelElement {
-                patch: &light,
-                surface: 1,
-            },
-        );
-        let root = Link {
-            p: 0,
-            a: ElementId::ROOT,
-            r: 1,
-            c: ElementId::ROOT,
-            throughput,
-            detail: 0.0,
-            children: None,
-        };
-        let spent = resolve_emitter_links(&ctx, 2, &[root], &Spent);
-        assert_eq!(spent, resolve_emitter_links(&ctx, 2, &[root], &Silent));
-        assert_eq!(spent.1, 1);
     }
 }
