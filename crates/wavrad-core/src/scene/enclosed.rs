@@ -7,13 +7,13 @@
 //! light), no light ever reaches it: Mitsuba renders it black. Solving it
 //! is pure waste, and a large one: the inside faces of a finely tessellated
 //! pole all see one another, n² pairs that clustering cannot merge (they are
-//! as near as they are small). Veach's bidirectional scene spent most of
-//! its linking there. [`enclosed_sides`] finds those surfaces and
+//! as near as they are small). [`enclosed_sides`] finds those surfaces and
 //! [`Scene::without_surfaces`] takes them out.
 
+use crate::geometry::visibility::ray_triangle;
 use crate::scene::{Light, Patch, Scene};
 use glam::DVec3;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::ops::Range;
 
 /// The surfaces of one two-sided shape: `fronts[k]` and `backs[k]` are the
@@ -33,6 +33,10 @@ pub struct SidedShape {
 /// consistently oriented, keep both sides. Sorted.
 pub fn enclosed_sides(scene: &Scene, shapes: &[SidedShape]) -> Vec<u32> {
     let mut out = Vec::new();
+    if shapes.is_empty() {
+        return out;
+    }
+    let points = Points::of(scene);
     for shape in shapes {
         let patches: Vec<Patch> = (shape.fronts.iter())
             .map(|&s| scene.surfaces[s as usize].patch)
@@ -49,7 +53,7 @@ pub fn enclosed_sides(scene: &Scene, shapes: &[SidedShape]) -> Vec<u32> {
         if inner
             .iter()
             .any(|&s| scene.surfaces[s as usize].is_emitter())
-            || holds_anything(scene, shape, &patches)
+            || points.inside_any(shape, &patches)
         {
             continue;
         }
@@ -90,26 +94,40 @@ fn closed_volume(patches: &[Patch]) -> Option<f64> {
     (closed && volume != 0.0).then_some(volume)
 }
 
-/// Whether anything of `scene` outside `shape` lies inside its closed
-/// surface `patches`: another surface's centroid, or a light's position.
-fn holds_anything(scene: &Scene, shape: &SidedShape, patches: &[Patch]) -> bool {
-    let (lo, hi) = patches.iter().flat_map(Patch::vertices).fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), v| (lo.min(v), hi.max(v)),
-    );
-    let own: std::collections::HashSet<u32> =
-        shape.fronts.iter().chain(&shape.backs).copied().collect();
-    let lights = scene.lights.iter().filter_map(|l| match *l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => Some(position),
-        _ => None,
-    });
-    let surfaces = (0..scene.surfaces.len() as u32)
-        .filter(|s| !own.contains(s))
-        .map(|s| scene.surfaces[s as usize].patch.centroid());
-    lights
-        .chain(surfaces)
-        .filter(|p| p.cmpge(lo).all() && p.cmple(hi).all())
-        .any(|p| inside(p, patches))
+/// What may lie inside a closed shape: the lights with a position (no
+/// surface) and every surface's centroid (with its surface), by x, so that
+/// a shape looks only at those within its box's x-range.
+struct Points(Vec<(DVec3, Option<u32>)>);
+
+impl Points {
+    fn of(scene: &Scene) -> Points {
+        let lights = scene.lights.iter().filter_map(|l| match *l {
+            Light::Point { position, .. } | Light::Spot { position, .. } => Some((position, None)),
+            _ => None,
+        });
+        let surfaces = (scene.surfaces.iter().zip(0u32..))
+            .map(|(surface, s)| (surface.patch.centroid(), Some(s)));
+        let mut points: Vec<_> = lights.chain(surfaces).collect();
+        points.sort_unstable_by(|a, b| a.0.x.total_cmp(&b.0.x));
+        Points(points)
+    }
+
+    /// Whether any point not of `shape` lies inside its closed surface
+    /// `patches`.
+    fn inside_any(&self, shape: &SidedShape, patches: &[Patch]) -> bool {
+        let (lo, hi) = patches.iter().flat_map(Patch::vertices).fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), v| (lo.min(v), hi.max(v)),
+        );
+        let first = self.0.partition_point(|(p, _)| p.x < lo.x);
+        let own: HashSet<u32> = shape.fronts.iter().chain(&shape.backs).copied().collect();
+        let own = |s: u32| own.contains(&s);
+        self.0[first..]
+            .iter()
+            .take_while(|(p, _)| p.x <= hi.x)
+            .filter(|(p, s)| p.cmpge(lo).all() && p.cmple(hi).all() && !s.is_some_and(own))
+            .any(|(p, _)| inside(*p, patches))
+    }
 }
 
 /// Whether point `p` is inside the closed surface `patches`: a ray from it
@@ -130,21 +148,9 @@ fn fan(v: Vec<DVec3>) -> impl Iterator<Item = [DVec3; 3]> {
     (1..v.len() - 1).map(move |i| [v[0], v[i], v[i + 1]])
 }
 
-/// Whether the ray from `p` along `dir` meets triangle `t` (Möller &
-/// Trumbore 1997) ahead of `p`.
+/// Whether the ray from `p` along `dir` meets triangle `t` ahead of `p`.
 fn crosses(p: DVec3, dir: DVec3, [a, b, c]: &[DVec3; 3]) -> bool {
-    let (e1, e2) = (*b - *a, *c - *a);
-    let h = dir.cross(e2);
-    let det = e1.dot(h);
-    if det.abs() < 1e-300 {
-        return false;
-    }
-    let s = p - *a;
-    let u = s.dot(h) / det;
-    let q = s.cross(e1);
-    let v = dir.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (0.0..=1.0).contains(&u) && v >= 0.0 && u + v <= 1.0 && t > 0.0
+    ray_triangle(p, dir, *a, *b - *a, *c - *a).is_some_and(|(t, _, _)| t > 0.0)
 }
 
 impl Scene {
