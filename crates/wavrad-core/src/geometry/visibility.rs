@@ -38,6 +38,7 @@
 //! depend on rounding and traversal order, and a ray reaching a wall from
 //! inside a room could read the wall's outer side.
 
+use crate::scene::enclosed::ray_triangle;
 use glam::DVec3;
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray, BvhBuildParams};
 
@@ -94,36 +95,6 @@ impl Tri {
     fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, f64, f64)> {
         ray_triangle(origin, dir, self.v0, self.e1, self.e2)
     }
-}
-
-/// Möller–Trumbore in f64 for the triangle at `v0` with edges `e1`, `e2`:
-/// `(t, u, v)` of the ray `origin + t·dir`; `None` for a miss or a ray
-/// parallel to the triangle's plane. Edges count as inside.
-#[inline(always)]
-pub(crate) fn ray_triangle(
-    origin: DVec3,
-    dir: DVec3,
-    v0: DVec3,
-    e1: DVec3,
-    e2: DVec3,
-) -> Option<(f64, f64, f64)> {
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - v0;
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return None;
-    }
-    Some((e2.dot(q) * inv, u, v))
 }
 
 /// Most triangles whose boxes meet a shaft that

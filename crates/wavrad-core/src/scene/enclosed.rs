@@ -10,7 +10,6 @@
 //! as near as they are small). [`enclosed_sides`] finds those surfaces and
 //! [`Scene::without_surfaces`] takes them out.
 
-use crate::geometry::visibility::ray_triangle;
 use crate::scene::{Light, Patch, Scene};
 use glam::DVec3;
 use std::collections::{HashMap, HashSet};
@@ -151,6 +150,36 @@ fn fan(v: Vec<DVec3>) -> impl Iterator<Item = [DVec3; 3]> {
 /// Whether the ray from `p` along `dir` meets triangle `t` ahead of `p`.
 fn crosses(p: DVec3, dir: DVec3, [a, b, c]: &[DVec3; 3]) -> bool {
     ray_triangle(p, dir, *a, *b - *a, *c - *a).is_some_and(|(t, _, _)| t > 0.0)
+}
+
+/// Möller–Trumbore in f64 for the triangle at `v0` with edges `e1`, `e2`:
+/// `(t, u, v)` of the ray `origin + t·dir`; `None` for a miss or a ray
+/// parallel to the triangle's plane. Edges count as inside.
+#[inline(always)]
+pub(crate) fn ray_triangle(
+    origin: DVec3,
+    dir: DVec3,
+    v0: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+) -> Option<(f64, f64, f64)> {
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = origin - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some((e2.dot(q) * inv, u, v))
 }
 
 impl Scene {
