@@ -428,7 +428,11 @@ impl SolutionReader {
             Some(hit_rest) => hit_rest[i].as_deref(),
             None => self.rest(i),
         };
-        let (true, Some(rest)) = (self.per_point[i] || near, hit_rest) else {
+        // Under a bounce limit of no reflection (`max_depth` 2) the
+        // gathered point's light is its emission alone: its first bounce
+        // would be a reflection beyond the path's last.
+        let reflects = bounces(&solution.scene) != Some(0);
+        let (true, Some(rest)) = (reflects && (self.per_point[i] || near), hit_rest) else {
             return element(&solution.radiance[i], surface.emission);
         };
         let solved = element(rest, Rgb::ZERO) + surface.emission;
@@ -505,13 +509,11 @@ mod tests {
     use crate::solve::{solve, SolveSettings};
     use crate::testing::{grey, light_over_a_corner};
 
-    #[test]
-    fn under_a_bounce_limit_gather_rays_read_the_first_bounce_per_point_close_by() {
-        // A grey unit floor under a low light over its corner, and a grey
-        // wall standing on the floor beside the light, facing it. Paths
-        // of three segments: the wall's gathers see the floor's first
-        // bounce, which is all the floor's elements hold, and which
-        // varies steeply within each of them here.
+    /// A grey unit floor under a low light over its corner, and a grey
+    /// wall standing on the floor beside the light, facing it, solved under
+    /// the bounce limit `max_depth`; and a gather ray from the wall's foot
+    /// to a floor point close by: (from, to).
+    fn wall_on_a_lit_floor(max_depth: u32) -> (Solution, SurfacePoint, SurfacePoint) {
         let mut surfaces = light_over_a_corner(0.1).surfaces;
         surfaces.push(grey(Patch::Parallelogram {
             origin: DVec3::new(0.3, 0.0, 0.0),
@@ -519,18 +521,27 @@ mod tests {
             edge_t: DVec3::Y,
         }));
         let mut scene = Scene::from_surfaces(surfaces);
-        scene.hints.max_depth = Some(3);
+        scene.hints.max_depth = Some(max_depth);
         let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
-        let reader = SolutionReader::new(&solution);
-        let floor = DVec3::new(0.25, 0.1, 0.0);
         let from = SurfacePoint {
             surface: 0,
-            position: floor,
+            position: DVec3::new(0.25, 0.1, 0.0),
         };
         let to = SurfacePoint {
             surface: 2,
             position: DVec3::new(0.3, 0.1, 0.03),
         };
+        (solution, from, to)
+    }
+
+    #[test]
+    fn under_a_bounce_limit_gather_rays_read_the_first_bounce_per_point_close_by() {
+        // Paths of three segments: the wall's gathers see the floor's first
+        // bounce, which is all the floor's elements hold, and which
+        // varies steeply within each of them here.
+        let (solution, from, to) = wall_on_a_lit_floor(3);
+        let reader = SolutionReader::new(&solution);
+        let floor = from.position;
         let at = |seed| GatherPoint::on(&solution.scene, 0, floor, Samples::Hashed(seed));
         let (scene, tracer) = (&solution.scene, &solution.tracer);
         let exact = gather::direct_radiance(scene, tracer, &reader.emitters, &at(1), 64)[0];
@@ -553,5 +564,24 @@ mod tests {
             (element - exact).abs() > 0.05 * exact,
             "element {element}, exact {exact}"
         );
+    }
+
+    #[test]
+    fn with_no_reflection_allowed_gather_rays_read_emission_alone() {
+        // Paths of two segments (`max_depth` 2, Mitsuba's `direct`): a
+        // camera ray's point reflects the emitters and nothing else, so
+        // what its gather rays meet sends it nothing, however close by
+        // and however brightly lit.
+        let (solution, from, to) = wall_on_a_lit_floor(2);
+        let reader = SolutionReader::new(&solution);
+        for seed in 0..8u64 {
+            let read = reader.radiance_leaving(&solution, from, to, seed, GLOSSY_GRID);
+            assert_eq!(read, Rgb::ZERO, "seed {seed}");
+        }
+        // The floor is lit there: under a limit of three segments, the same
+        // ray reads its first bounce.
+        let (solution, from, to) = wall_on_a_lit_floor(3);
+        let reader = SolutionReader::new(&solution);
+        assert!(reader.radiance_leaving(&solution, from, to, 0, GLOSSY_GRID)[0] > 0.0);
     }
 }
