@@ -23,11 +23,7 @@ fn two_point(c: &mut Criterion) {
         surface(&scene, "back"),
     );
     let q = Quadrature::default();
-    let ctx = KernelContext {
-        scene: &scene,
-        tracer: &tracer,
-        quadrature: q,
-    };
+    let ctx = KernelContext::new(&scene, &tracer, q);
     let cases = [
         (
             "distant parallel (floor-ceiling, unoccluded)",
@@ -73,11 +69,7 @@ fn three_point(c: &mut Criterion) {
     );
     let glossy = &scene.surfaces[floor as usize];
     assert!(matches!(glossy.brdf, Brdf::Ward(_)), "the floor is Ward");
-    let ctx = KernelContext {
-        scene: &scene,
-        tracer: &tracer,
-        quadrature: Quadrature::default(),
-    };
+    let ctx = KernelContext::new(&scene, &tracer, Quadrature::default());
     let at = |s: u32, level: u32, path: u64| Element::new(&scene, s, ElementId { level, path });
     let reflect = |source: &Element, reflector: &Element, receiver: &Element| {
         let a = GlossyElement {

@@ -61,11 +61,7 @@ impl Workload {
 
     /// Kernel: the same queries issued by kernel evaluation.
     fn kernel(&self) -> f64 {
-        let ctx = KernelContext {
-            scene: &self.scene,
-            tracer: &self.tracer,
-            quadrature: Quadrature::default(),
-        };
+        let ctx = KernelContext::new(&self.scene, &self.tracer, Quadrature::default());
         self.pairs
             .iter()
             .map(|(a, c)| ctx.throughput(a.kernel(), c.kernel()))

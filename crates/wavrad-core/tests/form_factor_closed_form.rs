@@ -15,11 +15,7 @@ fn adaptive_form_factor(a: Patch, c: Patch) -> (f64, f64) {
     let scene = Scene::from_surfaces(vec![grey(a), grey(c)]);
     let tracer = SceneTracer::new(&scene);
     let settings = SolveSettings::default();
-    let ctx = KernelContext {
-        scene: &scene,
-        tracer: &tracer,
-        quadrature: settings.quadrature,
-    };
+    let ctx = KernelContext::new(&scene, &tracer, settings.quadrature);
     let links = refine_links(&ctx, settings.refine, None, &root_pairs(&ctx), &Silent);
     let t: f64 = links.iter().map(|l| l.throughput).sum();
     (t / a.area(), t / c.area())

@@ -87,11 +87,7 @@ pub fn visible_and_open(ctx: &KernelContext, a: &Element, c: &Element) -> (f64, 
         ctx.scene.surfaces[c.surface as usize].clone(),
     ]);
     let open_tracer = SceneTracer::new(&alone);
-    let open_ctx = KernelContext {
-        scene: &alone,
-        tracer: &open_tracer,
-        ..*ctx
-    };
+    let open_ctx = KernelContext::new(&alone, &open_tracer, ctx.quadrature);
     let open = open_ctx.throughput(
         KernelElement {
             patch: &a.patch,

@@ -46,6 +46,9 @@ pub struct KernelContext<'a> {
     pub tracer: &'a SceneTracer,
     /// Quadrature of every kernel coefficient.
     pub quadrature: Quadrature,
+    /// Area of the scene's largest surface, against which element levels
+    /// count ([`KernelContext::deepest_level`]).
+    largest_area: f64,
 }
 
 /// An element taking part in a kernel evaluation: its geometry and the
@@ -71,7 +74,41 @@ fn faces_away_within(a: &Patch, c: &Patch, contact: f64) -> bool {
     behind(a, c) || behind(c, a)
 }
 
-impl KernelContext<'_> {
+impl<'a> KernelContext<'a> {
+    /// The context of `scene`, with `tracer` over its surfaces.
+    pub fn new(scene: &'a Scene, tracer: &'a SceneTracer, quadrature: Quadrature) -> Self {
+        let largest_area = scene
+            .surfaces
+            .iter()
+            .map(|s| s.patch.area())
+            .fold(0.0, f64::max);
+        KernelContext {
+            scene,
+            tracer,
+            quadrature,
+            largest_area,
+        }
+    }
+
+    /// The deepest level `surface`'s elements may reach under a maximum
+    /// level of `max_level`. The maximum level counts the levels of the
+    /// scene's largest surface, of area A_max; a smaller surface stops at
+    /// the first level whose elements are no larger than A_max/4^max_level,
+    /// the scene's minimum element area (A_ε of Hanrahan, Salzman &
+    /// Aupperle 1991). A fine mesh's triangles are then split only as deep
+    /// as the wall beside them, not 4^max_level ways each, and a triangle
+    /// smaller than the wall's finest elements stays whole.
+    pub fn deepest_level(&self, surface: u32, max_level: u32) -> u32 {
+        let area = self.scene.surfaces[surface as usize].patch.area();
+        let ratio = area / self.largest_area * 4f64.powi(max_level as i32);
+        if ratio.is_nan() || ratio <= 1.0 {
+            return 0;
+        }
+        // Less a rounding margin: a surface exactly 4^-k of the largest
+        // stops k levels sooner, not k − 1.
+        ((ratio.log(4.0) - 1e-9).ceil() as u32).min(max_level)
+    }
+
     /// The distance below which surfaces touch
     /// ([`Occluder::contact_distance`](crate::geometry::visibility::Occluder::contact_distance)).
     pub fn contact_distance(&self) -> f64 {
@@ -213,11 +250,7 @@ pub(crate) fn interleaved_targets(patch: &Patch, n: usize, m: usize, i: usize) -
 /// The kernel context of `scene` with the default quadrature, for tests.
 #[cfg(test)]
 pub(crate) fn default_context<'a>(scene: &'a Scene, tracer: &'a SceneTracer) -> KernelContext<'a> {
-    KernelContext {
-        scene,
-        tracer,
-        quadrature: Quadrature::default(),
-    }
+    KernelContext::new(scene, tracer, Quadrature::default())
 }
 
 #[cfg(test)]
@@ -248,6 +281,35 @@ mod tests {
         assert!(!exchange(0.0));
         assert!(!exchange(1e-8));
         assert!(exchange(1e-4));
+    }
+
+    /// Levels count on the largest surface: a surface a quarter of its
+    /// area stops one level sooner, one a fifth of it too (its elements at
+    /// that level are already smaller than the largest's finest), and one
+    /// smaller than the largest's finest elements is never split.
+    #[test]
+    fn a_surface_stops_where_its_elements_are_as_small_as_the_largest_ones() {
+        use crate::geometry::tracing::SceneTracer;
+        use crate::testing::grey;
+        let square = |side: f64| {
+            grey(Patch::Parallelogram {
+                origin: DVec3::ZERO,
+                edge_s: DVec3::X * side,
+                edge_t: DVec3::Y * side,
+            })
+        };
+        let sides = [4.0, 2.0, 4.0 / 5f64.sqrt(), 1.0, 0.25, 4.0 / 32.0, 0.01];
+        let scene = Scene::from_surfaces(sides.map(square).to_vec());
+        let tracer = SceneTracer::new(&scene);
+        let ctx = default_context(&scene, &tracer);
+        let levels: Vec<u32> = (0..sides.len() as u32)
+            .map(|s| ctx.deepest_level(s, 5))
+            .collect();
+        // Area 16 → 1/1024 of it is 1/64, side 1/8: the 0.125 square is
+        // exactly one finest element and stays whole.
+        assert_eq!(levels, [5, 4, 4, 3, 1, 0, 0]);
+        assert_eq!(ctx.deepest_level(0, 0), 0);
+        assert_eq!(ctx.deepest_level(3, 2), 0);
     }
 
     #[test]

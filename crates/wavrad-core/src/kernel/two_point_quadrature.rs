@@ -133,11 +133,7 @@ mod tests {
         assert!(wall.area() < top.area() && !outer_is_a(&wall, &top));
         let scene = Scene::from_surfaces(vec![grey(top), grey(wall)]);
         let tracer = SceneTracer::new(&scene);
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: Quadrature::default(),
-        };
+        let ctx = KernelContext::new(&scene, &tracer, Quadrature::default());
         let (t, w) = (
             KernelElement {
                 patch: &top,
@@ -185,12 +181,7 @@ mod tests {
         };
         let throughput = |scene: &Scene, a, c| {
             let tracer = SceneTracer::new(scene);
-            KernelContext {
-                scene,
-                tracer: &tracer,
-                quadrature: Quadrature::default(),
-            }
-            .throughput(a, c)
+            KernelContext::new(scene, &tracer, Quadrature::default()).throughput(a, c)
         };
         let open = Scene::from_surfaces(vec![grey(bottom), grey(top)]);
         let closed = Scene::from_surfaces(vec![grey(bottom), grey(top), grey(blocker)]);

@@ -121,7 +121,11 @@ pub struct ClusterSettings {
     /// pair of surfaces is linked as the paper links them).
     pub ratio: f64,
     /// Deepest element level a cluster's neighbourhood may split an
-    /// element to.
+    /// element to, on every surface: not the projection's
+    /// [`KernelContext::deepest_level`], under which a small surface's
+    /// elements, kept whole towards far clusters, made veach-bidir's back
+    /// wall glow beside its spotlight (`docs/decisions-measurements.md`,
+    /// "Elements as small as the largest surface's").
     pub max_level: u32,
     /// The two-point oracle's threshold, read as the largest error a
     /// link's visibility estimate may make in its receiver's radiance

@@ -15,7 +15,8 @@ use crate::refine::two_point_projection::{ChildShares, Link};
 pub const EMITTER_LINK_VARIATION: f64 = 0.02;
 
 /// Links from an emitter carried down their diffuse receiver's element
-/// tree, as far as `max_level`, wherever the kernel varies over the
+/// tree, as far as its deepest level under `max_level`
+/// ([`KernelContext::deepest_level`]), wherever the kernel varies over the
 /// receiver's children by more than [`EMITTER_LINK_VARIATION`] of its mean.
 ///
 /// The oracles test a kernel's details against a threshold in absolute
@@ -66,9 +67,10 @@ pub fn resolve_emitter_links(
         };
         let mut out = Vec::new();
         let patch = a.patch(&scene.surfaces[receiver as usize].patch);
+        let deepest = ctx.deepest_level(receiver, max_level);
         let mut stack = vec![(a, patch, l.throughput)];
         while let Some((id, patch, throughput)) = stack.pop() {
-            if id.level >= max_level {
+            if id.level >= deepest {
                 out.push(link(id, throughput, None));
                 continue;
             }

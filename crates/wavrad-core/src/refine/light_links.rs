@@ -43,9 +43,9 @@ pub const SKY_GRID: u32 = 8;
 pub const MIN_LIGHT_LEVEL: u32 = 2;
 
 /// The light links of every surface with a Lambertian lobe, carried down
-/// its element tree as far as `max_level` (to [`MIN_LIGHT_LEVEL`] at least,
-/// within it)
-/// wherever their irradiance varies over the children by more than
+/// its element tree as far as its deepest level under `max_level`
+/// ([`KernelContext::deepest_level`]; to [`MIN_LIGHT_LEVEL`] at least, within
+/// it) wherever their irradiance varies over the children by more than
 /// [`EMITTER_LINK_VARIATION`] of its mean, and to the element holding a
 /// spot's axis while the beam is narrower than the element. Elements that
 /// no light reaches get none. Empty without lights.
@@ -78,6 +78,7 @@ pub fn link_lights(ctx: &KernelContext, max_level: u32, progress: &dyn Progress)
     let per_surface = project_each("light links", &receivers, progress, |&surface, refine| {
         let root = scene.surfaces[surface as usize].patch;
         let mut out = Vec::new();
+        let deepest = ctx.deepest_level(surface, max_level);
         let mut stack = vec![(ElementId::ROOT, root, mean(surface, &root))];
         while let Some((element, patch, e)) = stack.pop() {
             let link = LightLink {
@@ -85,7 +86,7 @@ pub fn link_lights(ctx: &KernelContext, max_level: u32, progress: &dyn Progress)
                 element,
                 irradiance: e,
             };
-            if !refine || element.level >= max_level {
+            if !refine || element.level >= deepest {
                 out.extend((e.max_channel() > 0.0).then_some(link));
                 continue;
             }

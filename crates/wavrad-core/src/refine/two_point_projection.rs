@@ -6,7 +6,9 @@
 //! ([`crate::kernel::KernelContext::throughput`]); if the kernel's Haar details over them
 //! pass the [`crate::refine::oracle`], one link is kept at this level with the
 //! coefficient assembled from the children (hierarchical decomposition), else
-//! each child pair is refined in turn. Elements never go below `max_level`.
+//! each child pair is refined in turn. Elements never go below their surface's
+//! deepest level ([`KernelContext::deepest_level`]): `max_level` on the
+//! scene's largest surface, fewer on smaller ones.
 
 use crate::geometry::hierarchy::{ElementId, ElementRef};
 use crate::kernel::form_factor::point_to_polygon;
@@ -91,7 +93,9 @@ pub struct RefineSettings {
     /// oracle accepts (paper: 1e-4), or the largest relative radiance
     /// error the weighted ones do.
     pub threshold: f64,
-    /// Deepest element level (paper: 8).
+    /// Deepest element level of the scene's largest surface (paper: 8);
+    /// smaller surfaces stop where their elements are as small as its
+    /// ([`KernelContext::deepest_level`]).
     pub max_level: u32,
 }
 
@@ -102,11 +106,11 @@ struct PairRefiner<'a> {
     stop: &'a dyn Progress,
     /// Which elements [`crate::kernel::exposure::straddles`] a contact, as found.
     straddling: std::collections::BTreeMap<ElementRef, bool>,
-    settings: RefineSettings,
     judge: Judge<'a>,
-    /// Reflectance (largest channel) and area of the two surfaces, by
-    /// surface index.
-    reflectance: [(u32, f64, f64); 2],
+    /// Reflectance (largest channel), area and deepest element level
+    /// ([`KernelContext::deepest_level`]) of the two surfaces, by surface
+    /// index.
+    surfaces: [(u32, f64, f64, u32); 2],
     /// max(ρ_p A_r, ρ_r A_p): the paper's kernel scale for both directions.
     scale: f64,
     links: Vec<Link>,
@@ -127,12 +131,15 @@ impl<'a> PairRefiner<'a> {
             ctx: *ctx,
             stop,
             straddling: Default::default(),
-            settings,
             judge: Judge {
                 threshold: settings.threshold,
                 estimate,
             },
-            reflectance: [(p, rho(sp), sp.patch.area()), (r, rho(sr), sr.patch.area())],
+            surfaces: [p, r].map(|s| {
+                let surface = &scene.surfaces[s as usize];
+                let deepest = ctx.deepest_level(s, settings.max_level);
+                (s, rho(surface), surface.patch.area(), deepest)
+            }),
             scale: (rho(sp) * sr.patch.area()).max(rho(sr) * sp.patch.area()),
             links: Vec::new(),
         }
@@ -142,7 +149,7 @@ impl<'a> PairRefiner<'a> {
     /// contact line with its Gauss points all buried
     /// ([`crate::kernel::exposure::straddles`]): no link may keep it whole.
     fn straddles(&mut self, side: &Part) -> bool {
-        if side.element.id.level >= self.settings.max_level {
+        if self.at_deepest(side) {
             return false;
         }
         let ctx = self.ctx;
@@ -152,9 +159,14 @@ impl<'a> PairRefiner<'a> {
             .or_insert_with(|| crate::kernel::exposure::straddles(&ctx, side.kernel()))
     }
 
-    fn surface(&self, s: u32) -> (f64, f64) {
-        let (_, rho, area) = self.reflectance[usize::from(self.reflectance[0].0 != s)];
-        (rho, area)
+    fn surface(&self, s: u32) -> (f64, f64, u32) {
+        let (_, rho, area, deepest) = self.surfaces[usize::from(self.surfaces[0].0 != s)];
+        (rho, area, deepest)
+    }
+
+    /// True for an element at its surface's deepest level.
+    fn at_deepest(&self, side: &Part) -> bool {
+        side.element.id.level >= self.surface(side.element.surface).2
     }
 
     /// The light the pair (x, y) carries, for the weighted oracles: the
@@ -163,8 +175,8 @@ impl<'a> PairRefiner<'a> {
     /// (relative to the brightest emission, and weighted by importance).
     fn weight(&self, e: &LightEstimate, x: ElementRef, y: ElementRef) -> f64 {
         let one_way = |r: ElementRef, s: ElementRef| {
-            let (rho, _) = self.surface(r.surface);
-            let (_, area) = self.surface(s.surface);
+            let (rho, ..) = self.surface(r.surface);
+            let (_, area, _) = self.surface(s.surface);
             rho * area * 0.25f64.powi(s.id.level as i32) * e.radiance(s, r) * e.importance(r)
         };
         one_way(x, y).max(one_way(y, x))
@@ -184,7 +196,7 @@ impl<'a> PairRefiner<'a> {
         other: &Part,
     ) -> f64 {
         let one_way = |receiver: &Part, source: &Part, split_receiver: bool| {
-            let (rho, _) = self.surface(receiver.element.surface);
+            let (rho, ..) = self.surface(receiver.element.surface);
             if rho == 0.0
                 || !self.ctx.scene.surfaces[source.element.surface as usize]
                     .brdf
@@ -193,7 +205,7 @@ impl<'a> PairRefiner<'a> {
             {
                 return 0.0;
             }
-            let (_, area) = self.surface(source.element.surface);
+            let (_, area, _) = self.surface(source.element.surface);
             let products: [f64; 4] = std::array::from_fn(|k| {
                 let child = split.element.child(k);
                 let l = if split_receiver {
@@ -305,11 +317,10 @@ impl<'a> PairRefiner<'a> {
         split: &Part,
         other: &Part,
     ) -> (Verdict, Verdict) {
-        let max = self.settings.max_level;
         let pass = Verdict::PASS;
         let four = |s: &OuterSamples| <[f64; 4]>::try_from(&s.contributions[..]).ok();
         let children_verdict = samples.iter().zip(children).fold(pass, |v, (s, child)| {
-            if child.element.id.level >= max {
+            if self.at_deepest(child) {
                 return v;
             }
             let contributions = if s.outer_is_a {
@@ -321,7 +332,7 @@ impl<'a> PairRefiner<'a> {
                 .and_then(|c| self.quadrant_means(c, child, other))
                 .map_or(v, |m| v.and(self.test(m, child, other)))
         });
-        if other.element.id.level >= max || samples.iter().any(|s| s.outer_is_a) {
+        if self.at_deepest(other) || samples.iter().any(|s| s.outer_is_a) {
             return (children_verdict, pass);
         }
         let mut sum = [0.0; 4];
@@ -371,9 +382,8 @@ impl<'a> PairRefiner<'a> {
         // fine mesh facing a wall would otherwise be split to the maximum
         // level of its own, far below the wall's), but along a contact the
         // kernel is singular over the smaller one too.
-        let max = self.settings.max_level;
         let a_larger = a.patch.area() >= c.patch.area();
-        let split_a = match (a.element.id.level < max, c.element.id.level < max) {
+        let split_a = match (!self.at_deepest(&a), !self.at_deepest(&c)) {
             (true, true) => a_larger,
             (true, false) if a_larger || touches(&a, &c) => true,
             (false, true) if !a_larger || touches(&c, &a) => false,
@@ -841,5 +851,48 @@ mod tests {
         assert_eq!(even, [0], "the even light needs no refinement");
         let highlight = receiver_levels([10.0, 0.0, 0.0, 0.0]);
         assert!(highlight.iter().all(|&l| l >= 1), "{highlight:?}");
+    }
+
+    /// Two unit squares meeting at a right angle, where the kernel is
+    /// singular along their shared edge: alone they are refined down to the
+    /// maximum level there; beside a 4×4 square (which exchanges no light
+    /// with them) the levels count on that one, whose finest elements are a
+    /// quarter of a unit square, so the corner stops one level down.
+    #[test]
+    fn a_corner_is_refined_as_deep_as_the_largest_surfaces_elements() {
+        let settings = RefineSettings {
+            threshold: 1e-3,
+            max_level: 3,
+        };
+        let floor = crate::testing::unit_floor();
+        let wall = Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::Y,
+            edge_t: DVec3::Z,
+        };
+        // Below the floor, facing down: behind both squares.
+        let far = Patch::Parallelogram {
+            origin: DVec3::new(-2.0, -2.0, -50.0),
+            edge_s: DVec3::Y * 4.0,
+            edge_t: DVec3::X * 4.0,
+        };
+        let corner_levels = |patches: Vec<Patch>| {
+            let scene =
+                Scene::from_surfaces(patches.into_iter().map(crate::testing::grey).collect());
+            let tracer = SceneTracer::new(&scene);
+            let ctx = context(&scene, &tracer);
+            let links = refine_links(&ctx, settings, None, &root_pairs(&ctx), &Silent);
+            assert!(links.iter().all(|l| l.p < 2 && l.r < 2), "{links:?}");
+            // Perpendicular unit squares sharing an edge: F = 0.200044.
+            let t: f64 = links.iter().map(|l| l.throughput).sum();
+            assert!((t - 0.200_044).abs() < 0.01, "{t}");
+            links
+                .iter()
+                .map(|l| l.a.level.max(l.c.level))
+                .max()
+                .unwrap()
+        };
+        assert_eq!(corner_levels(vec![floor, wall]), 3);
+        assert_eq!(corner_levels(vec![floor, wall, far]), 1);
     }
 }

@@ -349,11 +349,7 @@ impl Projector {
         times.visibility_build_s += clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
-        let ctx = KernelContext {
-            scene: &scene,
-            tracer: &tracer,
-            quadrature: settings.quadrature,
-        };
+        let ctx = KernelContext::new(&scene, &tracer, settings.quadrature);
         let estimate = settings
             .oracle
             .is_weighted()
@@ -432,11 +428,7 @@ impl Projector {
     }
 
     fn kernel_context(&self) -> KernelContext<'_> {
-        KernelContext {
-            scene: &self.scene,
-            tracer: &self.tracer,
-            quadrature: self.settings.quadrature,
-        }
+        KernelContext::new(&self.scene, &self.tracer, self.settings.quadrature)
     }
 }
 
@@ -767,11 +759,7 @@ impl Solution {
     /// quadrature (rendering evaluates kernels into hypothetical receivers
     /// with it).
     pub fn kernel_context(&self) -> KernelContext<'_> {
-        KernelContext {
-            scene: &self.scene,
-            tracer: &self.tracer,
-            quadrature: self.settings.quadrature,
-        }
+        KernelContext::new(&self.scene, &self.tracer, self.settings.quadrature)
     }
 
     /// The part of every diffuse element's radiance reflected straight from

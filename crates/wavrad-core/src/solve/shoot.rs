@@ -200,11 +200,7 @@ pub fn solve_shooting(
         stats: Stats::default(),
         checkpoint: None,
     };
-    let ctx = KernelContext {
-        scene,
-        tracer: &solution.tracer,
-        quadrature: settings.quadrature,
-    };
+    let ctx = KernelContext::new(scene, &solution.tracer, settings.quadrature);
     let mut shooting = Shooting::new(ctx, settings, times);
 
     // Shoot the surface with the most unshot power until little is left.
