@@ -197,3 +197,46 @@ fn a_box_resting_on_the_floor_leaves_the_furnace_exact() {
         assert!((l / 2.0 - 1.0).abs() < bound, "surface {s}: {l}");
     }
 }
+
+#[test]
+fn a_small_intense_light_in_a_closed_box_reaches_the_furnace_total() {
+    // A 1 cm square light of radiance 10⁴, 1 cm over the floor and facing
+    // up, inside a box of reflectance ρ = 0.5: every bit of its light stays
+    // in the box, so the light the walls send (Σ L A) adds up to
+    // ρ/(1 − ρ) times the light's (Le A = 1), less the little the light's
+    // own black square takes back. Gauss–Seidel must sweep until the walls'
+    // light stops changing, however small their radiance is against the
+    // light's (a convergence test relative to the light's radiance
+    // stopped sweeping short of this).
+    let (rho, le, side) = (0.5, 1e4, 0.01);
+    let wall = |patch| Surface {
+        name: "wall".into(),
+        patch,
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::splat(rho)),
+        emission: Rgb::ZERO,
+        texture: None,
+        shading: None,
+    };
+    let mut surfaces: Vec<Surface> = walls(false).into_iter().map(wall).collect();
+    surfaces.push(Surface {
+        name: "light".into(),
+        emission: Rgb::splat(le),
+        brdf: wavrad_core::scene::brdf::Brdf::diffuse(Rgb::ZERO),
+        ..wall(Patch::Parallelogram {
+            origin: DVec3::new(0.0, 0.75, 2.01),
+            edge_s: DVec3::X * side,
+            edge_t: DVec3::Y * side,
+        })
+    });
+    let scene = Scene::from_surfaces(surfaces);
+    let solution = solve(&scene, &SolveSettings::default(), &Silent).unwrap();
+    assert!(solution.stats.converged);
+    let sent: f64 = (0..6)
+        .map(|s| solution.radiance[s][0][0] * scene.surfaces[s].patch.area())
+        .sum();
+    let expect = rho / (1.0 - rho) * le * side * side;
+    assert!(
+        (sent / expect - 1.0).abs() < 0.01,
+        "{sent} against {expect}"
+    );
+}

@@ -21,6 +21,10 @@
 //! groups of small surfaces exchange light through O(n log n) cluster links
 //! rather than O(n²) surface pairs.
 //!
+//! A cluster holding emitters and other surfaces both is split, never
+//! linked whole: the emitters' light leaves through their own visibility,
+//! not their neighbours'.
+//!
 //! A cluster link's transfer is evaluated with every member's own cosine
 //! and area, towards the other end's centre, and one visibility fraction
 //! for the pair ([`crate::solve::cluster_gather`]); its error is of order
@@ -219,6 +223,12 @@ struct Linker<'a> {
     /// Pairs linked at [`MAX_CLUSTER_RATIO`] because the work was asked
     /// to stop.
     coarse: AtomicU64,
+    /// By cluster node: whether it holds emitters and other surfaces
+    /// both. Such a cluster is never linked whole: one visibility fraction
+    /// for all its members would let its other surfaces' visibility stand
+    /// for the emitters' (a bulb deep in its lamp's housing, which sends
+    /// light out of the housing's opening only).
+    mixed: Vec<bool>,
 }
 
 /// Link `clusters` (the scene's) from the root down ([`Linking`]). Once
@@ -236,13 +246,7 @@ pub fn link_from_root(
         return Linking::default();
     }
     progress.start("linking", 1);
-    let linker = Linker {
-        ctx: *ctx,
-        clusters,
-        settings,
-        progress,
-        coarse: AtomicU64::new(0),
-    };
+    let linker = Linker::new(ctx, clusters, settings, progress);
     let linking = linker.with_itself(0);
     let coarse = linker.coarse.load(Ordering::Relaxed);
     if coarse > 0 {
@@ -253,7 +257,31 @@ pub fn link_from_root(
     linking
 }
 
-impl Linker<'_> {
+impl<'a> Linker<'a> {
+    fn new(
+        ctx: &KernelContext<'a>,
+        clusters: &'a ClusterTree,
+        settings: ClusterSettings,
+        progress: &'a dyn Progress,
+    ) -> Self {
+        let emits = |s: &u32| ctx.scene.surfaces[*s as usize].is_emitter();
+        let mixed = (0..clusters.nodes.len() as u32)
+            .into_par_iter()
+            .map(|c| {
+                let members = clusters.members_of(c);
+                members.iter().any(emits) && !members.iter().all(emits)
+            })
+            .collect();
+        Linker {
+            ctx: *ctx,
+            clusters,
+            settings,
+            progress,
+            coarse: AtomicU64::new(0),
+            mixed,
+        }
+    }
+
     /// The end a cluster node stands for: a leaf is its surface's root
     /// element.
     fn end_of(&self, c: u32) -> End {
@@ -311,6 +339,12 @@ impl Linker<'_> {
     fn small_against_distance(bx: &Bounds, by: &Bounds, ratio: f64) -> bool {
         let (reach, d) = (bx.radius + by.radius, bx.center.distance(by.center));
         ratio > 0.0 && d > reach && reach <= ratio * d
+    }
+
+    /// Whether `end` may be linked as a whole: not a cluster holding
+    /// emitters and other surfaces both.
+    fn linkable_whole(&self, end: End) -> bool {
+        !matches!(end, End::Cluster(c) if self.mixed[c as usize])
     }
 
     /// Whether the work was asked to stop and links with clusters are made
@@ -404,13 +438,18 @@ impl Linker<'_> {
             return;
         }
         let (bx, by) = (self.bounds(x), self.bounds(y));
-        if Self::small_against_distance(&bx, &by, self.settings.ratio) {
+        let (whole_x, whole_y) = (self.linkable_whole(x), self.linkable_whole(y));
+        if whole_x && whole_y && Self::small_against_distance(&bx, &by, self.settings.ratio) {
             self.push_link(x, y, out);
             return;
         }
         // Once the budget is spent, ends apart by the coarsest ratio are
         // linked as they stand.
-        if Self::small_against_distance(&bx, &by, MAX_CLUSTER_RATIO) && self.coarsening() {
+        if whole_x
+            && whole_y
+            && Self::small_against_distance(&bx, &by, MAX_CLUSTER_RATIO)
+            && self.coarsening()
+        {
             self.coarse.fetch_add(1, Ordering::Relaxed);
             self.push_link(x, y, out);
             return;
@@ -432,7 +471,14 @@ impl Linker<'_> {
                     && off_plane > other.radius
             }
         };
-        let split_x = splittable(x, &by) && (bx.radius >= by.radius || !splittable(y, &bx));
+        // Ends that could be linked but for a mixed cluster split it.
+        let split_x = if !(whole_x && whole_y)
+            && Self::small_against_distance(&bx, &by, self.settings.ratio)
+        {
+            !whole_x && (bx.radius >= by.radius || whole_y)
+        } else {
+            splittable(x, &by) && (bx.radius >= by.radius || !splittable(y, &bx))
+        };
         let (split, other) = if split_x { (x, y) } else { (y, x) };
         let parts: Vec<End> = match split {
             End::Cluster(c) => {
@@ -538,7 +584,7 @@ mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
     use crate::progress::Silent;
-    use crate::scene::Scene;
+    use crate::scene::{Rgb, Scene};
     use crate::testing::grey;
     use std::collections::BTreeMap;
 
@@ -778,6 +824,46 @@ mod tests {
         assert_every_pair_covered_once(&ctx, &clusters, &linking);
     }
 
+    /// One floor square emits: the clusters that hold it with other
+    /// squares, linked whole to the ceiling without it, are split so that
+    /// it is linked on its own (or in a cluster of emitters alone), and
+    /// every pair is still covered once.
+    #[test]
+    fn a_cluster_holding_an_emitter_and_other_surfaces_is_never_linked_whole() {
+        let mut scene = floor_ceiling_and_wall();
+        let mixed = |scene: &Scene, clusters: &ClusterTree, end: &End| match *end {
+            End::Cluster(c) => {
+                let emits = |s: &u32| scene.surfaces[*s as usize].is_emitter();
+                let members = clusters.members_of(c);
+                members.iter().any(emits) && !members.iter().all(emits)
+            }
+            End::Element(_) => false,
+        };
+        let holding_square_0 = |clusters: &ClusterTree, linking: &Linking| {
+            (linking.cluster_links.iter())
+                .flat_map(|l| l.ends)
+                .filter(|e| matches!(e, End::Cluster(c) if clusters.members_of(*c).contains(&0)))
+                .count()
+        };
+        let clusters = ClusterTree::build(&scene);
+        {
+            let tracer = SceneTracer::new(&scene);
+            let ctx = crate::kernel::default_context(&scene, &tracer);
+            let dark = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+            assert!(holding_square_0(&clusters, &dark) > 0);
+        }
+        scene.surfaces[0].emission = Rgb::splat(10.0);
+        let tracer = SceneTracer::new(&scene);
+        let ctx = crate::kernel::default_context(&scene, &tracer);
+        let lit = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+        assert_eq!(holding_square_0(&clusters, &lit), 0);
+        assert!(!lit.cluster_links.is_empty());
+        for l in &lit.cluster_links {
+            assert!(!l.ends.iter().any(|e| mixed(&scene, &clusters, e)), "{l:?}");
+        }
+        assert_every_pair_covered_once(&ctx, &clusters, &lit);
+    }
+
     #[test]
     fn a_spent_budget_links_the_pairs_left_coarser_and_still_covers_every_pair_once() {
         use crate::progress::{Budget, Budgeted, Stop};
@@ -818,13 +904,7 @@ mod tests {
 
         // Coarser, but never closer than the coarsest ratio: ends apart,
         // so every member's transfer stays finite.
-        let linker = Linker {
-            ctx,
-            clusters: &clusters,
-            settings: SETTINGS,
-            progress: &Silent,
-            coarse: AtomicU64::new(0),
-        };
+        let linker = Linker::new(&ctx, &clusters, SETTINGS, &Silent);
         let ratio = |l: &ClusterLink| {
             let [bx, by] = l.ends.map(|e| linker.bounds(e));
             (bx.radius + by.radius) / bx.center.distance(by.center)

@@ -77,8 +77,9 @@ pub struct SolveSettings {
     /// default maximum level three-point links are cheap enough to afford it
     /// (commit c9faf7d has the measurements).
     pub three_point_threshold: f64,
-    /// Stop when no surface's coarsest radiance changes by more than this,
-    /// relative to the brightest emitted radiance.
+    /// Stop when the power all surfaces send (each coarsest coefficient
+    /// times its surface's area) changes in a sweep by at most this
+    /// fraction of itself.
     pub tolerance: f64,
     /// Give up after this many Gauss–Seidel sweeps.
     pub max_iterations: u32,
@@ -997,8 +998,12 @@ impl System {
     }
 
     /// compute_radiance_solution(): Gauss–Seidel gathering with push–pull
-    /// until no coarsest coefficient changes by more than the tolerance; an
-    /// error when the changes keep growing ([`Divergence`]).
+    /// until the power the surfaces send (coarsest coefficients times
+    /// areas) changes in a sweep by at most the tolerance of itself; an
+    /// error when the changes keep growing ([`Divergence`]). Measured in
+    /// power, a room lit by a small, intense emitter (a bulb in a lamp)
+    /// converges as its own light does, not as a fraction of the bulb's
+    /// radiance.
     ///
     /// A scene whose integrator limits the path length
     /// ([`crate::scene::RenderHints::max_depth`]) is swept Jacobi's way
@@ -1024,13 +1029,16 @@ impl System {
         for (i, d) in interactions.directional.iter().enumerate() {
             structures_of[d.p as usize].push(i);
         }
-        let brightest = scene.brightest_radiance();
-        let scale = if brightest > 0.0 { brightest } else { 1.0 };
-        let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel() / scale;
+        // Power, in the largest channel: a coarsest coefficient (the
+        // surface's mean radiance) times its area.
+        let areas: Vec<f64> = scene.surfaces.iter().map(|s| s.patch.area()).collect();
+        let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel();
         let (mut iterations, mut residual) = (0u32, f64::INFINITY);
         let mut divergence = Divergence::default();
-        // Each surface's largest change in the last sweep.
+        // Each surface's change of power in the last sweep, and the power
+        // it sends after it.
         let mut changes = vec![0.0f64; scene.surfaces.len()];
+        let mut leaving = vec![0.0f64; scene.surfaces.len()];
         let bounces = bounces(scene);
         let sweeps = bounces.map_or(settings.max_iterations, |b| b.min(settings.max_iterations));
         progress.start("solving", u64::from(sweeps));
@@ -1045,7 +1053,7 @@ impl System {
             // With a bounce limit, the radiance before this sweep.
             let before = bounces.map(|_| (radiance.clone(), directional.clone()));
             for (p, surface) in scene.surfaces.iter().enumerate() {
-                changes[p] = 0.0;
+                (changes[p], leaving[p]) = (0.0, 0.0);
                 if let Some(rho) = surface.brdf.lambertian() {
                     let read = match &before {
                         Some((r, d)) => (&r[..], &d[..]),
@@ -1063,7 +1071,8 @@ impl System {
                         limit,
                         interactions.texture_of(p),
                     );
-                    changes[p] = change(updated[0], radiance[p][0]);
+                    changes[p] = change(updated[0], radiance[p][0]) * areas[p];
+                    leaving[p] = updated[0].max_channel() * areas[p];
                     radiance[p] = updated;
                 }
                 for &s in &structures_of[p] {
@@ -1075,14 +1084,17 @@ impl System {
                     let exposure = Some(&interactions.pair_exposure[s][..]);
                     let updated =
                         push_pull::push_pull(tree, &gathered, Rgb::ZERO, exposure, None, None);
-                    changes[p] = changes[p].max(change(updated[0], directional[s][0]));
+                    changes[p] += change(updated[0], directional[s][0]) * areas[p];
+                    leaving[p] += updated[0].max_channel() * areas[p];
                     directional[s] = updated;
                 }
             }
-            residual = changes.iter().copied().fold(0.0, f64::max);
+            let changed: f64 = changes.iter().sum();
+            let total: f64 = leaving.iter().sum();
+            residual = if total > 0.0 { changed / total } else { 0.0 };
             iterations += 1;
             progress.advance(1);
-            if let Some(growing) = divergence.record(residual) {
+            if let Some(growing) = divergence.record(changed) {
                 progress.finish();
                 return Err(Error::Diverged {
                     sweeps: iterations,
@@ -1119,8 +1131,8 @@ const MIN_SWEEPS: u32 = 8;
 /// that keeps growing reflects more light than it receives somewhere.
 const GROWING_SWEEPS: u32 = 5;
 
-/// Watches Gauss–Seidel's residuals for divergence: a residual that is not
-/// finite, or one that has grown for [`GROWING_SWEEPS`] sweeps in a row to
+/// Watches Gauss–Seidel's changes of power per sweep for divergence: a
+/// change that is not finite, or one that has grown for [`GROWING_SWEEPS`] sweeps in a row to
 /// above the first sweep's (emission to first bounce, the largest change a
 /// converging solve makes).
 #[derive(Debug, Clone, Copy, Default)]
@@ -1131,8 +1143,8 @@ struct Divergence {
 }
 
 impl Divergence {
-    /// Record one sweep's residual; `Some(sweeps grown in a row)` when the
-    /// solve diverges.
+    /// Record one sweep's change of power; `Some(sweeps grown in a row)`
+    /// when the solve diverges.
     fn record(&mut self, residual: f64) -> Option<u32> {
         match self.first {
             None => self.first = Some(residual),

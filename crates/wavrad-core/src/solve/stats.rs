@@ -103,8 +103,8 @@ pub struct Stats {
     /// Gauss–Seidel sweeps done (when shooting: the sweeps that finish the
     /// solution over the links it made).
     pub iterations: u32,
-    /// Largest change of a coarsest coefficient in the last sweep, relative
-    /// to the brightest emitted radiance.
+    /// Change of the power the surfaces send in the last sweep, relative
+    /// to that power ([`super::SolveSettings::tolerance`]).
     pub residual: f64,
     /// Whether the residual reached the tolerance, or the sweeps the
     /// scene's bounce limit allows were made ([`super::bounces`]).
