@@ -53,7 +53,9 @@ impl Described for SolveSettings {
                 max: MAX_LEVEL,
             },
             default: "5",
-            help: "Deepest subdivision level of an element (the paper uses 8).",
+            help:
+                "Deepest subdivision level of the largest surface's elements (the paper uses 8); \
+                   smaller surfaces stop where their elements are as small as its.",
         },
         Setting {
             name: "three_point_threshold",
@@ -116,8 +118,8 @@ impl Described for SolveSettings {
                 max: 1.0,
             },
             default: "1e-5",
-            help: "Gauss–Seidel stops when no surface's coarsest radiance changes by more than \
-                   this, relative to the brightest emitted radiance.",
+            help: "Gauss–Seidel stops when the power all surfaces send changes in a sweep by at \
+                   most this fraction of itself.",
         },
         Setting {
             name: "max_iterations",

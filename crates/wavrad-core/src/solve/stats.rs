@@ -32,8 +32,8 @@ pub struct PhaseTimes {
 pub struct Sweeps {
     /// Sweeps done.
     pub iterations: u32,
-    /// Largest change of a coarsest coefficient in the last sweep, relative
-    /// to the brightest emitted radiance (infinite before any sweep).
+    /// Change of the power the surfaces send in the last sweep, relative
+    /// to that power (infinite before any sweep).
     pub residual: f64,
 }
 
