@@ -30,6 +30,8 @@ pub struct SceneTracer {
     contacts: BTreeMap<u32, Contacts>,
     /// The curved shapes as they are, for camera rays.
     exact: ExactShapes,
+    /// Area of the largest surface.
+    largest_area: f64,
 }
 
 /// Where other surfaces meet one surface.
@@ -75,7 +77,16 @@ impl SceneTracer {
             prim_surface,
             contacts,
             exact: ExactShapes::new(scene),
+            largest_area: (scene.surfaces.iter())
+                .map(|s| s.patch.area())
+                .fold(0.0, f64::max),
         }
+    }
+
+    /// Area of the scene's largest surface, found once: the scale element
+    /// levels count against (the kernel context's `deepest_level`).
+    pub fn largest_area(&self) -> f64 {
+        self.largest_area
     }
 
     /// True when the point `x` of surface `surface` lies under a coplanar

@@ -46,9 +46,6 @@ pub struct KernelContext<'a> {
     pub tracer: &'a SceneTracer,
     /// Quadrature of every kernel coefficient.
     pub quadrature: Quadrature,
-    /// Area of the scene's largest surface, against which element levels
-    /// count ([`KernelContext::deepest_level`]).
-    largest_area: f64,
 }
 
 /// An element taking part in a kernel evaluation: its geometry and the
@@ -77,16 +74,10 @@ fn faces_away_within(a: &Patch, c: &Patch, contact: f64) -> bool {
 impl<'a> KernelContext<'a> {
     /// The context of `scene`, with `tracer` over its surfaces.
     pub fn new(scene: &'a Scene, tracer: &'a SceneTracer, quadrature: Quadrature) -> Self {
-        let largest_area = scene
-            .surfaces
-            .iter()
-            .map(|s| s.patch.area())
-            .fold(0.0, f64::max);
         KernelContext {
             scene,
             tracer,
             quadrature,
-            largest_area,
         }
     }
 
@@ -100,7 +91,7 @@ impl<'a> KernelContext<'a> {
     /// smaller than the wall's finest elements stays whole.
     pub fn deepest_level(&self, surface: u32, max_level: u32) -> u32 {
         let area = self.scene.surfaces[surface as usize].patch.area();
-        let ratio = area / self.largest_area * 4f64.powi(max_level as i32);
+        let ratio = area / self.tracer.largest_area() * 4f64.powi(max_level as i32);
         if ratio.is_nan() || ratio <= 1.0 {
             return 0;
         }

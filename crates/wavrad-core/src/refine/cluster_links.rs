@@ -48,7 +48,7 @@ use crate::geometry::hierarchy::ElementRef;
 use crate::kernel::KernelContext;
 use crate::progress::{Progress, LINK_COPIES};
 use crate::sampling::hash2;
-use crate::scene::Patch;
+use crate::scene::{Patch, Scene};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -231,6 +231,13 @@ struct Linker<'a> {
     mixed: Vec<bool>,
 }
 
+/// Whether `members` (surfaces of `scene`) hold emitters and other
+/// surfaces both.
+fn holds_emitters_and_others(scene: &Scene, members: &[u32]) -> bool {
+    let emits = |s: &u32| scene.surfaces[*s as usize].is_emitter();
+    members.iter().any(emits) && !members.iter().all(emits)
+}
+
 /// Link `clusters` (the scene's) from the root down ([`Linking`]). Once
 /// `progress` asks the work to stop ([`Progress::interrupted`]: a spent
 /// budget), the pairs left are linked at [`MAX_CLUSTER_RATIO`] rather than
@@ -264,13 +271,9 @@ impl<'a> Linker<'a> {
         settings: ClusterSettings,
         progress: &'a dyn Progress,
     ) -> Self {
-        let emits = |s: &u32| ctx.scene.surfaces[*s as usize].is_emitter();
         let mixed = (0..clusters.nodes.len() as u32)
             .into_par_iter()
-            .map(|c| {
-                let members = clusters.members_of(c);
-                members.iter().any(emits) && !members.iter().all(emits)
-            })
+            .map(|c| holds_emitters_and_others(ctx.scene, clusters.members_of(c)))
             .collect();
         Linker {
             ctx: *ctx,
@@ -439,7 +442,8 @@ impl<'a> Linker<'a> {
         }
         let (bx, by) = (self.bounds(x), self.bounds(y));
         let (whole_x, whole_y) = (self.linkable_whole(x), self.linkable_whole(y));
-        if whole_x && whole_y && Self::small_against_distance(&bx, &by, self.settings.ratio) {
+        let near_enough = Self::small_against_distance(&bx, &by, self.settings.ratio);
+        if whole_x && whole_y && near_enough {
             self.push_link(x, y, out);
             return;
         }
@@ -472,9 +476,7 @@ impl<'a> Linker<'a> {
             }
         };
         // Ends that could be linked but for a mixed cluster split it.
-        let split_x = if !(whole_x && whole_y)
-            && Self::small_against_distance(&bx, &by, self.settings.ratio)
-        {
+        let split_x = if !(whole_x && whole_y) && near_enough {
             !whole_x && (bx.radius >= by.radius || whole_y)
         } else {
             splittable(x, &by) && (bx.radius >= by.radius || !splittable(y, &bx))
@@ -584,7 +586,7 @@ mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
     use crate::progress::Silent;
-    use crate::scene::{Rgb, Scene};
+    use crate::scene::Rgb;
     use crate::testing::grey;
     use std::collections::BTreeMap;
 
@@ -832,11 +834,7 @@ mod tests {
     fn a_cluster_holding_an_emitter_and_other_surfaces_is_never_linked_whole() {
         let mut scene = floor_ceiling_and_wall();
         let mixed = |scene: &Scene, clusters: &ClusterTree, end: &End| match *end {
-            End::Cluster(c) => {
-                let emits = |s: &u32| scene.surfaces[*s as usize].is_emitter();
-                let members = clusters.members_of(c);
-                members.iter().any(emits) && !members.iter().all(emits)
-            }
+            End::Cluster(c) => holds_emitters_and_others(scene, clusters.members_of(c)),
             End::Element(_) => false,
         };
         let holding_square_0 = |clusters: &ClusterTree, linking: &Linking| {
