@@ -269,7 +269,7 @@ fn final_gather<S: Borrow<Solution> + Sync>(
         (Some(rest), Some(_)) | (None, Some(rest)) => (
             rest,
             lambertian_gather(renderer, hit, cache, settings),
-            GLOSSY_GRID,
+            settings.glossy_lobes_grid_among(hit.rays.1),
         ),
         (_, None) => (
             &surface.brdf,

@@ -60,7 +60,9 @@ pub const INTERIOR_SHARE: u32 = 4;
 /// none ([`gather::emitters_seen`]), the final gather's direct light is
 /// Lambert's closed form exactly (or nothing), the rest of the solution is
 /// smooth, and the camera rays only average smooth light over the pixel.
-/// Such pixels gather as often as an interior pixel.
+/// Such pixels gather as often as an interior pixel, and on a glossy
+/// surface (not a sharp one, whose reflections have edges) take as many
+/// BRDF samples in all, more per ray.
 pub const QUIET_SHARE: u32 = 4;
 
 /// Camera rays per pixel at the outline of an emitter, or of a diffuse
@@ -114,7 +116,9 @@ pub const GATHER_RAYS: u32 = 32;
 /// lobe gets that many per ray of a pixel with all its camera rays, and
 /// more in interior pixels (in proportion, the same in all); one with a
 /// Lambertian lobe gathers only its other lobes per ray, that lobe's light
-/// coming as a diffuse surface's, and gets that many in every pixel.
+/// coming as a diffuse surface's, and gets that many in every pixel with
+/// an interior pixel's camera rays or more, and in proportion more in one
+/// with fewer ([`QUIET_SHARE`]).
 pub const GLOSSY_GRID: u32 = 1;
 
 /// How to render a view: what users choose ([`settings`] describes it); the
@@ -214,10 +218,19 @@ impl RenderSettings {
 
     /// BRDF samples per side of the grid of a glossy point among a pixel's
     /// `n` camera rays: a pixel with fewer camera rays takes as many glossy
-    /// samples in all.
+    /// samples in all as one with all of them.
     pub(super) fn glossy_grid_among(&self, n: usize) -> u32 {
-        let ratio = (self.samples_per_pixel as f64 / n as f64).max(1.0);
-        ((f64::from(GLOSSY_GRID) * ratio.sqrt()).round() as u32).max(1)
+        grid_for(self.samples_per_pixel as usize, n)
+    }
+
+    /// The same for the lobes besides a Lambertian one: as many glossy
+    /// samples in all as an interior pixel's in a pixel with fewer camera
+    /// rays (a quiet one, [`QUIET_SHARE`]), [`GLOSSY_GRID`] per ray in
+    /// the others.
+    pub(super) fn glossy_lobes_grid_among(&self, n: usize) -> u32 {
+        let interior =
+            crate::sampling::pixel_offsets_len(self.interior_samples_per_pixel()) as usize;
+        grid_for(interior, n)
     }
 
     /// The same settings with `n` camera rays per pixel where an edge shows
@@ -230,6 +243,14 @@ impl RenderSettings {
             ..self
         }
     }
+}
+
+/// [`GLOSSY_GRID`] scaled so that `n` camera rays take as many BRDF samples
+/// in all as `full` rays with [`GLOSSY_GRID`] each, or that many each where
+/// `n` is larger.
+fn grid_for(full: usize, n: usize) -> u32 {
+    let ratio = (full as f64 / n as f64).max(1.0);
+    ((f64::from(GLOSSY_GRID) * ratio.sqrt()).round() as u32).max(1)
 }
 
 /// Renders views of one solution (owned, or borrowed as `&Solution` for a
@@ -623,13 +644,14 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     }
 
     /// How much of the emitters the camera ray's `hit` sees
-    /// ([`gather::emitters_seen`]), where it is on a diffuse untextured
-    /// surface (elsewhere the camera rays resolve more than direct light).
+    /// ([`gather::emitters_seen`]), where it is on an untextured surface
+    /// that is not sharply glossy (elsewhere the camera rays resolve more
+    /// than direct light: a texture's detail, the edges a sharp lobe
+    /// reflects).
     fn emitters_seen(&self, hit: &SurfaceHit) -> Option<EmittersSeen> {
         let solution = self.solution();
         let surface = &solution.scene.surfaces[hit.surface as usize];
-        if surface.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION) || surface.texture.is_some()
-        {
+        if surface.brdf.is_sharp() || surface.texture.is_some() {
             return None;
         }
         let point = GatherPoint::on(
@@ -678,7 +700,7 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
     /// per surface: emitters, and diffuse surfaces among the bright ones
     /// (the final gather's secondary sources). With `direct`, also how much
     /// of the emitters the point nearest the pixel's centre sees, where
-    /// that point is on a diffuse untextured surface.
+    /// that point is on an untextured surface that is not sharply glossy.
     fn probe(&self, camera: &Camera, film: &Film, direct: bool) -> Vec<PixelProbe> {
         let solution = self.solution();
         let bright = &self.reader().bright;
@@ -772,7 +794,7 @@ struct PixelProbe {
     /// emitter mirrored in a sharply glossy one.
     glaring: bool,
     /// How much of the emitters the point nearest the centre sees, where
-    /// it is on a diffuse untextured surface and that is known
+    /// it is on an untextured surface, not a sharply glossy one, and that is known
     /// ([`gather::emitters_seen`]).
     emitters: Option<EmittersSeen>,
 }
@@ -912,6 +934,55 @@ mod tests {
             settings.gathers_among(settings.quiet_samples_per_pixel() as usize),
             settings.gather_samples_per_pixel
         );
+    }
+
+    /// A broad glossy lobe's pixels may be quiet (they take the interior
+    /// pixels' BRDF samples in all, more per ray); a sharp lobe's may not,
+    /// as the edges it reflects need camera rays.
+    #[test]
+    fn a_broad_glossy_surface_is_probed_for_its_emitters_and_a_sharp_one_is_not() {
+        let probed = |brdf: crate::scene::brdf::Brdf| {
+            let mut scene = crate::testing::mirror_floor_and_light();
+            scene.surfaces[0].brdf = brdf;
+            scene.film = Film {
+                width: 8,
+                height: 8,
+                filter: crate::scene::PixelFilter::Box,
+            };
+            let camera = camera_at(DVec3::new(0.45, 0.1, 0.5), DVec3::new(0.45, 0.5, 0.0));
+            let solution =
+                crate::solve::solve(&scene, &Default::default(), &crate::progress::Silent).unwrap();
+            let probes = Renderer::new(&solution).probe(&camera, &scene.film, true);
+            let on_floor = probes.iter().filter(|p| p.surface == Some(0)).count();
+            let known = probes.iter().filter(|p| p.emitters.is_some()).count();
+            (on_floor, known)
+        };
+        let sharp = crate::testing::rolled_aluminium();
+        assert!(sharp.is_sharp());
+        let broad = crate::scene::brdf::Brdf::Ward(crate::scene::brdf::ward::Ward {
+            alpha_u: 0.3,
+            alpha_v: 0.3,
+            ..crate::scene::brdf::ward::Ward::default()
+        });
+        assert!(!broad.is_sharp());
+        let (on_floor, known) = probed(broad);
+        assert!(on_floor > 32 && known >= on_floor, "{known} of {on_floor}");
+        assert_eq!(probed(sharp).1, 0);
+        // A quiet pixel's glossy lobes take an interior pixel's samples in
+        // all; an interior or edge pixel, GLOSSY_GRID² per ray.
+        let settings = RenderSettings::default();
+        let samples = |n: u32| n * settings.glossy_lobes_grid_among(n as usize).pow(2);
+        let interior = settings.interior_samples_per_pixel();
+        assert_eq!(
+            samples(settings.quiet_samples_per_pixel()),
+            samples(interior)
+        );
+        assert_eq!(
+            settings.glossy_lobes_grid_among(interior as usize),
+            GLOSSY_GRID
+        );
+        let edge = settings.samples_per_pixel as usize;
+        assert_eq!(settings.glossy_lobes_grid_among(edge), GLOSSY_GRID);
     }
 
     /// A near-mirror floor under a square light, seen from under the light
