@@ -845,6 +845,7 @@ def main() -> None:
                     walk = walkthrough(mitsuba, folder, res, best,
                                        2 * math.ceil(best["spp"] / 2),
                                        run["wavrad"][WALKTHROUGH_CONFIG])
+                    report()
     if args.references_only:
         return
     report()
