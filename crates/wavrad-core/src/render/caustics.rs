@@ -459,33 +459,27 @@ impl Shot<'_> {
         // A rough interface's microfacet normal, drawn once for both
         // branches.
         let m = interface.facet(dir, glass.normal, hash2(key, FACETS + u64::from(depth)));
-        let mut branch = |u: f64, share: f64| {
-            let (direction, weight) =
-                interface.scatter_at(dir, (glass.normal, m), u, Transport::Power);
+        let mut branch = |(direction, weight): (DVec3, Rgb)| {
             let next = Ray {
                 origin: glass.position,
                 direction,
                 t_min: self.glass.clearance(),
                 t_max: f64::INFINITY,
             };
-            let power = power * weight * share;
             self.spread(
                 (next, Some(glass.triangle)),
-                power,
+                power * weight,
                 (depth + 1, key),
                 rested,
             );
         };
         if depth < SPLIT_DEPTH {
-            let r = interface.reflectance_at(-dir.dot(m));
-            if r > 0.0 {
-                branch(0.5 * r, r);
-            }
-            if r < 1.0 {
-                branch(r + 0.5 * (1.0 - r), 1.0 - r);
-            }
+            interface
+                .branches(dir, (glass.normal, m), Transport::Power)
+                .for_each(branch);
         } else {
-            branch(hash2(key, 2 + u64::from(depth)).x, 1.0);
+            let u = hash2(key, 2 + u64::from(depth)).x;
+            branch(interface.scatter_at(dir, (glass.normal, m), u, Transport::Power));
         }
     }
 

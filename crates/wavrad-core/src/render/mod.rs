@@ -375,17 +375,18 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
             let tracer = &self.solution().tracer;
             let choose = |depth| samples.interface(depth);
             let chain = (ray, Radiance);
-            let Some(end) = self
-                .glass()
-                .follow(scene, tracer, chain, interfaces, choose)
-            else {
-                return Rgb::ZERO;
-            };
-            end.weight
-                * match self.camera_hit(&end.ray, samples, (k, n)) {
-                    Some(hit) => estimator.radiance(self, &hit, settings),
-                    None => self.background(&end.ray),
-                }
+            let mut lit = Vec::new();
+            let end =
+                (self.glass()).follow(scene, tracer, chain, interfaces, choose, Some(&mut lit));
+            (end.iter().chain(&lit))
+                .map(|end| {
+                    end.weight
+                        * match self.camera_hit(&end.ray, samples, (k, n)) {
+                            Some(hit) => estimator.radiance(self, &hit, settings),
+                            None => self.background(&end.ray),
+                        }
+                })
+                .fold(Rgb::ZERO, |sum, l| sum + l)
         };
         let mut image =
             develop(film, samples, radiance, seed, progress).ok_or(Error::Interrupted)?;
@@ -730,15 +731,25 @@ impl<S: Borrow<Solution> + Sync> Renderer<S> {
                         // whether the glass mirrors an emitter.
                         let ray = camera.ray(at, aspect);
                         let tracer = &solution.tracer;
-                        let end = glass.follow(scene, tracer, (ray, Radiance), interfaces, |_| {
-                            DVec3::splat(0.5)
-                        });
+                        let end = glass.follow(
+                            scene,
+                            tracer,
+                            (ray, Radiance),
+                            interfaces,
+                            |_| DVec3::splat(0.5),
+                            None,
+                        );
                         let through = end.is_none_or(|end| end.interfaces > 0);
                         let mirrors = through
                             && glass
-                                .follow(scene, tracer, (ray, Radiance), interfaces, |_| {
-                                    DVec3::new(0.0, 0.5, 0.5)
-                                })
+                                .follow(
+                                    scene,
+                                    tracer,
+                                    (ray, Radiance),
+                                    interfaces,
+                                    |_| DVec3::new(0.0, 0.5, 0.5),
+                                    None,
+                                )
                                 .and_then(|end| {
                                     let ray = end.ray;
                                     tracer.trace(ray.origin, ray.direction, ray.t_min, ray.t_max)

@@ -136,6 +136,27 @@ impl Dielectric {
         self.scatter_at(dir, (normal, m), u.x, transport)
     }
 
+    /// Both ways on from the facet `m` already drawn ([`Dielectric::facet`];
+    /// `normal` on a smooth interface), reflected and refracted, each with
+    /// [`Dielectric::scatter_at`]'s weight times its probability: together
+    /// what one choice gives on average. A way of probability zero (no
+    /// refraction past the critical angle) is left out.
+    pub fn branches(
+        &self,
+        dir: DVec3,
+        (normal, m): (DVec3, DVec3),
+        transport: Transport,
+    ) -> impl Iterator<Item = (DVec3, Rgb)> + '_ {
+        let r = self.reflectance_at(-dir.dot(m));
+        [(0.5 * r, r), (r + 0.5 * (1.0 - r), 1.0 - r)]
+            .into_iter()
+            .filter(|&(_, p)| p > 0.0)
+            .map(move |(u, p)| {
+                let (out, weight) = self.scatter_at(dir, (normal, m), u, transport);
+                (out, weight * p)
+            })
+    }
+
     /// [`Dielectric::scatter`] about the facet `m` already drawn
     /// ([`Dielectric::facet`]; `normal` on a smooth interface), choosing
     /// reflection when `u` ∈ [0, 1) falls below its Fresnel reflectance.
