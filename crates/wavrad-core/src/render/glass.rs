@@ -241,19 +241,21 @@ impl GlassTracer {
                 weight: end.weight * weight,
                 interfaces: end.interfaces + 1,
             };
-            let (lit, unlit): (Vec<ChainEnd>, Vec<ChainEnd>) = match emitters.as_deref_mut() {
-                Some(_) => (interface.branches(dir, (glass.normal, m), transport))
-                    .map(next)
-                    .partition(|branch| {
-                        self.meets_emitter(scene, tracer, &branch.ray, glass.triangle)
-                    }),
-                None => (Vec::new(), Vec::new()),
-            };
-            end = if lit.is_empty() {
-                next(interface.scatter_at(dir, (glass.normal, m), u.x, transport))
+            let (mut split, mut unlit) = (false, None);
+            if let Some(lit) = emitters.as_deref_mut() {
+                for branch in (interface.branches(dir, (glass.normal, m), transport)).map(next) {
+                    if self.meets_emitter(scene, tracer, &branch.ray, glass.triangle) {
+                        lit.push(branch);
+                        split = true;
+                    } else {
+                        unlit = Some(branch);
+                    }
+                }
+            }
+            end = if split {
+                unlit?
             } else {
-                emitters.as_deref_mut()?.extend(lit);
-                *unlit.first()?
+                next(interface.scatter_at(dir, (glass.normal, m), u.x, transport))
             };
             skip = Some(glass.triangle);
         }
