@@ -154,13 +154,26 @@ impl SphereEmitter {
     }
 }
 
+/// Of the emitters drawn for a point on a surface whose links bring it
+/// light from emitters ([`Emitters::with_received`]), the share drawn by
+/// the scene-wide weights all the same: it keeps every emitter drawn now
+/// and then where the links miss its light (brought by a cluster link, or
+/// through a gap the link's visibility estimate did not see).
+pub const SCENE_WIDE_SHARE: f64 = 0.25;
+
 /// The scene's emitters: its emitting surfaces with probabilities in
 /// proportion to their weights (their power), where the facets of an
 /// emitting sphere together are one emitter, drawn with their probability
-/// summed.
+/// summed; for a point on a surface that the solution's links say is lit
+/// by some emitters more than others, mostly in proportion to the light
+/// each brings it ([`Emitters::with_received`]).
 #[derive(Debug, Clone, Default)]
 pub struct Emitters {
     by_weight: SurfaceDistribution,
+    /// Per receiving surface, its emitters by the light they bring it
+    /// (`None` where no link brings any; empty without
+    /// [`Emitters::with_received`]).
+    by_receiver: Vec<Option<SurfaceDistribution>>,
     spheres: Vec<SphereEmitter>,
     /// Per surface, the sphere it tessellates, if an emitting one (empty
     /// without such spheres).
@@ -189,9 +202,36 @@ impl Emitters {
         }
         Emitters {
             by_weight: SurfaceDistribution::new(weighted),
+            by_receiver: Vec::new(),
             spheres,
             sphere_of,
         }
+    }
+
+    /// The same emitters, drawn for a point on surface p mostly (all but
+    /// [`SCENE_WIDE_SHARE`]) in proportion to `received[p]`, the (emitter
+    /// surface, weight) pairs of the light each emitter brings p through
+    /// its links, visibility included. On a ceiling lit by a lamp below it
+    /// while a brighter spotlight shines elsewhere from inside its housing,
+    /// scene-wide weights sent most shadow rays to the hidden spotlight.
+    /// A receiver's own surface and weights that sum to nothing are left
+    /// out.
+    pub fn with_received(mut self, received: Vec<Vec<(u32, f64)>>) -> Emitters {
+        self.by_receiver = (received.into_iter().enumerate())
+            .map(|(p, weights)| {
+                let weights: Vec<(u32, f64)> = (weights.into_iter())
+                    .filter(|&(e, w)| e as usize != p && w > 0.0 && w.is_finite())
+                    .collect();
+                (!weights.is_empty()).then(|| SurfaceDistribution::new(weights))
+            })
+            .collect();
+        self
+    }
+
+    /// The distribution drawn from for a point on surface `at` besides the
+    /// scene-wide one, if any.
+    fn received_by(&self, at: u32) -> Option<&SurfaceDistribution> {
+        self.by_receiver.get(at as usize).and_then(Option::as_ref)
     }
 
     /// The emitting surfaces, ascending.
@@ -212,17 +252,21 @@ impl Emitters {
         }
     }
 
-    /// The emitter that `u` ∈ \[0,1)² picks among those other than the one
-    /// surface `excluded` is on, with the point of \[0,1)² it then samples
-    /// and the probability it had; `None` where there is none.
-    pub fn sample(&self, u: DVec2, excluded: u32) -> Option<(Emitter, DVec2, f64)> {
-        let (s, uv, chosen) = self.by_weight.sample(u, excluded)?;
-        let emitter = self.of_surface(s);
-        let chosen = match emitter {
-            Emitter::Surface(_) => chosen,
-            Emitter::Sphere(_) => self.probability(emitter, excluded),
+    /// The emitter that `u` ∈ \[0,1)² picks for a point on surface `at`,
+    /// among those other than the one `at` is on, with the point of
+    /// \[0,1)² it then samples and the probability it had
+    /// ([`Emitters::probability`]); `None` where there is none.
+    pub fn sample(&self, u: DVec2, at: u32) -> Option<(Emitter, DVec2, f64)> {
+        let share = SCENE_WIDE_SHARE;
+        let (s, uv, _) = match self.received_by(at) {
+            Some(received) if u.x >= share => {
+                received.sample(DVec2::new((u.x - share) / (1.0 - share), u.y), at)?
+            }
+            Some(_) => self.by_weight.sample(DVec2::new(u.x / share, u.y), at)?,
+            None => self.by_weight.sample(u, at)?,
         };
-        Some((emitter, uv, chosen))
+        let emitter = self.of_surface(s);
+        Some((emitter, uv, self.probability(emitter, at)))
     }
 
     /// The emitting sphere that the ray `x + t·dir` (unit `dir`) meets
@@ -244,15 +288,18 @@ impl Emitters {
             .map(|(k, _)| k)
     }
 
-    /// The probability that [`Emitters::sample`], leaving out `excluded`,
-    /// picks `emitter`.
-    pub fn probability(&self, emitter: Emitter, excluded: u32) -> f64 {
-        match emitter {
-            Emitter::Surface(s) => self.by_weight.probability(s, excluded),
-            Emitter::Sphere(k) => {
-                let run = self.sphere(k).surfaces.clone();
-                self.by_weight.run_probability(run, excluded)
+    /// The probability that [`Emitters::sample`] picks `emitter` for a
+    /// point on surface `at`.
+    pub fn probability(&self, emitter: Emitter, at: u32) -> f64 {
+        let of = |d: &SurfaceDistribution| match emitter {
+            Emitter::Surface(s) => d.probability(s, at),
+            Emitter::Sphere(k) => d.run_probability(self.sphere(k).surfaces.clone(), at),
+        };
+        match self.received_by(at) {
+            Some(received) => {
+                SCENE_WIDE_SHARE * of(&self.by_weight) + (1.0 - SCENE_WIDE_SHARE) * of(received)
             }
+            None => of(&self.by_weight),
         }
     }
 }
@@ -260,6 +307,49 @@ impl Emitters {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// For a point on a surface whose links bring it light from some
+    /// emitters, they are drawn mostly by that light, every emitter still
+    /// now and then: the probabilities sum to one, each draw reports the
+    /// probability [`Emitters::probability`] gives, and the draws follow
+    /// it. Elsewhere the scene-wide weights alone decide.
+    #[test]
+    fn emitters_are_drawn_mostly_by_the_light_the_links_bring() {
+        let light = |x: f64| crate::scene::Surface {
+            emission: Rgb::splat(1.0),
+            ..crate::testing::grey(crate::scene::Patch::Parallelogram {
+                origin: DVec3::new(x, 0.0, 1.0),
+                edge_s: DVec3::X,
+                edge_t: DVec3::Y,
+            })
+        };
+        let floor = crate::testing::grey(crate::scene::Patch::Parallelogram {
+            origin: DVec3::ZERO,
+            edge_s: DVec3::X,
+            edge_t: DVec3::Y,
+        });
+        let scene = Scene::from_surfaces(vec![floor.clone(), floor, light(0.0), light(2.0)]);
+        let emitters = Emitters::new(&scene, vec![(2, 3.0), (3, 1.0)]).with_received(vec![
+            vec![(3, 1.0)],
+            vec![],
+            vec![],
+            vec![],
+        ]);
+        let p = |e, at| emitters.probability(Emitter::Surface(e), at);
+        let lit = (1.0 - SCENE_WIDE_SHARE) + SCENE_WIDE_SHARE * 0.25;
+        assert!((p(3, 0) - lit).abs() < 1e-12 && (p(2, 0) + p(3, 0) - 1.0).abs() < 1e-12);
+        assert!((p(3, 1) - 0.25).abs() < 1e-12, "no links: by power");
+        let n = 4000;
+        let mut drawn = 0;
+        for k in 0..n {
+            let u = DVec2::new((k as f64 + 0.5) / n as f64, 0.5);
+            let (e, uv, chosen) = emitters.sample(u, 0).unwrap();
+            assert_eq!(chosen, emitters.probability(e, 0));
+            assert!((0.0..1.0).contains(&uv.x) && (0.0..1.0).contains(&uv.y));
+            drawn += usize::from(e == Emitter::Surface(3));
+        }
+        assert!((drawn as f64 / n as f64 - lit).abs() < 1e-3, "{drawn}");
+    }
 
     /// Directions drawn over a sphere's cone cover its solid angle: the
     /// mean of 1/pdf is the solid angle 2π(1 − cos θmax), every sample lies

@@ -1226,7 +1226,12 @@ mod tests {
             s.emission[0] * s.patch.area()
         };
         let weights = vec![(0, 1.0), (1, power(1)), (2, power(2)), (3, power(3))];
-        let emitters = Emitters::new(&scene, weights);
+        // Drawn by power, and for the floor mostly by the light its links
+        // would say two of them bring (one as if they missed it): both
+        // average to all of the light.
+        let scene_wide = Emitters::new(&scene, weights.clone());
+        let received = vec![vec![(1, 1.0), (3, 9.0)], vec![], vec![], vec![]];
+        let by_links = Emitters::new(&scene, weights).with_received(received);
         let expect: f64 = (1..4)
             .map(|e| {
                 let light = &scene.surfaces[e].patch;
@@ -1234,19 +1239,21 @@ mod tests {
                 0.5 * scene.surfaces[e].emission[0] * ff
             })
             .sum();
-        let (mean, error) = mean_and_error(
-            (0..4000)
-                .map(|s| {
-                    let point = on_floor(x, Samples::Hashed(s));
-                    direct_radiance(&scene, &tracer, &emitters, &point, 2)[0]
-                })
-                .collect(),
-        );
-        assert!(error > 1e-3 * expect, "the emitters drawn vary: {error}");
-        assert!(
-            (mean - expect).abs() < 4.0 * error + 1e-12,
-            "{mean} ± {error} vs {expect}"
-        );
+        for emitters in [&scene_wide, &by_links] {
+            let (mean, error) = mean_and_error(
+                (0..4000)
+                    .map(|s| {
+                        let point = on_floor(x, Samples::Hashed(s));
+                        direct_radiance(&scene, &tracer, emitters, &point, 2)[0]
+                    })
+                    .collect(),
+            );
+            assert!(error > 1e-3 * expect, "the emitters drawn vary: {error}");
+            assert!(
+                (mean - expect).abs() < 4.0 * error + 1e-12,
+                "{mean} ± {error} vs {expect}"
+            );
+        }
     }
 
     /// A sharp glossy floor under three lights: light samples drawn among

@@ -125,18 +125,54 @@ impl FinalGather {
     }
 }
 
+/// Per diffuse surface, the light each emitter brings it through the
+/// solution's two-point links (visibility included): (emitter surface,
+/// Le · F · |a| summed over the links into its elements a), for
+/// [`Emitters::with_received`]. None for a glossy surface, whose light
+/// samples go where its lobe reflects the emitters, which the links'
+/// diffuse transfer does not say (drawn by it, veach-mis's plates of four
+/// lights were noisier: 4.59 % → 5.38 %).
+fn received_from_emitters(solution: &Solution) -> Vec<Vec<(u32, f64)>> {
+    let surfaces = &solution.scene.surfaces;
+    (0..surfaces.len())
+        .map(|p| {
+            let glossy = surfaces[p]
+                .brdf
+                .flags()
+                .contains(BrdfFlags::GLOSSY_REFLECTION);
+            if glossy {
+                return Vec::new();
+            }
+            let mut by_emitter = std::collections::BTreeMap::<u32, f64>::new();
+            let incoming = solution.interactions.incoming.get(p);
+            for t in incoming.map_or(&[][..], |t| &t[..]) {
+                let (e, _) = t.source.element();
+                let emitter = &surfaces[e as usize];
+                if emitter.is_emitter() {
+                    let area = solution.trees[p].nodes[t.receiver as usize].patch.area();
+                    *by_emitter.entry(e).or_default() +=
+                        emitter.emission.average() * t.form_factor * area;
+                }
+            }
+            by_emitter.into_iter().collect()
+        })
+        .collect()
+}
+
 impl SolutionReader {
     /// What final gathers read from `solution` (view-independent).
     pub(super) fn new(solution: &Solution) -> SolutionReader {
         let surfaces = &solution.scene.surfaces;
-        // Emitters by power: emission (mean of the channels) times area.
+        // Emitters by power: emission (mean of the channels) times area;
+        // for a point on a surface, mostly by the light they bring it.
         let emitters = Emitters::new(
             &solution.scene,
             (surfaces.iter().enumerate())
                 .filter(|(_, s)| s.is_emitter())
                 .map(|(e, s)| (e as u32, s.emission.average() * s.patch.area()))
                 .collect(),
-        );
+        )
+        .with_received(received_from_emitters(solution));
         let glossy: Vec<u32> = (0..surfaces.len() as u32)
             .filter(|&s| {
                 surfaces[s as usize]
