@@ -215,8 +215,11 @@ impl Emitters {
     /// while a brighter spotlight shines elsewhere from inside its housing,
     /// scene-wide weights sent most shadow rays to the hidden spotlight.
     /// A receiver's own surface and weights that sum to nothing are left
-    /// out.
+    /// out; with one emitting surface or none there is nothing to choose.
     pub fn with_received(mut self, received: Vec<Vec<(u32, f64)>>) -> Emitters {
+        if self.surfaces().len() < 2 {
+            return self;
+        }
         self.by_receiver = (received.into_iter().enumerate())
             .map(|(p, weights)| {
                 let weights: Vec<(u32, f64)> = (weights.into_iter())

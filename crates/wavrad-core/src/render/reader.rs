@@ -130,8 +130,8 @@ impl FinalGather {
 /// Le · F · |a| summed over the links into its elements a), for
 /// [`Emitters::with_received`]. None for a glossy surface, whose light
 /// samples go where its lobe reflects the emitters, which the links'
-/// diffuse transfer does not say (drawn by it, veach-mis's plates of four
-/// lights were noisier: 4.59 % → 5.38 %).
+/// diffuse transfer does not say (`docs/decisions-measurements.md`,
+/// "Shadow rays drawn by the light the links bring").
 fn received_from_emitters(solution: &Solution) -> Vec<Vec<(u32, f64)>> {
     let surfaces = &solution.scene.surfaces;
     (0..surfaces.len())
