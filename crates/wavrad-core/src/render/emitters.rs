@@ -158,8 +158,11 @@ impl SphereEmitter {
 /// light from emitters ([`Emitters::with_received`]), the share drawn by
 /// the scene-wide weights all the same: it keeps every emitter drawn now
 /// and then where the links miss its light (brought by a cluster link, or
-/// through a gap the link's visibility estimate did not see).
-pub const SCENE_WIDE_SHARE: f64 = 0.25;
+/// through a gap the link's visibility estimate did not see). Small,
+/// because the rays it sends to a bright emitter that the point cannot
+/// see each estimate its hidden part against its whole closed-form
+/// factor, whose difference is noisy.
+pub const SCENE_WIDE_SHARE: f64 = 0.1;
 
 /// The scene's emitters: its emitting surfaces with probabilities in
 /// proportion to their weights (their power), where the facets of an
