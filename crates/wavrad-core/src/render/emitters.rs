@@ -264,7 +264,7 @@ impl Emitters {
     /// ([`Emitters::probability`]); `None` where there is none.
     pub fn sample(&self, u: DVec2, at: u32) -> Option<(Emitter, DVec2, f64)> {
         let share = SCENE_WIDE_SHARE;
-        let (s, uv, _) = match self.received_by(at) {
+        let (s, uv, chosen) = match self.received_by(at) {
             Some(received) if u.x >= share => {
                 received.sample(DVec2::new((u.x - share) / (1.0 - share), u.y), at)?
             }
@@ -272,7 +272,16 @@ impl Emitters {
             None => self.by_weight.sample(u, at)?,
         };
         let emitter = self.of_surface(s);
-        Some((emitter, uv, self.probability(emitter, at)))
+        // A surface drawn by the scene-wide weights alone has the
+        // probability it was drawn with; the mixture and a sphere's facets
+        // together are looked up.
+        let alone = self.received_by(at).is_none() && matches!(emitter, Emitter::Surface(_));
+        let chosen = if alone {
+            chosen
+        } else {
+            self.probability(emitter, at)
+        };
+        Some((emitter, uv, chosen))
     }
 
     /// The emitting sphere that the ray `x + t·dir` (unit `dir`) meets
