@@ -127,12 +127,11 @@ impl<'a> TripleRefiner<'a> {
             .map_or(0.0, Brdf::lobe_solid_angle);
         // A highlight (an emitter's image in a sharp lobe) is shaped by the
         // emitter's and the glossy surface's elements however small those
-        // surfaces are: they keep `max_level` (Figure 3's glossy receiver
-        // read directly: 3.5 % against Mitsuba, 18 % with the area rule).
-        // Elsewhere a glossy element may be a quarter of A_ε: the image of
-        // what it reflects moves across it faster than light varies over a
-        // diffuse one (the glossy box read directly: 1.2 % against Mitsuba,
-        // 1.4 % with A_ε itself).
+        // surfaces are: they keep `max_level`. Elsewhere a glossy element
+        // may be a quarter of A_ε: the image of what it reflects moves
+        // across it faster than light varies over a diffuse one
+        // (docs/decisions-measurements.md, "Three-point elements as small
+        // as the largest surface's").
         let deepest = |s: u32, finer: u32| {
             if lobe > 0.0 {
                 max_level
