@@ -125,11 +125,13 @@ pub struct ClusterSettings {
     /// pair of surfaces is linked as the paper links them).
     pub ratio: f64,
     /// Deepest element level a cluster's neighbourhood may split an
-    /// element to, on every surface: not the projection's
-    /// [`KernelContext::deepest_level`], under which a small surface's
-    /// elements, kept whole towards far clusters, made veach-bidir's back
-    /// wall glow beside its spotlight (`docs/decisions-measurements.md`,
-    /// "Elements as small as the largest surface's").
+    /// element of a surface with a Lambertian lobe to, on every surface:
+    /// not the projection's [`KernelContext::deepest_level`], under which a
+    /// small surface's elements, kept whole towards far clusters, made
+    /// veach-bidir's back wall glow beside its spotlight
+    /// (`docs/decisions-measurements.md`, "Elements as small as the largest
+    /// surface's"). A surface without one stops at its deepest level
+    /// ([`Linker::split_limit`]).
     pub max_level: u32,
     /// The two-point oracle's threshold, read as the largest error a
     /// link's visibility estimate may make in its receiver's radiance
@@ -390,6 +392,29 @@ impl<'a> Linker<'a> {
         surfaces[a.surface as usize].is_emitter() || surfaces[c.surface as usize].is_emitter()
     }
 
+    /// Deepest level an element of surface `s` is split to towards a
+    /// cluster. A surface with a Lambertian lobe keeps its radiance per
+    /// element, so its elements split to `max_level` where a cluster near
+    /// them needs it. A surface without one (a metal, a glossy coat) keeps
+    /// the light it reflects per surface, as distributions over directions
+    /// ([`crate::solve::glossy_clusters`]) or in its three-point links:
+    /// finer elements would sharpen only the link's geometry, which the
+    /// cluster at the other end, split instead, sharpens as well. Its
+    /// elements stop at [`KernelContext::deepest_level`] (A_ε), where its
+    /// two-point projection stops too, rather than splitting a fine metal
+    /// mesh's every triangle 4^max_level ways near its neighbours.
+    fn split_limit(&self, s: u32) -> u32 {
+        if self.ctx.scene.surfaces[s as usize]
+            .brdf
+            .lambertian()
+            .is_some()
+        {
+            self.settings.max_level
+        } else {
+            self.ctx.deepest_level(s, self.settings.max_level)
+        }
+    }
+
     /// Surfaces under an end (1 for an element).
     fn weight(&self, end: End) -> u32 {
         match end {
@@ -471,7 +496,7 @@ impl<'a> Linker<'a> {
                 let patch = self.patch(e);
                 let off_plane = patch.normal().dot(other.center - patch.centroid()).abs();
                 self.settings.ratio > 0.0
-                    && e.id.level < self.settings.max_level
+                    && e.id.level < self.split_limit(e.surface)
                     && off_plane > other.radius
             }
         };
@@ -860,6 +885,55 @@ mod tests {
             assert!(!l.ends.iter().any(|e| mixed(&scene, &clusters, e)), "{l:?}");
         }
         assert_every_pair_covered_once(&ctx, &clusters, &lit);
+    }
+
+    /// A glossy tile's elements stop at its deepest level (A_ε) when a
+    /// cluster of small squares under it would split them finer; a diffuse
+    /// tile's split further.
+    #[test]
+    fn a_glossy_surface_splits_towards_a_cluster_no_finer_than_its_area_allows() {
+        // Floor 16 × 16 (the largest surface: A_ε = 256/4⁵ = 0.25), a unit
+        // tile facing down at z = 0.5, and 4 × 4 squares of 0.1 facing up
+        // at z = 0.1 under its middle.
+        let floor = grid(DVec3::ZERO, 16.0 * DVec3::X, 16.0 * DVec3::Y, 1);
+        let tile = Patch::Parallelogram {
+            origin: DVec3::new(4.0, 4.0, 0.5),
+            edge_s: DVec3::Y,
+            edge_t: DVec3::X,
+        };
+        let squares = (0..16).map(|k| Patch::Parallelogram {
+            origin: DVec3::new(4.3 + 0.1 * (k % 4) as f64, 4.3 + 0.1 * (k / 4) as f64, 0.1),
+            edge_s: 0.1 * DVec3::X,
+            edge_t: 0.1 * DVec3::Y,
+        });
+        let patches: Vec<Patch> = floor.chain([tile]).chain(squares).collect();
+        let deepest_tile_element = |brdf: crate::scene::brdf::Brdf| {
+            let mut scene = Scene::from_surfaces(patches.iter().copied().map(grey).collect());
+            scene.surfaces[1].brdf = brdf;
+            let tracer = SceneTracer::new(&scene);
+            let ctx = crate::kernel::default_context(&scene, &tracer);
+            assert_eq!(ctx.deepest_level(1, SETTINGS.max_level), 1);
+            let clusters = ClusterTree::build(&scene);
+            let linking = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+            assert_every_pair_covered_once(&ctx, &clusters, &linking);
+            let ends = (linking.element_pairs.iter().flatten().copied()).chain(
+                linking.cluster_links.iter().flat_map(|l| {
+                    l.ends.into_iter().filter_map(|e| match e {
+                        End::Element(e) => Some(e),
+                        End::Cluster(_) => None,
+                    })
+                }),
+            );
+            ends.filter(|e| e.surface == 1).map(|e| e.id.level).max()
+        };
+        let diffuse = deepest_tile_element(crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)));
+        assert!(diffuse > Some(1), "{diffuse:?}");
+        let mut metal = crate::testing::rolled_aluminium();
+        if let crate::scene::brdf::Brdf::Ward(w) = &mut metal {
+            w.diffuse_reflectance = Rgb::ZERO;
+        }
+        assert_eq!(metal.lambertian(), None);
+        assert_eq!(deepest_tile_element(metal), Some(1));
     }
 
     #[test]
