@@ -51,14 +51,15 @@ pub enum Error {
     /// energy (a receiver's form factors, or a glossy BRDF's coefficients,
     /// sum to more than it can reflect).
     #[error(
-        "the radiance solution diverges: after {sweeps} Gauss–Seidel sweeps its residual has \
-         grown for {growing} sweeps in a row, to {residual:.3e}; growing fastest: {}",
+        "the radiance solution diverges: after {sweeps} Gauss–Seidel sweeps its change per \
+         sweep has grown past what light that is conserved allows (it grew in the last \
+         {growing} sweeps in a row; residual {residual:.3e}); growing fastest: {}",
         surfaces.join(", ")
     )]
     Diverged {
         /// Sweeps done.
         sweeps: u32,
-        /// Sweeps in a row the residual grew.
+        /// Sweeps in a row, up to the last, that the change of power grew.
         growing: u32,
         /// The last sweep's residual.
         residual: f64,
