@@ -131,7 +131,7 @@ pub struct ClusterSettings {
     /// veach-bidir's back wall glow beside its spotlight
     /// (`docs/decisions-measurements.md`, "Elements as small as the largest
     /// surface's"). A surface without one stops at its deepest level
-    /// ([`Linker::split_limit`]).
+    /// (`Linker::split_limit`).
     pub max_level: u32,
     /// The two-point oracle's threshold, read as the largest error a
     /// link's visibility estimate may make in its receiver's radiance
