@@ -611,6 +611,7 @@ mod tests {
     use super::*;
     use crate::geometry::tracing::SceneTracer;
     use crate::progress::Silent;
+    use crate::scene::brdf::Brdf;
     use crate::scene::Rgb;
     use crate::testing::grey;
     use std::collections::BTreeMap;
@@ -907,7 +908,7 @@ mod tests {
             edge_t: 0.1 * DVec3::Y,
         });
         let patches: Vec<Patch> = floor.chain([tile]).chain(squares).collect();
-        let deepest_tile_element = |brdf: crate::scene::brdf::Brdf| {
+        let deepest_tile_element = |brdf: Brdf| {
             let mut scene = Scene::from_surfaces(patches.iter().copied().map(grey).collect());
             scene.surfaces[1].brdf = brdf;
             let tracer = SceneTracer::new(&scene);
@@ -926,10 +927,10 @@ mod tests {
             );
             ends.filter(|e| e.surface == 1).map(|e| e.id.level).max()
         };
-        let diffuse = deepest_tile_element(crate::scene::brdf::Brdf::diffuse(Rgb::splat(0.5)));
+        let diffuse = deepest_tile_element(Brdf::diffuse(Rgb::splat(0.5)));
         assert!(diffuse > Some(1), "{diffuse:?}");
         let mut metal = crate::testing::rolled_aluminium();
-        if let crate::scene::brdf::Brdf::Ward(w) = &mut metal {
+        if let Brdf::Ward(w) = &mut metal {
             w.diffuse_reflectance = Rgb::ZERO;
         }
         assert_eq!(metal.lambertian(), None);

@@ -1137,10 +1137,8 @@ const GROWING_SWEEPS: u32 = 5;
 /// sweep before's (the second sweep may exceed the first: light a glossy
 /// surface without a Lambertian lobe reflects, not counted in the first
 /// sweep's change, reaches its receivers one sweep later). A change that
-/// grows in bursts, falling between them, escapes [`GROWING_SWEEPS`]: a
-/// mirror touching a diffuse torus (its lobe read in one bin by a receiver
-/// that spans many) grew the change 30-fold in the first two sweeps and
-/// 400-fold in the next 26, never five sweeps in a row.
+/// grows in bursts, falling between them, escapes [`GROWING_SWEEPS`]
+/// (`docs/decisions-measurements.md`, "Divergence in bursts").
 const OVERSHOOT: f64 = 2.0;
 
 /// Watches Gauss–Seidel's changes of power per sweep for divergence: a
