@@ -46,7 +46,7 @@ use crate::geometry::hierarchy::{ElementRef, ElementTree};
 use crate::refine::cluster_links::{ClusterLink, End};
 use crate::scene::{Rgb, Scene};
 use crate::solve::direction_cells::{self, CELLS};
-use crate::solve::glossy_clusters::{GlossyReflectors, BINS, NO_BIN};
+use crate::solve::glossy_clusters::{cone, GlossyReflectors, BINS, NO_BIN};
 use crate::solve::push_pull::Gathered;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -574,6 +574,19 @@ impl ClusterTransfers {
         }
     }
 
+    /// How far an end reaches from its [`ClusterTransfers::center`]: a
+    /// cluster's bounding sphere about its centroid, an element's
+    /// half-diagonal were it square.
+    fn radius(&self, side: Side) -> f64 {
+        match side {
+            Side::Cluster(c) => {
+                let node = &self.clusters.nodes[c as usize];
+                node.radius + node.center.distance(node.centroid)
+            }
+            Side::Element(e) => (0.5 * self.elements[e as usize].area).sqrt(),
+        }
+    }
+
     /// Σ A·L·n over every cluster node's members from `radiance` (their
     /// roots' averages), children (later nodes) first.
     fn pull(&self, radiance: &[Vec<Rgb>]) -> Vec<[DVec3; 3]> {
@@ -960,30 +973,48 @@ impl ClusterTransfers {
         let tables = self.glossy_intensities(glossy, tabled, &|s, k, w| {
             towards(k, &self.roots[s as usize], w)
         });
+        // Each end reads its members' light averaged over the cone of
+        // directions the other end fills: a member from its bins averaged
+        // ahead over cones of a few widths, a table at directions that
+        // fill the cone.
+        let blurred: Vec<Vec<Rgb>> = (exitant.par_iter())
+            .map(|e| reflectors.blurred(e))
+            .collect();
+        let width = |target: Side, from: DVec3| {
+            self.radius(target) / self.center(target).distance(from).max(f64::MIN_POSITIVE)
+        };
+        let member = |target: Side, k: usize, m: &Member| {
+            let w = (self.center(target) - m.point).normalize_or_zero();
+            let cos = m.normal.dot(w);
+            if cos > 0.0 {
+                let sin_alpha = width(target, m.point);
+                reflectors.towards_across(k, &blurred[k], w, sin_alpha) * (m.area * cos)
+            } else {
+                Rgb::ZERO
+            }
+        };
         (sent.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {
-            let centers = t.sides.map(|s| self.center(s));
             for (k, side) in sides.iter_mut().enumerate() {
-                let target = centers[1 - k];
+                let target = t.sides[1 - k];
                 side.glossy = match t.sides[k] {
                     Side::Cluster(c) => match tables.of(c) {
                         Some(table) => {
-                            let w = target - centers[k];
-                            (direction_cells::bilinear(w).iter())
-                                .map(|&(cell, weight)| table[cell] * weight)
-                                .sum()
+                            let from = self.center(t.sides[k]);
+                            let directions =
+                                cone(self.center(target) - from, width(target, from), 1);
+                            let n = directions.len() as f64;
+                            (directions.flat_map(direction_cells::bilinear))
+                                .map(|(cell, weight)| table[cell] * weight)
+                                .sum::<Rgb>()
+                                / n
                         }
                         None => (glossy.under(&self.clusters, c).iter())
-                            .map(|&(s, g)| {
-                                let m = &self.roots[s as usize];
-                                towards(g, m, (target - m.point).normalize_or_zero())
-                            })
+                            .map(|&(s, g)| member(target, g, &self.roots[s as usize]))
                             .sum(),
                     },
                     Side::Element(e) => {
                         let m = &self.elements[e as usize];
-                        reflectors.index(m.surface).map_or(Rgb::ZERO, |g| {
-                            towards(g, m, (target - m.point).normalize_or_zero())
-                        })
+                        (reflectors.index(m.surface)).map_or(Rgb::ZERO, |g| member(target, g, m))
                     }
                 };
             }
