@@ -41,10 +41,11 @@ pub enum Error {
     /// ([`crate::solve::checkpoint::resume`]).
     #[error("cannot resume: {0}")]
     Resume(String),
-    /// No surface emits: the solution would be black everywhere.
+    /// No surface emits and no other light shines: the solution would be
+    /// black everywhere.
     #[error(
-        "the scene has no light: no surface emits (only area emitters on shapes, with positive \
-         radiance, light a wavrad scene)"
+        "the scene has no light: no area emitter, point, spot, directional, envmap or constant \
+         emitter with positive radiance"
     )]
     NoLight,
     /// Gauss–Seidel's residual kept growing: the system does not conserve
