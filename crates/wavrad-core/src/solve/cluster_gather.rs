@@ -975,11 +975,8 @@ impl ClusterTransfers {
         });
         // Each end reads its members' light averaged over the cone of
         // directions the other end fills: a member from its bins averaged
-        // ahead over cones of a few widths, a table at directions that
-        // fill the cone.
-        let blurred: Vec<Vec<Rgb>> = (exitant.par_iter())
-            .map(|e| reflectors.blurred(e))
-            .collect();
+        // over cones of a few widths, a table at directions that fill the
+        // cone.
         let width = |target: Side, from: DVec3| {
             self.radius(target) / self.center(target).distance(from).max(f64::MIN_POSITIVE)
         };
@@ -988,7 +985,7 @@ impl ClusterTransfers {
             let cos = m.normal.dot(w);
             if cos > 0.0 {
                 let sin_alpha = width(target, m.point);
-                reflectors.towards_across(k, &blurred[k], w, sin_alpha) * (m.area * cos)
+                reflectors.towards_across(k, &exitant[k], w, sin_alpha) * (m.area * cos)
             } else {
                 Rgb::ZERO
             }
