@@ -952,9 +952,10 @@ impl ClusterTransfers {
 
     /// Add to every side of `sent` the intensity its glossy members
     /// `glossy` send towards the other side's centre, A·cosθ·L_o from each
-    /// member's radiance per bin `exitant`: read from the cluster's
-    /// [`GlossyIntensities`] where it has them (the clusters `tabled`),
-    /// summed over its members otherwise.
+    /// member's radiance per bin `exitant`, L_o averaged over the cone the
+    /// other side fills ([`GlossyReflectors::towards_across`]): read from
+    /// the cluster's [`GlossyIntensities`] where it has them (the clusters
+    /// `tabled`), summed over its members otherwise.
     fn send_glossy(
         &self,
         (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
