@@ -73,6 +73,19 @@ fn direction_in(bin: usize, (a, b): (f64, f64)) -> DVec3 {
     DVec3::new(r * phi.cos(), r * phi.sin(), (1.0 - r2).max(0.0).sqrt())
 }
 
+/// The directions of bin `bin` that stand for it: [`SUBSAMPLES`]² of
+/// them, stratified over its sin²θ and azimuth.
+fn subsample_directions(bin: usize) -> impl Iterator<Item = DVec3> {
+    let n = SUBSAMPLES as f64;
+    (0..SUBSAMPLES * SUBSAMPLES).map(move |k| {
+        let at = (
+            ((k / SUBSAMPLES) as f64 + 0.5) / n,
+            ((k % SUBSAMPLES) as f64 + 0.5) / n,
+        );
+        direction_in(bin, at)
+    })
+}
+
 /// A BRDF averaged over every pair of bins: `f̄(o, i)`, stratified over
 /// 2 × 2 directions in each.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,19 +97,10 @@ pub struct BinMatrix {
 impl BinMatrix {
     /// `brdf` averaged over every (outgoing, incident) pair of bins.
     pub fn of(brdf: &Brdf) -> BinMatrix {
-        let offsets: Vec<(f64, f64)> = (0..SUBSAMPLES * SUBSAMPLES)
-            .map(|k| {
-                let n = SUBSAMPLES as f64;
-                (
-                    ((k / SUBSAMPLES) as f64 + 0.5) / n,
-                    ((k % SUBSAMPLES) as f64 + 0.5) / n,
-                )
-            })
-            .collect();
         let directions: Vec<Vec<DVec3>> = (0..BINS)
-            .map(|b| offsets.iter().map(|&o| direction_in(b, o)).collect())
+            .map(|b| subsample_directions(b).collect())
             .collect();
-        let pairs = (offsets.len() * offsets.len()) as f64;
+        let pairs = (SUBSAMPLES * SUBSAMPLES).pow(2) as f64;
         let mut values = Vec::with_capacity(BINS * BINS);
         for outgoing in &directions {
             for incident in &directions {
@@ -184,22 +188,17 @@ pub const BLUR_WIDTHS: [f64; 4] = [0.1, 0.2, 0.4, 0.8];
 
 /// For each of [`BLUR_WIDTHS`], each bin's average over the cones of that
 /// width about its directions ([`cone`] about each of its
-/// [`SUBSAMPLES`]² directions): (bin, weight) lists, weights summing to at
+/// [`subsample_directions`]): (bin, weight) lists, weights summing to at
 /// most one (a cone that dips below the surface sees no light there).
 fn blur_weights() -> Vec<Vec<Vec<(u8, f32)>>> {
-    let n = SUBSAMPLES as f64;
     (BLUR_WIDTHS.iter())
         .map(|&sin_alpha| {
             (0..BINS)
                 .map(|bin| {
                     let mut weights = [0.0f64; BINS];
                     let mut count = 0.0;
-                    for k in 0..SUBSAMPLES * SUBSAMPLES {
-                        let at = (
-                            ((k / SUBSAMPLES) as f64 + 0.5) / n,
-                            ((k % SUBSAMPLES) as f64 + 0.5) / n,
-                        );
-                        for w in cone(direction_in(bin, at), sin_alpha, BLUR_RINGS) {
+                    for d in subsample_directions(bin) {
+                        for w in cone(d, sin_alpha, BLUR_RINGS) {
                             if let Some(b) = bin_of(w) {
                                 weights[b] += 1.0;
                             }
@@ -468,9 +467,10 @@ mod tests {
             }
             let share = inside as f64 / (n * n) as f64;
             // Read at the axis alone it would be 1 however wide the cone:
-            // 80 times the share at 0.8. The averages ahead are over each
-            // bin's own four directions, so a cone narrower than a bin
-            // reads less than its middle (0.60 against 0.75 at 0.1).
+            // 80 times the share at 0.8. The weights average over cones
+            // about each bin's own four directions, so a cone narrower
+            // than a bin reads less than its middle (0.60 against 0.75 at
+            // 0.1).
             let tolerance = if sin_alpha < 0.2 { 0.16 } else { 0.02 };
             assert!(
                 (read - share).abs() <= tolerance,
