@@ -77,7 +77,7 @@ pub const MAGIC: [u8; 8] = *b"wavradSF";
 /// The version of the format [`write_solution`] writes and
 /// [`read_solution`] reads; a change of the body, or of any type it holds,
 /// needs a new one.
-pub const FORMAT_VERSION: u32 = 16;
+pub const FORMAT_VERSION: u32 = 17;
 
 /// Bytes before the body.
 const HEADER_LEN: usize = 56;
@@ -723,7 +723,6 @@ mod tests {
     #[test]
     fn a_body_with_a_matching_checksum_is_checked_index_by_index() {
         use wavrad_core::solve::gather::{Shares, Source};
-        use wavrad_core::solve::glossy_clusters::NO_BIN;
         let dir = tempfile::tempdir().unwrap();
         let (solution, _) = solved(dir.path(), GLOSSY);
         let dir = dir.path();
@@ -775,19 +774,22 @@ mod tests {
             (
                 "node 9999 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = element(0, 9999, NO_BIN)
+                    b.interactions.to_mut().incoming[s][0].source = element(0, 9999, 0..0)
                 }),
             ),
             (
                 "source surface 77 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = element(77, 0, NO_BIN)
+                    b.interactions.to_mut().incoming[s][0].source = element(77, 0, 0..0)
                 }),
             ),
             (
                 "source bin 200 out of range",
                 Box::new(move |b| {
-                    b.interactions.to_mut().incoming[s][0].source = element(0, 0, 200)
+                    let interactions = b.interactions.to_mut();
+                    let at = interactions.bins.len() as u32;
+                    interactions.bins.push((200, 1.0));
+                    interactions.incoming[s][0].source = element(0, 0, at..at + 1)
                 }),
             ),
             (

@@ -34,7 +34,7 @@ use crate::refine::two_point_projection::Link;
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Rgb, Scene};
 use crate::solve::cluster_gather::{ClusterTransfers, FarField};
-use crate::solve::glossy_clusters::{self, bin_of, GlossyReflectors, BINS, NO_BIN};
+use crate::solve::glossy_clusters::{self, bin_of, GlossyReflectors, BINS};
 use crate::solve::push_pull::{reflection_limits, Gathered};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -67,11 +67,10 @@ pub enum Source {
         node: u32,
         /// How its children share the link ([`Shares`]).
         shares: Shares,
-        /// On a glossy source, the bin of the direction from the source
-        /// element's centroid to the receiver's in its frame
-        /// ([`crate::solve::glossy_clusters::bin_of`]); [`NO_BIN`] on a
-        /// diffuse one.
-        towards: u8,
+        /// On a glossy source, the range in [`Interactions::bins`] of the
+        /// bins of its hemisphere the transfer passes through, each with
+        /// its share ([`glossy_clusters::spread`]); empty on a diffuse one.
+        towards: Range<u32>,
     },
     /// A glossy source: its element's own radiance,
     /// `radiance[surface][node]` (emission and Lambertian reflection; or
@@ -184,6 +183,10 @@ pub struct Interactions {
     pub incoming_three_point: Vec<Vec<ThreePointTransfer>>,
     /// (node, weight) lists that sources and receivers refer to.
     pub covers: Vec<(u32, f64)>,
+    /// (bin, weight) lists that glossy sources without a directional
+    /// structure refer to: what of each bin's radiance they read
+    /// ([`Interactions::read_with_lobes`]).
+    pub bins: Vec<(u8, f32)>,
     /// Exposed fraction of every node of every element tree
     /// ([`crate::kernel::exposure`]); radiance is averaged over exposed areas.
     pub exposure: Vec<Vec<f64>>,
@@ -342,6 +345,7 @@ impl Interactions {
             directional,
             structure_of,
             covers: Vec::new(),
+            bins: Vec::new(),
             exposure,
             pair_exposure: Vec::new(),
             clusters: ClusterTransfers::default(),
@@ -441,10 +445,78 @@ impl Interactions {
                 coefficient: l.coefficient.map(|k| k * scale),
             });
         }
+        out.conserve_bins(trees);
         for list in &mut out.incoming {
             list.sort_by_key(|t| t.receiver);
         }
         out
+    }
+
+    /// Scale the weights in [`Interactions::bins`] so that the two-point
+    /// transfers from a glossy surface never read more of a bin of its
+    /// hemisphere than the bin sends: their throughputs through each bin,
+    /// per unit of the surface's exposed area, sum to at most the bin's
+    /// share of the projected solid angle, 1/[`BINS`], as exact form
+    /// factors do. Quadrature overestimates the form factors of elements
+    /// pressed together, and a sharp lobe puts all it reflects in one
+    /// bin: read beyond what it holds, that bin would feed the light back
+    /// larger at every bounce.
+    fn conserve_bins(&mut self, trees: &[ElementTree]) {
+        let mut through: Vec<Vec<f64>> = vec![Vec::new(); trees.len()];
+        for (p, list) in self.incoming.iter().enumerate() {
+            for t in list {
+                let Source::Element {
+                    surface, towards, ..
+                } = &t.source
+                else {
+                    continue;
+                };
+                if towards.is_empty() {
+                    continue;
+                }
+                let sums = &mut through[*surface as usize];
+                sums.resize(BINS, 0.0);
+                let receiver = t.receiver as usize;
+                let throughput =
+                    t.form_factor * exposed_area(&trees[p], &self.exposure[p], receiver);
+                for &(b, w) in &self.bins[towards.start as usize..towards.end as usize] {
+                    sums[usize::from(b)] += throughput * f64::from(w);
+                }
+            }
+        }
+        let scales: Vec<Vec<f32>> = (through.into_iter().enumerate())
+            .map(|(s, sums)| {
+                let area = exposed_area(&trees[s], &self.exposure[s], 0);
+                (sums.into_iter())
+                    .map(|t| {
+                        let read = t * BINS as f64 / area;
+                        if read > 1.0 {
+                            (1.0 / read) as f32
+                        } else {
+                            1.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let sources = (self.incoming.iter().flatten().map(|t| &t.source)).chain(
+            self.incoming_three_point
+                .iter()
+                .flatten()
+                .map(|t| &t.source),
+        );
+        for source in sources {
+            if let Source::Element {
+                surface, towards, ..
+            } = source
+            {
+                // A surface none of whose transfers read its bins has no scales.
+                let scale = &scales[*surface as usize];
+                for (b, w) in &mut self.bins[towards.start as usize..towards.end as usize] {
+                    *w *= scale.get(usize::from(*b)).copied().unwrap_or(1.0);
+                }
+            }
+        }
     }
 
     /// Set every leaf's reflection limit ([`reflection_limits`]) from the
@@ -680,22 +752,28 @@ impl Interactions {
                     shares: Shares::NONE,
                 }
             }
-            _ => Source::Element {
-                surface: r,
-                node,
-                shares: Shares::NONE,
-                towards: match glossy {
-                    true => {
-                        let centroid = |s: u32, id: ElementId| {
-                            id.patch(&trees[s as usize].nodes[0].patch).centroid()
-                        };
-                        let (from, to) = (centroid(r, c), centroid(p, a));
-                        let frame = scene.surfaces[r as usize].frame();
-                        bin_of(frame.to_local(to - from)).map_or(NO_BIN, |b| b as u8)
+            _ => {
+                let start = self.bins.len() as u32;
+                if glossy {
+                    let patch = |s: u32, id: ElementId| id.patch(&trees[s as usize].nodes[0].patch);
+                    let (from, to) = (patch(r, c), patch(p, a));
+                    let frame = scene.surfaces[r as usize].frame();
+                    let spread = glossy_clusters::spread(&frame, &from, &to);
+                    if spread.is_empty() {
+                        // No pair of sample points faces the other: the
+                        // direction between the centroids stands for all.
+                        let towards = frame.to_local(to.centroid() - from.centroid());
+                        self.bins.extend(bin_of(towards).map(|b| (b as u8, 1.0)));
                     }
-                    false => NO_BIN,
-                },
-            },
+                    self.bins.extend(spread);
+                }
+                Source::Element {
+                    surface: r,
+                    node,
+                    shares: Shares::NONE,
+                    towards: start..self.bins.len() as u32,
+                }
+            }
         }
     }
 
@@ -749,11 +827,14 @@ impl Interactions {
         let l = self.read(source, radiance, directional);
         match (source, far) {
             (
-                &Source::Element {
+                Source::Element {
                     surface, towards, ..
                 },
                 Some(far),
-            ) => l + far.glossy(surface, towards),
+            ) => {
+                let bins = &self.bins[towards.start as usize..towards.end as usize];
+                (bins.iter()).fold(l, |l, &(b, w)| l + far.glossy(*surface, b) * f64::from(w))
+            }
             _ => l,
         }
     }

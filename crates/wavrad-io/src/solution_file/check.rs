@@ -19,7 +19,7 @@ use wavrad_core::scene::glass::Glass;
 use wavrad_core::scene::{Camera, Projection, Rgb};
 use wavrad_core::setting::Described;
 use wavrad_core::solve::gather::{Interactions, Shares, Source};
-use wavrad_core::solve::glossy_clusters::{BINS, NO_BIN};
+use wavrad_core::solve::glossy_clusters::BINS;
 use wavrad_core::solve::{Solution, SolveSettings};
 
 use super::SolutionProblem;
@@ -130,6 +130,9 @@ pub(super) fn check_solution(solution: &Solution) -> Result<(), SolutionProblem>
     }
     if let Some(&(_, w)) = interactions.covers.iter().find(|(_, w)| !w.is_finite()) {
         return Err(inconsistent("the cover lists", format!("a weight of {w}")));
+    }
+    if let Some(&(_, w)) = interactions.bins.iter().find(|(_, w)| !w.is_finite()) {
+        return Err(inconsistent("the bin lists", format!("a weight of {w}")));
     }
     (interactions.clusters)
         .check(scene, &solution.trees)
@@ -297,9 +300,12 @@ fn check_source(solution: &Solution, source: &Source) -> Result<(), String> {
             .ok_or_else(|| format!("source structure {structure} out of range"))?;
         check_covers(interactions, nodes, d.tree.nodes.len()).map_err(|e| format!("source {e}"))?;
     }
-    if let Source::Element { towards, .. } = *source {
-        if usize::from(towards) >= BINS && towards != NO_BIN {
-            return Err(format!("source bin {towards} out of range"));
+    if let Source::Element { towards, .. } = source {
+        let bins = (solution.interactions.bins)
+            .get(towards.start as usize..towards.end as usize)
+            .ok_or_else(|| format!("source bins {towards:?} out of range"))?;
+        if let Some(&(b, _)) = bins.iter().find(|(b, _)| usize::from(*b) >= BINS) {
+            return Err(format!("source bin {b} out of range"));
         }
     }
     let (Source::Element { shares, .. } | Source::Glossy { shares, .. }) = source;
