@@ -760,8 +760,8 @@ impl Interactions {
                     let frame = scene.surfaces[r as usize].frame();
                     let spread = glossy_clusters::spread(&frame, &from, &to);
                     if spread.is_empty() {
-                        // No pair of sample points faces the other: the
-                        // direction between the centroids stands for all.
+                        // No point of the source faces the receiver's
+                        // front: the centroids' direction stands for all.
                         let towards = frame.to_local(to.centroid() - from.centroid());
                         self.bins.extend(bin_of(towards).map(|b| (b as u8, 1.0)));
                     }
