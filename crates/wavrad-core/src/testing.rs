@@ -173,6 +173,43 @@ pub fn ball_in_a_box(rings: usize, brdf: Brdf) -> Scene {
     Scene::from_surfaces(ball.chain(walls).chain([ceiling_light()]).collect())
 }
 
+/// Triangles on a bowl: the unit sphere's lower half, `n` × `n` cells
+/// of its (polar, azimuth) grid, each cut in two; facing inwards, and
+/// with `both_sides` each followed by its flipped twin.
+pub fn bowl(n: usize, both_sides: bool) -> Scene {
+    let at = |i: usize, j: usize| {
+        let (polar, azimuth) = (
+            std::f64::consts::FRAC_PI_2 * (1.0 + i as f64 / n as f64),
+            std::f64::consts::TAU * j as f64 / n as f64,
+        );
+        DVec3::new(
+            polar.sin() * azimuth.cos(),
+            polar.cos(),
+            polar.sin() * azimuth.sin(),
+        )
+    };
+    let mut surfaces = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let [a, b, c, d] = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
+            for corners in [[a, b, c], [a, c, d]] {
+                let mut patch = Patch::Triangle(corners);
+                if patch.normal().dot(patch.centroid()) > 0.0 {
+                    patch = patch.flipped();
+                }
+                if patch.area() < 1e-12 {
+                    continue;
+                }
+                surfaces.push(grey(patch));
+                if both_sides {
+                    surfaces.push(grey(patch.flipped()));
+                }
+            }
+        }
+    }
+    Scene::from_surfaces(surfaces)
+}
+
 /// `count` curved shapes, of `kinds` in turn, scattered over the cube
 /// [-1, 1]³ from `seed`, in a scene with no surfaces (ray queries against
 /// the exact shapes alone): centres uniform, radii between 0.5 and 1.5

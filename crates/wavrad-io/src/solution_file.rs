@@ -77,7 +77,7 @@ pub const MAGIC: [u8; 8] = *b"wavradSF";
 /// The version of the format [`write_solution`] writes and
 /// [`read_solution`] reads; a change of the body, or of any type it holds,
 /// needs a new one.
-pub const FORMAT_VERSION: u32 = 17;
+pub const FORMAT_VERSION: u32 = 18;
 
 /// Bytes before the body.
 const HEADER_LEN: usize = 56;

@@ -4,11 +4,21 @@
 //! against their distance exchange light as wholes
 //! ([`crate::refine::cluster_links`]).
 //!
-//! The tree is built top-down by median splits along the longest axis of
-//! the members' centroids (a bounding-volume hierarchy with one surface per
-//! leaf), so it is balanced whatever the scene: depth ⌈log₂ n⌉.
+//! The tree is built top-down by median splits (a bounding-volume
+//! hierarchy with one surface per leaf), so it is balanced whatever the
+//! scene: depth ⌈log₂ n⌉. A node is split at the median along the longest
+//! axis of its members' centroids, or along that of their normals where
+//! only that split leaves both halves facing one way (cones of normals
+//! narrower than [`NARROW_CONE_COS`]) and they are at most [`TURN_GROWTH`]
+//! times as large. So the two sides of a `twosided`
+//! mesh, at the same places, part where the mesh is flat within a node
+//! instead of pairing up at the leaves, and so do a thin box's top and
+//! bottom; surfaces that face many ways part by place. Each node keeps its
+//! members' cone of normals and the slab they fill about it, so that links
+//! between nodes can bound the cosines between them ([`height_over`]), as
+//! Shirman & Abi-Ezzi 1993 cull back faces with such cones.
 
-use crate::scene::Scene;
+use crate::scene::{Patch, Scene};
 use glam::DVec3;
 use std::ops::Range;
 
@@ -26,12 +36,115 @@ pub struct Cluster {
     pub area: f64,
     /// Largest Lambertian reflectance (largest channel) of its members.
     pub reflectance: f64,
+    /// Which way its members face, and the slab they fill.
+    pub orientation: Orientation,
     /// Its members, a range of [`ClusterTree::members`].
     pub members: Range<u32>,
     /// Its two children; `None` for a leaf (one surface).
     pub children: Option<[u32; 2]>,
     /// Its parent; `None` for the root.
     pub parent: Option<u32>,
+}
+
+/// Which way a set of planar surfaces faces and where it lies along that
+/// way, about a centre: its cone of normals and the slab its vertices fill.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Orientation {
+    /// The members' area-weighted mean normal, unit length (zero when
+    /// they cancel).
+    pub axis: DVec3,
+    /// Cosine of the cone of normals' half angle: the least `axis · n` of
+    /// the members' normals n (at most 0 when the cone is a hemisphere or
+    /// wider).
+    pub spread_cos: f64,
+    /// Height of the highest vertex over the plane through the centre
+    /// normal to `axis`.
+    pub above: f64,
+    /// Depth of the lowest vertex under that plane.
+    pub below: f64,
+}
+
+impl Orientation {
+    /// Of one planar patch, about `center`.
+    pub fn of_patch(patch: &Patch, center: DVec3) -> Orientation {
+        let axis = patch.normal();
+        let heights: Vec<f64> = patch
+            .vertices()
+            .iter()
+            .map(|&v| axis.dot(v - center))
+            .collect();
+        Orientation {
+            axis,
+            spread_cos: 1.0,
+            above: heights.iter().copied().fold(0.0, f64::max),
+            below: heights.iter().map(|h| -h).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// Where a set of planar surfaces lies and faces: its bounding sphere's
+/// centre and radius, and its [`Orientation`] about that centre.
+pub type Extent<'a> = (DVec3, f64, &'a Orientation);
+
+/// Upper bound on n·(y − x) over every point x of a member of `x` (n that
+/// member's normal) and every point y of a member of `y`: the height of
+/// `y` over the planes of `x`'s members, so that cosθ_x ≤ this over |y − x|
+/// (at most 0: `y` lies wholly behind every member of `x`). With `x`'s
+/// members' normals n within its cone about axis a (|n − a| ≤
+/// √(2 − 2 cos), the cone's half angle), n·(y − x) = a·(c_y − c_x) +
+/// a·(y − c_y) + a·(c_x − x) + (n − a)·(y − x), bounded in turn by `y`'s
+/// slab tilted by |a − a_y| over its radius (or its radius), `x`'s depth
+/// under its own slab, and the cone's width over the ends' farthest
+/// reach. Infinite when `x`'s cone is a hemisphere or wider.
+pub fn height_over(x: Extent, y: Extent) -> f64 {
+    let ((cx, rx, ox), (cy, ry, oy)) = (x, y);
+    if ox.spread_cos <= 0.0 || ox.axis == DVec3::ZERO {
+        return f64::INFINITY;
+    }
+    let a = ox.axis;
+    let tilt = (2.0 - 2.0 * ox.spread_cos).max(0.0).sqrt();
+    let y_along = ry.min(oy.above + (a - oy.axis).length() * ry);
+    a.dot(cy - cx) + y_along + ox.below + tilt * (cx.distance(cy) + rx + ry)
+}
+
+/// Cosine of the widest angle a node's normals make with their
+/// area-weighted mean, below which a node's normals count as facing many
+/// ways: a split by orientation is taken only where it leaves both halves
+/// within it and a split by place does not ([`ClusterTree::build`]).
+pub const NARROW_CONE_COS: f64 = 0.5;
+
+/// How much larger than a split by place's halves (their larger bounding
+/// radius) a split by orientation's may be: the two sides of a flat patch
+/// parted by orientation are each as large as the patch, √2 times its
+/// halves by place.
+pub const TURN_GROWTH: f64 = 2.0;
+
+/// Per surface, its normal, area and bounding box, to choose splits.
+struct Shapes {
+    normals: Vec<DVec3>,
+    areas: Vec<f64>,
+    boxes: Vec<(DVec3, DVec3)>,
+}
+
+impl Shapes {
+    /// The least cosine between the normals of `part` and their
+    /// area-weighted mean (its cone of normals' half angle), and half its
+    /// bounding box's diagonal.
+    fn cone_and_radius(&self, part: &[u32]) -> (f64, f64) {
+        let (mut lo, mut hi, mut area_normal) = (DVec3::INFINITY, DVec3::NEG_INFINITY, DVec3::ZERO);
+        for &s in part {
+            let s = s as usize;
+            lo = lo.min(self.boxes[s].0);
+            hi = hi.max(self.boxes[s].1);
+            area_normal += self.areas[s] * self.normals[s];
+        }
+        let axis = area_normal.normalize_or_zero();
+        let cos = part
+            .iter()
+            .map(|&s| axis.dot(self.normals[s as usize]))
+            .fold(1.0, f64::min);
+        (cos, 0.5 * (hi - lo).length())
+    }
 }
 
 /// The cluster hierarchy of a scene's surfaces; node 0 is the root.
@@ -61,15 +174,29 @@ impl ClusterTree {
             return tree;
         }
         let centroids: Vec<DVec3> = scene.surfaces.iter().map(|s| s.patch.centroid()).collect();
+        let normals: Vec<DVec3> = scene.surfaces.iter().map(|s| s.patch.normal()).collect();
+        let shapes = Shapes {
+            normals: normals.clone(),
+            areas: scene.surfaces.iter().map(|s| s.patch.area()).collect(),
+            boxes: (scene.surfaces.iter())
+                .map(|s| {
+                    let v = s.patch.vertices();
+                    let lo = v.iter().fold(DVec3::INFINITY, |a, &b| a.min(b));
+                    (lo, v.iter().fold(DVec3::NEG_INFINITY, |a, &b| a.max(b)))
+                })
+                .collect(),
+        };
         let mut stack = vec![(0..n as u32, None)];
         while let Some((range, parent)) = stack.pop() {
             let index = tree.nodes.len() as u32;
             let slice = &mut tree.members[range.start as usize..range.end as usize];
             let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
             let (mut area, mut reflectance, mut moment) = (0.0, 0.0f64, DVec3::ZERO);
+            let mut area_normal = DVec3::ZERO;
             for &s in slice.iter() {
                 let surface = &scene.surfaces[s as usize];
                 moment += surface.patch.area() * centroids[s as usize];
+                area_normal += surface.patch.area() * normals[s as usize];
                 for v in surface.patch.vertices() {
                     lo = lo.min(v);
                     hi = hi.max(v);
@@ -83,8 +210,23 @@ impl ClusterTree {
                 let children = node.children.get_or_insert([index, index]);
                 children[1] = index;
             }
+            let (center, axis) = (0.5 * (lo + hi), area_normal.normalize_or_zero());
+            let (mut spread_cos, mut above, mut below) = (1.0f64, 0.0f64, 0.0f64);
+            for &s in slice.iter() {
+                spread_cos = spread_cos.min(axis.dot(normals[s as usize]));
+                for v in scene.surfaces[s as usize].patch.vertices() {
+                    above = above.max(axis.dot(v - center));
+                    below = below.max(-axis.dot(v - center));
+                }
+            }
+            let orientation = Orientation {
+                axis,
+                spread_cos,
+                above,
+                below,
+            };
             tree.nodes.push(Cluster {
-                center: 0.5 * (lo + hi),
+                center,
                 radius: 0.5 * (hi - lo).length(),
                 centroid: if area > 0.0 {
                     moment / area
@@ -93,6 +235,7 @@ impl ClusterTree {
                 },
                 area,
                 reflectance,
+                orientation,
                 members: range.clone(),
                 children: None,
                 parent,
@@ -102,16 +245,37 @@ impl ClusterTree {
                 continue;
             }
             let (mut clo, mut chi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            let (mut nlo, mut nhi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
             for &s in slice.iter() {
                 clo = clo.min(centroids[s as usize]);
                 chi = chi.max(centroids[s as usize]);
+                nlo = nlo.min(normals[s as usize]);
+                nhi = nhi.max(normals[s as usize]);
             }
-            let axis = (chi - clo).max_position();
             let mid = slice.len() / 2;
-            slice.select_nth_unstable_by(mid, |&a, &b| {
-                let (a, b) = (centroids[a as usize][axis], centroids[b as usize][axis]);
-                a.total_cmp(&b)
-            });
+            // Split at the median along `axis` of `keys`: whether both
+            // halves' cones of normals are narrow, and their larger radius.
+            let split = |slice: &mut [u32], keys: &[DVec3], axis: usize| {
+                slice.select_nth_unstable_by(mid, |&a, &b| {
+                    let (a, b) = (keys[a as usize][axis], keys[b as usize][axis]);
+                    a.total_cmp(&b)
+                });
+                let (first, second) = slice.split_at(mid);
+                let ((c1, r1), (c2, r2)) = (
+                    shapes.cone_and_radius(first),
+                    shapes.cone_and_radius(second),
+                );
+                (c1.min(c2) > NARROW_CONE_COS, r1.max(r2))
+            };
+            let (turn, place) = ((nhi - nlo).max_position(), (chi - clo).max_position());
+            let (turn_narrow, turn_radius) = split(slice, &normals, turn);
+            // Made last, the split by place stands unless only the one by
+            // orientation leaves both halves facing one way, and they are
+            // not much larger.
+            let (place_narrow, place_radius) = split(slice, &centroids, place);
+            if turn_narrow && !place_narrow && turn_radius <= TURN_GROWTH * place_radius {
+                split(slice, &normals, turn);
+            }
             let split = range.start + mid as u32;
             // Pushed second, popped first: the first child gets the lower
             // index, so `children` is [first half, second half].
@@ -163,8 +327,108 @@ impl ClusterTree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Patch, Scene};
-    use crate::testing::grey;
+    use crate::testing::{bowl, grey};
+
+    /// The largest n·(y − x) over the members of `x` (n a member's normal,
+    /// x a point of it) and the vertices of the members of `y`.
+    fn highest(tree: &ClusterTree, scene: &Scene, x: u32, y: u32) -> f64 {
+        let mut top = f64::NEG_INFINITY;
+        for &m in tree.members_of(x) {
+            let patch = &scene.surfaces[m as usize].patch;
+            let (n, o) = (patch.normal(), patch.vertices()[0]);
+            for &k in tree.members_of(y) {
+                for v in scene.surfaces[k as usize].patch.vertices() {
+                    top = top.max(n.dot(v - o));
+                }
+            }
+        }
+        top
+    }
+
+    #[test]
+    fn the_two_sides_of_a_mesh_part_where_it_is_flat() {
+        // A node holding a triangle and its twin faces every way; the two
+        // sides of the bowl part once a node's part of it curves by less
+        // than its cones allow, far above the leaves (where median splits
+        // by place alone pair each triangle with its twin).
+        let scene = bowl(12, true);
+        let tree = ClusterTree::build(&scene);
+        let twins = |s: u32| s ^ 1;
+        let mut largest_parted = 0;
+        for (c, node) in tree.nodes.iter().enumerate() {
+            let members = tree.members_of(c as u32);
+            if members.iter().any(|&s| members.contains(&twins(s))) {
+                assert!(node.orientation.spread_cos <= 0.0, "node {c}");
+                assert!(members.len() > 64, "node {c}: {} members", members.len());
+            } else {
+                largest_parted = largest_parted.max(members.len());
+            }
+        }
+        assert!(largest_parted >= 64, "{largest_parted}");
+    }
+
+    #[test]
+    fn cones_and_slabs_hold_their_members() {
+        let scene = bowl(8, true);
+        let tree = ClusterTree::build(&scene);
+        for (c, node) in tree.nodes.iter().enumerate() {
+            let o = &node.orientation;
+            for &s in tree.members_of(c as u32) {
+                let patch = &scene.surfaces[s as usize].patch;
+                assert!(o.axis.dot(patch.normal()) >= o.spread_cos - 1e-12);
+                for v in patch.vertices() {
+                    let h = o.axis.dot(v - node.center);
+                    assert!(h <= o.above + 1e-12 && -h <= o.below + 1e-12);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn heights_over_a_node_bound_its_members_and_find_what_lies_behind() {
+        // Every pair of nodes of a one-sided bowl: the bound holds the
+        // highest vertex of one over the planes of the other's members,
+        // and is finite for most (their cones are narrower than a
+        // hemisphere). The two halves of a flat sheet lie in each other's
+        // planes: at most 0, they exchange nothing.
+        let scene = bowl(8, false);
+        let tree = ClusterTree::build(&scene);
+        let extent = |c: u32| {
+            let node = &tree.nodes[c as usize];
+            (node.center, node.radius, node.orientation)
+        };
+        let mut finite = 0;
+        for x in 0..tree.nodes.len() as u32 {
+            for y in 0..tree.nodes.len() as u32 {
+                let ((cx, rx, ox), (cy, ry, oy)) = (extent(x), extent(y));
+                let bound = height_over((cx, rx, &ox), (cy, ry, &oy));
+                let top = highest(&tree, &scene, x, y);
+                assert!(bound >= top - 1e-12, "{x} over {y}: {bound} < {top}");
+                finite += usize::from(bound.is_finite());
+            }
+        }
+        assert!(finite > tree.nodes.len().pow(2) / 2, "{finite}");
+        // A flat sheet: every node's members lie in every other's planes.
+        let sheet = Scene::from_surfaces(
+            (0..64)
+                .map(|k| {
+                    grey(Patch::Parallelogram {
+                        origin: DVec3::new((k % 8) as f64, 0.0, (k / 8) as f64),
+                        edge_s: DVec3::Z,
+                        edge_t: DVec3::X,
+                    })
+                })
+                .collect(),
+        );
+        let tree = ClusterTree::build(&sheet);
+        let [a, b] = tree.nodes[0].children.unwrap();
+        let (na, nb) = (&tree.nodes[a as usize], &tree.nodes[b as usize]);
+        let height = height_over(
+            (na.center, na.radius, &na.orientation),
+            (nb.center, nb.radius, &nb.orientation),
+        );
+        assert!(height <= 1e-12, "{height}");
+    }
 
     fn row_of_squares(n: usize) -> Scene {
         let surfaces = (0..n)

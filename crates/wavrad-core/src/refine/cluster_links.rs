@@ -16,7 +16,15 @@
 //! they can exchange is within the oracle's threshold however the kernel
 //! varies over them ([`element_bound`]; neither emits): then one cluster
 //! link carries it. Neighbouring triangles of a fine concave mesh, each
-//! a little above the other's plane, are such pairs. So a scene's pairs
+//! a little above the other's plane, are such pairs; so are two ends of
+//! plain Lambertian surfaces nearer than the ratio (up to
+//! [`MAX_CLUSTER_RATIO`]) whose transfer, with the cosines bounded by how
+//! far each rises over the other's members' planes
+//! ([`crate::geometry::cluster::height_over`]), is within the threshold:
+//! neighbouring parts of such a mesh, linked whole rather than triangle by
+//! triangle. A pair one of whose ends lies wholly behind the other's
+//! members' planes exchanges nothing and is dropped at once (the inside
+//! and the outside of a `twosided` mesh). So a scene's pairs
 //! of nearby surfaces are linked as the paper links them, and distant
 //! groups of small surfaces exchange light through O(n log n) cluster links
 //! rather than O(n²) surface pairs.
@@ -43,11 +51,12 @@
 //! still split, so every pair of surfaces stays linked exactly once and no
 //! light is dropped. Each such pair is counted ([`Progress::cut_short`]).
 
-use crate::geometry::cluster::ClusterTree;
+use crate::geometry::cluster::{height_over, ClusterTree, Orientation};
 use crate::geometry::hierarchy::ElementRef;
 use crate::kernel::KernelContext;
 use crate::progress::{Progress, LINK_COPIES};
 use crate::sampling::hash2;
+use crate::scene::brdf::Brdf;
 use crate::scene::{Patch, Scene};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -231,6 +240,17 @@ struct Linker<'a> {
     /// for the emitters' (a bulb deep in its lamp's housing, which sends
     /// light out of the housing's opening only).
     mixed: Vec<bool>,
+    /// By cluster node: whether all its members are plain Lambertian
+    /// surfaces that emit nothing, which may be linked whole however near
+    /// when they exchange little ([`Linker::carries_little`]).
+    plain: Vec<bool>,
+}
+
+/// Whether surface `s` of `scene` is a Lambertian surface that emits
+/// nothing.
+fn is_plain(scene: &Scene, s: u32) -> bool {
+    let surface = &scene.surfaces[s as usize];
+    !surface.is_emitter() && matches!(surface.brdf, Brdf::Diffuse(_))
 }
 
 /// Whether `members` (surfaces of `scene`) hold emitters and other
@@ -277,6 +297,10 @@ impl<'a> Linker<'a> {
             .into_par_iter()
             .map(|c| holds_emitters_and_others(ctx.scene, clusters.members_of(c)))
             .collect();
+        let plain = (0..clusters.nodes.len() as u32)
+            .into_par_iter()
+            .map(|c| (clusters.members_of(c).iter()).all(|&s| is_plain(ctx.scene, s)))
+            .collect();
         Linker {
             ctx: *ctx,
             clusters,
@@ -284,6 +308,7 @@ impl<'a> Linker<'a> {
             progress,
             coarse: AtomicU64::new(0),
             mixed,
+            plain,
         }
     }
 
@@ -337,6 +362,56 @@ impl<'a> Linker<'a> {
             }
         };
         (b.center, b.radius, area, reflectance)
+    }
+
+    /// An end's bounding sphere and [`Orientation`], as [`height_over`]
+    /// takes them.
+    fn placed(&self, end: End) -> (DVec3, f64, Orientation) {
+        match end {
+            End::Cluster(c) => {
+                let node = &self.clusters.nodes[c as usize];
+                (node.center, node.radius, node.orientation)
+            }
+            End::Element(e) => {
+                let patch = self.patch(e);
+                let (center, radius) = bounding_sphere(&patch);
+                (center, radius, Orientation::of_patch(&patch, center))
+            }
+        }
+    }
+
+    /// The bounds [`height_over`] gives on the heights of each end over the
+    /// other's members' planes, and the least distance between their
+    /// points.
+    fn heights(&self, x: End, y: End) -> (f64, f64, f64) {
+        let ((cx, rx, ox), (cy, ry, oy)) = (self.placed(x), self.placed(y));
+        (
+            height_over((cx, rx, &ox), (cy, ry, &oy)),
+            height_over((cy, ry, &oy), (cx, rx, &ox)),
+            cx.distance(cy) - rx - ry,
+        )
+    }
+
+    /// [`transfer_bound`] of two ends with their cosines bounded by their
+    /// heights over each other ([`Linker::heights`]), as [`element_bound`]
+    /// bounds them for two elements: ρ·A·min(1, H_xy/d_min)·min(1,
+    /// H_yx/d_min)/(π d_min²).
+    fn bound(&self, x: End, y: End, (hxy, hyx, gap): (f64, f64, f64)) -> f64 {
+        let transfer = transfer_bound(self.extent(x), self.extent(y));
+        if gap <= 0.0 {
+            return transfer;
+        }
+        let cosines = (hxy / gap).clamp(0.0, 1.0) * (hyx / gap).clamp(0.0, 1.0);
+        cosines * transfer
+    }
+
+    /// Whether an end's members are all plain Lambertian surfaces that
+    /// emit nothing.
+    fn plain(&self, end: End) -> bool {
+        match end {
+            End::Cluster(c) => self.plain[c as usize],
+            End::Element(e) => is_plain(self.ctx.scene, e.surface),
+        }
     }
 
     /// Whether two ends are apart and small against their distance:
@@ -468,7 +543,26 @@ impl<'a> Linker<'a> {
         let (bx, by) = (self.bounds(x), self.bounds(y));
         let (whole_x, whole_y) = (self.linkable_whole(x), self.linkable_whole(y));
         let near_enough = Self::small_against_distance(&bx, &by, self.settings.ratio);
+        let heights = self.heights(x, y);
+        if heights.0 <= 0.0 || heights.1 <= 0.0 {
+            // One wholly behind the other's members: no pair of their
+            // members exchanges light.
+            return;
+        }
         if whole_x && whole_y && near_enough {
+            self.push_link(x, y, out);
+            return;
+        }
+        // Plain ends nearer than the ratio that can exchange no more than
+        // the threshold (neighbouring parts of a smooth concave mesh, each
+        // a little above the other's planes) are linked whole, as
+        // neighbouring elements are ([`Linker::carries_little`]).
+        if self.settings.ratio > 0.0
+            && self.plain(x)
+            && self.plain(y)
+            && Self::small_against_distance(&bx, &by, MAX_CLUSTER_RATIO)
+            && self.bound(x, y, heights) <= self.settings.threshold
+        {
             self.push_link(x, y, out);
             return;
         }
@@ -553,7 +647,7 @@ impl<'a> Linker<'a> {
     /// the link's transfer needs ([`rays_needed`]) are traced.
     fn cluster_link(&self, x: End, y: End) -> Option<ClusterLink> {
         let seed = end_seed(x).rotate_left(17) ^ end_seed(y);
-        let bound = transfer_bound(self.extent(x), self.extent(y));
+        let bound = self.bound(x, y, self.heights(x, y));
         let needed = rays_needed(bound, self.settings.threshold);
         let (mut facing, mut clear) = (0u32, 0u32);
         for j in 0..CLUSTER_LINK_RAYS {
@@ -614,7 +708,7 @@ mod tests {
     use crate::scene::brdf::Brdf;
     use crate::scene::Rgb;
     use crate::testing::grey;
-    use std::collections::BTreeMap;
+    use std::collections::{BTreeMap, BTreeSet};
 
     /// A grid of `n` × `n` unit squares in the plane through `origin`
     /// spanned by `s`, `t` (facing s × t).
@@ -849,6 +943,40 @@ mod tests {
             .ends
             .iter()
             .any(|e| matches!(e, End::Element(e) if e.id.level > 0))));
+        assert_every_pair_covered_once(&ctx, &clusters, &linking);
+    }
+
+    #[test]
+    fn near_parts_of_a_smooth_concave_mesh_are_linked_whole_and_its_two_sides_never() {
+        // A fine two-sided bowl: parts of its inside nearer than the ratio
+        // that exchange little are linked whole, no link joins the inside
+        // to the outside (which face away from each other), and every pair
+        // that exchanges light is still covered once.
+        let scene = crate::testing::bowl(16, true);
+        let tracer = SceneTracer::new(&scene);
+        let ctx = crate::kernel::default_context(&scene, &tracer);
+        let clusters = ClusterTree::build(&scene);
+        let linking = link_from_root(&ctx, &clusters, SETTINGS, &Silent);
+        let linker = Linker::new(&ctx, &clusters, SETTINGS, &Silent);
+        let inside = |s: u32| s.is_multiple_of(2);
+        let members = |end: End| match end {
+            End::Cluster(c) => clusters.members_of(c).to_vec(),
+            End::Element(e) => vec![e.surface],
+        };
+        let (mut near, mut whole) = (0, 0);
+        for l in &linking.cluster_links {
+            let sides: BTreeSet<bool> = (l.ends.iter())
+                .flat_map(|&e| members(e))
+                .map(inside)
+                .collect();
+            assert_eq!(sides.len(), 1, "a link across the sides: {l:?}");
+            let (bx, by) = (linker.bounds(l.ends[0]), linker.bounds(l.ends[1]));
+            if !Linker::small_against_distance(&bx, &by, SETTINGS.ratio) {
+                near += 1;
+                whole += usize::from(l.ends.iter().any(|e| matches!(e, End::Cluster(_))));
+            }
+        }
+        assert!(whole > 0 && near > whole, "{whole} of {near}");
         assert_every_pair_covered_once(&ctx, &clusters, &linking);
     }
 

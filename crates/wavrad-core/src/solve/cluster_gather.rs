@@ -389,37 +389,23 @@ impl FarField {
     }
 }
 
-/// The cone of normals of every node of `clusters`, whose members are
-/// `roots`: about their area-weighted mean normal, as wide as the farthest.
-fn normal_cones(clusters: &ClusterTree, roots: &[Member]) -> Vec<NormalCone> {
-    let nodes = clusters.nodes.len();
-    let mut moment = vec![DVec3::ZERO; nodes];
-    for c in (0..nodes).rev() {
-        moment[c] = match clusters.nodes[c].children {
-            Some([a, b]) => moment[a as usize] + moment[b as usize],
-            None => {
-                let m = &roots[clusters.members_of(c as u32)[0] as usize];
-                m.area * m.normal
+/// The cone of normals of every node of `clusters`
+/// ([`Orientation`](crate::geometry::cluster::Orientation)'s axis and
+/// width).
+fn normal_cones(clusters: &ClusterTree) -> Vec<NormalCone> {
+    clusters
+        .nodes
+        .iter()
+        .map(|node| {
+            let (axis, cos) = (node.orientation.axis, node.orientation.spread_cos);
+            NormalCone {
+                axis,
+                sin_half_angle: if axis == DVec3::ZERO || cos <= 0.0 {
+                    1.0
+                } else {
+                    (1.0 - cos * cos).max(0.0).sqrt()
+                },
             }
-        };
-    }
-    let axes: Vec<DVec3> = moment.iter().map(|m| m.normalize_or_zero()).collect();
-    let mut nearest = vec![1.0f64; nodes];
-    for (s, &leaf) in clusters.leaf_of.iter().enumerate() {
-        for c in std::iter::once(leaf).chain(clusters.ancestors(s as u32)) {
-            let cos = axes[c as usize].dot(roots[s].normal);
-            nearest[c as usize] = nearest[c as usize].min(cos);
-        }
-    }
-    axes.into_iter()
-        .zip(nearest)
-        .map(|(axis, cos)| NormalCone {
-            axis,
-            sin_half_angle: if axis == DVec3::ZERO || cos <= 0.0 {
-                1.0
-            } else {
-                (1.0 - cos * cos).max(0.0).sqrt()
-            },
         })
         .collect()
 }
@@ -500,7 +486,7 @@ impl ClusterTransfers {
             cones: if links.is_empty() {
                 Vec::new()
             } else {
-                normal_cones(&clusters, &roots)
+                normal_cones(&clusters)
             },
             at_cluster: Incidence::new(clusters.nodes.len(), &incident.0),
             at_surface: Incidence::new(roots.len(), &incident.1),
