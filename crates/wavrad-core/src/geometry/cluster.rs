@@ -68,16 +68,15 @@ impl Orientation {
     /// Of one planar patch, about `center`.
     pub fn of_patch(patch: &Patch, center: DVec3) -> Orientation {
         let axis = patch.normal();
-        let heights: Vec<f64> = patch
-            .vertices()
-            .iter()
-            .map(|&v| axis.dot(v - center))
-            .collect();
+        let (above, below) = (patch.vertices().iter()).fold((0.0f64, 0.0f64), |(up, down), &v| {
+            let h = axis.dot(v - center);
+            (up.max(h), down.max(-h))
+        });
         Orientation {
             axis,
             spread_cos: 1.0,
-            above: heights.iter().copied().fold(0.0, f64::max),
-            below: heights.iter().map(|h| -h).fold(0.0, f64::max),
+            above,
+            below,
         }
     }
 }
@@ -174,9 +173,8 @@ impl ClusterTree {
             return tree;
         }
         let centroids: Vec<DVec3> = scene.surfaces.iter().map(|s| s.patch.centroid()).collect();
-        let normals: Vec<DVec3> = scene.surfaces.iter().map(|s| s.patch.normal()).collect();
         let shapes = Shapes {
-            normals: normals.clone(),
+            normals: scene.surfaces.iter().map(|s| s.patch.normal()).collect(),
             areas: scene.surfaces.iter().map(|s| s.patch.area()).collect(),
             boxes: (scene.surfaces.iter())
                 .map(|s| {
@@ -196,7 +194,7 @@ impl ClusterTree {
             for &s in slice.iter() {
                 let surface = &scene.surfaces[s as usize];
                 moment += surface.patch.area() * centroids[s as usize];
-                area_normal += surface.patch.area() * normals[s as usize];
+                area_normal += surface.patch.area() * shapes.normals[s as usize];
                 for v in surface.patch.vertices() {
                     lo = lo.min(v);
                     hi = hi.max(v);
@@ -213,7 +211,7 @@ impl ClusterTree {
             let (center, axis) = (0.5 * (lo + hi), area_normal.normalize_or_zero());
             let (mut spread_cos, mut above, mut below) = (1.0f64, 0.0f64, 0.0f64);
             for &s in slice.iter() {
-                spread_cos = spread_cos.min(axis.dot(normals[s as usize]));
+                spread_cos = spread_cos.min(axis.dot(shapes.normals[s as usize]));
                 for v in scene.surfaces[s as usize].patch.vertices() {
                     above = above.max(axis.dot(v - center));
                     below = below.max(-axis.dot(v - center));
@@ -249,8 +247,8 @@ impl ClusterTree {
             for &s in slice.iter() {
                 clo = clo.min(centroids[s as usize]);
                 chi = chi.max(centroids[s as usize]);
-                nlo = nlo.min(normals[s as usize]);
-                nhi = nhi.max(normals[s as usize]);
+                nlo = nlo.min(shapes.normals[s as usize]);
+                nhi = nhi.max(shapes.normals[s as usize]);
             }
             let mid = slice.len() / 2;
             // Split at the median along `axis` of `keys`: whether both
@@ -268,13 +266,13 @@ impl ClusterTree {
                 (c1.min(c2) > NARROW_CONE_COS, r1.max(r2))
             };
             let (turn, place) = ((nhi - nlo).max_position(), (chi - clo).max_position());
-            let (turn_narrow, turn_radius) = split(slice, &normals, turn);
+            let (turn_narrow, turn_radius) = split(slice, &shapes.normals, turn);
             // Made last, the split by place stands unless only the one by
             // orientation leaves both halves facing one way, and they are
             // not much larger.
             let (place_narrow, place_radius) = split(slice, &centroids, place);
             if turn_narrow && !place_narrow && turn_radius <= TURN_GROWTH * place_radius {
-                split(slice, &normals, turn);
+                split(slice, &shapes.normals, turn);
             }
             let split = range.start + mid as u32;
             // Pushed second, popped first: the first child gets the lower
