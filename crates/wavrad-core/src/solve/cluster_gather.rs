@@ -66,12 +66,17 @@ const PARALLEL_REFLECTORS: usize = 256;
 /// links down one by one.
 const MERGED_REFLECTORS: usize = 4;
 
+/// Links whose ends' sends are worked out by one task.
+const SENDING_CHUNK: usize = 1 << 14;
+
 /// Bytes that gathering through one cluster link holds besides the link:
-/// its arranged form, its two incidences, and what its ends send in the far
-/// field being made ([`FarField`]; one at a time).
+/// its arranged form, its two incidences, and which intensity each end
+/// sends in the far field being made ([`FarField`]; one at a time; the
+/// intensities themselves are one per cluster and element end, and one per
+/// end whose cluster only partly faces the other).
 pub const GATHER_BYTES_PER_LINK: u64 = (std::mem::size_of::<Transfer>()
     + 2 * std::mem::size_of::<(u32, u8)>()
-    + std::mem::size_of::<[Sent; 2]>()) as u64;
+    + std::mem::size_of::<[u32; 2]>()) as u64;
 
 /// A member of a cluster link's end: where it is, which way it faces, how
 /// large it is.
@@ -235,22 +240,42 @@ impl Anchored {
     }
 }
 
-/// What one side of a cluster link sends towards the other.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What the sides of every cluster link send towards each other. Most
+/// ends send all their members' light (a cluster whose cone of normals
+/// faces the other end, an element that faces it) or none, so each side
+/// names one of a few shared intensity vectors instead of holding its own.
+#[derive(Debug, Clone, PartialEq, Default)]
 struct Sent {
-    /// The intensity vectors N of its members' Lambertian radiance, per
-    /// channel: I(ω) = N·ω.
-    lambertian: [DVec3; 3],
-    /// The intensity its glossy members' lobes send towards the other
-    /// side's centre ([`crate::solve::glossy_clusters`]).
-    glossy: Rgb,
+    /// Per link and side, an index into `intensities`, or [`SENDS_NOTHING`].
+    sides: Vec<[u32; 2]>,
+    /// The intensity vectors N of Lambertian radiance, per channel
+    /// (I(ω) = N·ω): every cluster node's members' (pulled up the tree),
+    /// then every element end's, then those of the members of a cluster
+    /// that face one link's other end where only some do.
+    intensities: Vec<[DVec3; 3]>,
+    /// Per link and side, the intensity its glossy members' lobes send
+    /// towards the other side's centre
+    /// ([`crate::solve::glossy_clusters`]); empty without glossy members.
+    glossy: Vec<[Rgb; 2]>,
 }
 
+/// A side that sends nothing towards the other: its members all turn away.
+const SENDS_NOTHING: u32 = u32::MAX;
+
 impl Sent {
-    const ZERO: Sent = Sent {
-        lambertian: [DVec3::ZERO; 3],
-        glossy: Rgb::ZERO,
-    };
+    /// The intensity vectors and the glossy intensity that side `side` of
+    /// link `link` sends.
+    fn by(&self, link: u32, side: usize) -> ([DVec3; 3], Rgb) {
+        let lambertian = match self.sides[link as usize][side] {
+            SENDS_NOTHING => [DVec3::ZERO; 3],
+            i => self.intensities[i as usize],
+        };
+        let glossy = self
+            .glossy
+            .get(link as usize)
+            .map_or(Rgb::ZERO, |g| g[side]);
+        (lambertian, glossy)
+    }
 }
 
 /// The glossy members of a cluster tree: (surface, reflector index) in
@@ -355,7 +380,7 @@ fn add_cells(mut a: Vec<Option<Field>>, b: Vec<Option<Field>>) -> Vec<Option<Fie
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FarField {
     /// What each side sends towards the other.
-    sent: Vec<[Sent; 2]>,
+    sent: Sent,
     /// The scene's glossy surfaces, when it has any and they were asked for.
     reflectors: Option<GlossyReflectors>,
     /// The radiance per bin of every one of them
@@ -590,31 +615,103 @@ impl ClusterTransfers {
         sums
     }
 
+    /// Which of cluster `c`'s members face unit direction `w`.
+    fn facing(&self, c: u32, w: DVec3) -> Facing {
+        match self.clusters.nodes[c as usize].children {
+            None => match self.roots[self.clusters.members_of(c)[0] as usize]
+                .normal
+                .dot(w)
+                > 0.0
+            {
+                true => Facing::All,
+                false => Facing::None,
+            },
+            Some(_) => self.cones[c as usize].facing(w),
+        }
+    }
+
     /// N of cluster `c`'s members that face unit direction `w`: the sums
     /// `sums` of its largest clusters whose cones face it.
     fn sent_by_cluster(&self, c: u32, w: DVec3, sums: &[[DVec3; 3]]) -> [DVec3; 3] {
-        let facing = match self.clusters.nodes[c as usize].children {
-            None => {
-                self.roots[self.clusters.members_of(c)[0] as usize]
-                    .normal
-                    .dot(w)
-                    > 0.0
-            }
-            Some([a, b]) => match self.cones[c as usize].facing(w) {
-                Facing::All => true,
-                Facing::None => false,
-                Facing::Some => {
-                    return sum(
-                        self.sent_by_cluster(a, w, sums),
-                        self.sent_by_cluster(b, w, sums),
-                    )
+        match (self.facing(c, w), self.clusters.nodes[c as usize].children) {
+            (Facing::All, _) => sums[c as usize],
+            (Facing::Some, Some([a, b])) => sum(
+                self.sent_by_cluster(a, w, sums),
+                self.sent_by_cluster(b, w, sums),
+            ),
+            _ => [DVec3::ZERO; 3],
+        }
+    }
+
+    /// What every link's sides send of `radiance` (every surface's node
+    /// averages), without glossy lobes: each side's index into the
+    /// intensities, `sums` (every cluster node's Σ A·L·n) then every
+    /// element end's, then one for each cluster side that only partly
+    /// faces the other end.
+    fn send(&self, radiance: &[Vec<Rgb>], sums: Vec<[DVec3; 3]>) -> Sent {
+        let mut intensities = sums;
+        let elements = intensities.len();
+        intensities.extend(self.elements.iter().map(|m| {
+            weighted(
+                m.area * m.normal,
+                radiance[m.surface as usize][m.node as usize],
+            )
+        }));
+        let partial = intensities.len();
+        // Each chunk numbers its partial sends as if it came first; they
+        // are then shifted past the chunks before it.
+        let chunks: Vec<Sent> = (self.links.par_chunks(SENDING_CHUNK))
+            .map(|chunk| {
+                let mut own = Vec::new();
+                let sides = (chunk.iter())
+                    .map(|t| {
+                        let centers = t.sides.map(|s| self.center(s));
+                        [0, 1].map(|k| {
+                            let towards = centers[1 - k] - centers[k];
+                            match t.sides[k] {
+                                Side::Cluster(c) => {
+                                    let w = towards.normalize_or_zero();
+                                    match self.facing(c, w) {
+                                        Facing::All => c,
+                                        Facing::None => SENDS_NOTHING,
+                                        Facing::Some => {
+                                            own.push(self.sent_by_cluster(c, w, &intensities));
+                                            (partial + own.len() - 1) as u32
+                                        }
+                                    }
+                                }
+                                Side::Element(e) => {
+                                    match self.elements[e as usize].normal.dot(towards) > 0.0 {
+                                        true => (elements + e as usize) as u32,
+                                        false => SENDS_NOTHING,
+                                    }
+                                }
+                            }
+                        })
+                    })
+                    .collect();
+                Sent {
+                    sides,
+                    intensities: own,
+                    glossy: Vec::new(),
                 }
-            },
-        };
-        if facing {
-            sums[c as usize]
-        } else {
-            [DVec3::ZERO; 3]
+            })
+            .collect();
+        let mut sides = Vec::with_capacity(self.links.len());
+        for chunk in chunks {
+            let shift = (intensities.len() - partial) as u32;
+            sides.extend(chunk.sides.into_iter().map(|pair| {
+                pair.map(|i| match i != SENDS_NOTHING && i as usize >= partial {
+                    true => i + shift,
+                    false => i,
+                })
+            }));
+            intensities.extend(chunk.intensities);
+        }
+        Sent {
+            sides,
+            intensities,
+            glossy: Vec::new(),
         }
     }
 
@@ -623,13 +720,13 @@ impl ClusterTransfers {
     /// towards the other side's centre y, with its Jacobian in x (the
     /// glossy members' intensity taken as constant over the directions
     /// the receiver spans).
-    fn incoming(&self, at: (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
+    fn incoming(&self, at: (u32, u8), x: DVec3, sent: &Sent) -> Field {
         self.link_field::<true>(at, x, sent)
     }
 
     /// [`ClusterTransfers::incoming`]'s value alone (a zero Jacobian): for
     /// a receiver that reads it at `x` and no nearer.
-    fn incoming_value(&self, at: (u32, u8), x: DVec3, sent: &[[Sent; 2]]) -> Field {
+    fn incoming_value(&self, at: (u32, u8), x: DVec3, sent: &Sent) -> Field {
         self.link_field::<false>(at, x, sent)
     }
 
@@ -639,7 +736,7 @@ impl ClusterTransfers {
         &self,
         (link, side): (u32, u8),
         x: DVec3,
-        sent: &[[Sent; 2]],
+        sent: &Sent,
     ) -> Field {
         let t = &self.links[link as usize];
         let u = self.center(t.sides[1 - side as usize]) - x;
@@ -649,11 +746,11 @@ impl ClusterTransfers {
         }
         let scale = t.visibility / (PI * d2 * d2);
         let mut field = Field::ZERO;
-        let from = &sent[link as usize][1 - side as usize];
+        let (lambertian, glossy) = sent.by(link, 1 - side as usize);
         let d = d2.sqrt();
-        for (k, n) in from.lambertian.iter().enumerate() {
+        for (k, n) in lambertian.iter().enumerate() {
             // I(−u)·|u|, the source's intensity towards x.
-            let glossy = from.glossy[k];
+            let glossy = glossy[k];
             let s = -n.dot(u) + glossy * d;
             if s > 0.0 {
                 field.value[k] = u * (s * scale);
@@ -679,7 +776,7 @@ impl ClusterTransfers {
         &self,
         c: u32,
         (folded, pending): (Option<&Anchored>, &[(u32, u8)]),
-        sent: &[[Sent; 2]],
+        sent: &Sent,
         out: &mut [Rgb],
     ) {
         let node = &self.clusters.nodes[c as usize];
@@ -743,38 +840,10 @@ impl ClusterTransfers {
         glossy: Option<(GlossyReflectors, Vec<Vec<Rgb>>)>,
         previous: Option<&FarField>,
     ) -> FarField {
-        let sums = match self.links.is_empty() {
-            true => Vec::new(),
-            false => self.pull(radiance),
+        let mut sent = match self.links.is_empty() {
+            true => Sent::default(),
+            false => self.send(radiance, self.pull(radiance)),
         };
-        let mut sent: Vec<[Sent; 2]> = self
-            .links
-            .par_iter()
-            .map(|t| {
-                let centers = t.sides.map(|s| self.center(s));
-                [0, 1].map(|k| {
-                    let towards = centers[1 - k] - centers[k];
-                    let lambertian = match t.sides[k] {
-                        Side::Cluster(c) => {
-                            self.sent_by_cluster(c, towards.normalize_or_zero(), &sums)
-                        }
-                        Side::Element(e) => {
-                            let m = &self.elements[e as usize];
-                            if m.normal.dot(towards) > 0.0 {
-                                let l = radiance[m.surface as usize][m.node as usize];
-                                weighted(m.area * m.normal, l)
-                            } else {
-                                [DVec3::ZERO; 3]
-                            }
-                        }
-                    };
-                    Sent {
-                        lambertian,
-                        ..Sent::ZERO
-                    }
-                })
-            })
-            .collect();
         let mut exitant = Vec::new();
         let reflectors = glossy.map(|(reflectors, near)| {
             // Glossy light from one glossy member to another, a sweep late.
@@ -819,7 +888,7 @@ impl ClusterTransfers {
         &self,
         (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
         mut near: Vec<Vec<Rgb>>,
-        sent: &[[Sent; 2]],
+        sent: &Sent,
     ) -> Vec<Vec<Rgb>> {
         if !self.links.is_empty() {
             let mut above = vec![Vec::new(); glossy.members.len()];
@@ -868,7 +937,7 @@ impl ClusterTransfers {
         c: u32,
         (above, pending): (&Arriving, &[(u32, u8)]),
         (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
-        sent: &[[Sent; 2]],
+        sent: &Sent,
         out: &mut [Vec<Rgb>],
     ) {
         if out.is_empty() {
@@ -947,7 +1016,7 @@ impl ClusterTransfers {
         (reflectors, glossy): (&GlossyReflectors, &GlossyMembers),
         tabled: &[bool],
         exitant: &[Vec<Rgb>],
-        sent: &mut [[Sent; 2]],
+        sent: &mut Sent,
     ) {
         let towards = |k: usize, m: &Member, w: DVec3| {
             let cos = m.normal.dot(w);
@@ -977,10 +1046,11 @@ impl ClusterTransfers {
                 Rgb::ZERO
             }
         };
-        (sent.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {
+        sent.glossy.resize(self.links.len(), [Rgb::ZERO; 2]);
+        (sent.glossy.par_iter_mut().zip(&self.links)).for_each(|(sides, t)| {
             for (k, side) in sides.iter_mut().enumerate() {
                 let target = t.sides[1 - k];
-                side.glossy = match t.sides[k] {
+                *side = match t.sides[k] {
                     Side::Cluster(c) => match tables.of(c) {
                         Some(table) => {
                             let from = self.center(t.sides[k]);
