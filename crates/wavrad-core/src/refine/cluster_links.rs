@@ -276,7 +276,11 @@ pub fn link_from_root(
     }
     progress.start("linking", 1);
     let linker = Linker::new(ctx, clusters, settings, progress);
-    let linking = linker.with_itself(0);
+    let mut linking = linker.with_itself(0);
+    // Appending the halves' links doubled the vectors' capacity as they
+    // grew: up to twice the links, held for the whole solve.
+    linking.element_pairs.shrink_to_fit();
+    linking.cluster_links.shrink_to_fit();
     let coarse = linker.coarse.load(Ordering::Relaxed);
     if coarse > 0 {
         progress.cut_short(coarse);
