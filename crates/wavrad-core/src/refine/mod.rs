@@ -170,9 +170,14 @@ pub(crate) fn project_while_unspent<T: Sync, L: Send>(
     }
 }
 
-/// The links of every item in order, concatenated.
+/// The links of every item in order, concatenated (at their length: a
+/// solve holds them to its end).
 pub fn concatenated<L>(items: Vec<ItemLinks<L>>) -> Vec<L> {
-    items.into_iter().flat_map(|item| item.links).collect()
+    let mut links = Vec::with_capacity(items.iter().map(|item| item.links.len()).sum());
+    for item in items {
+        links.extend(item.links);
+    }
+    links
 }
 
 /// Replace every link by what `refine` makes of it, in parallel and in

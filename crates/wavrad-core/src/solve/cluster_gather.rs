@@ -113,19 +113,20 @@ struct Incidence {
 }
 
 impl Incidence {
-    /// `pairs` (key, item) grouped by key (`keys` of them), each key's
-    /// items in the order given.
-    fn new(keys: usize, pairs: &[(u32, (u32, u8))]) -> Incidence {
+    /// The (key, item) pairs that `pairs` lists (each time the same)
+    /// grouped by key (`keys` of them), each key's items in the order
+    /// given: listed twice rather than held, as there are two per link.
+    fn new<I: Iterator<Item = (u32, (u32, u8))>>(keys: usize, pairs: impl Fn() -> I) -> Incidence {
         let mut start = vec![0u32; keys + 1];
-        for &(k, _) in pairs {
+        for (k, _) in pairs() {
             start[k as usize + 1] += 1;
         }
         for k in 0..keys {
             start[k + 1] += start[k];
         }
         let mut next = start.clone();
-        let mut items = vec![(0, 0); pairs.len()];
-        for &(k, item) in pairs {
+        let mut items = vec![(0, 0); start[keys] as usize];
+        for (k, item) in pairs() {
             items[next[k as usize] as usize] = item;
             next[k as usize] += 1;
         }
@@ -467,38 +468,27 @@ impl ClusterTransfers {
             .collect();
         let mut elements = Vec::new();
         let mut element_of = HashMap::new();
-        let mut incident = (Vec::new(), Vec::new());
-        let transfers = links
+        let transfers: Vec<Transfer> = links
             .iter()
-            .enumerate()
-            .map(|(i, l)| {
-                let mut k = 0;
-                let sides = l.ends.map(|end| {
-                    let at = (i as u32, k);
-                    k += 1;
-                    match end {
-                        End::Cluster(c) => {
-                            incident.0.push((c, at));
-                            Side::Cluster(c)
-                        }
-                        End::Element(e) => {
-                            incident.1.push((e.surface, at));
-                            let tree = &trees[e.surface as usize];
-                            let node = tree
-                                .index_of(e.id)
-                                .expect("element ends are in their trees");
-                            let index = *element_of.entry((e.surface, node)).or_insert_with(|| {
-                                let patch = &tree.nodes[node as usize].patch;
-                                elements.push(Member {
-                                    node,
-                                    point: patch.centroid(),
-                                    area: patch.area(),
-                                    ..roots[e.surface as usize]
-                                });
-                                elements.len() as u32 - 1
+            .map(|l| {
+                let sides = l.ends.map(|end| match end {
+                    End::Cluster(c) => Side::Cluster(c),
+                    End::Element(e) => {
+                        let tree = &trees[e.surface as usize];
+                        let node = tree
+                            .index_of(e.id)
+                            .expect("element ends are in their trees");
+                        let index = *element_of.entry((e.surface, node)).or_insert_with(|| {
+                            let patch = &tree.nodes[node as usize].patch;
+                            elements.push(Member {
+                                node,
+                                point: patch.centroid(),
+                                area: patch.area(),
+                                ..roots[e.surface as usize]
                             });
-                            Side::Element(index)
-                        }
+                            elements.len() as u32 - 1
+                        });
+                        Side::Element(index)
                     }
                 });
                 Transfer {
@@ -507,14 +497,32 @@ impl ClusterTransfers {
                 }
             })
             .collect();
+        drop(element_of);
+        // (link, side) of every side, with its cluster or element.
+        let sides = || {
+            (transfers.iter().enumerate())
+                .flat_map(|(i, t)| [0, 1].map(|k| (t.sides[k], (i as u32, k as u8))))
+        };
+        let at_cluster = Incidence::new(clusters.nodes.len(), || {
+            sides().filter_map(|(side, at)| match side {
+                Side::Cluster(c) => Some((c, at)),
+                Side::Element(_) => None,
+            })
+        });
+        let at_surface = Incidence::new(roots.len(), || {
+            sides().filter_map(|(side, at)| match side {
+                Side::Element(e) => Some((elements[e as usize].surface, at)),
+                Side::Cluster(_) => None,
+            })
+        });
         ClusterTransfers {
             cones: if links.is_empty() {
                 Vec::new()
             } else {
                 normal_cones(&clusters)
             },
-            at_cluster: Incidence::new(clusters.nodes.len(), &incident.0),
-            at_surface: Incidence::new(roots.len(), &incident.1),
+            at_cluster,
+            at_surface,
             clusters,
             links: transfers,
             roots,

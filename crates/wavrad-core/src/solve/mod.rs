@@ -35,13 +35,14 @@ use crate::refine::three_point_projection::{
 };
 use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSettings};
 use crate::scene::{Rgb, Scene};
-use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
+use crate::solve::stats::{LinkCounts, PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use checkpoint::{merged, runs_of, Run, RunSpan};
 pub use checkpoint::{resume, Checkpoint, CheckpointView, Saver, Unfinished};
 use cluster_gather::{ClusterTransfers, FarField};
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::collections::BTreeSet;
 use std::ops::Range;
 use std::time::Instant;
@@ -610,7 +611,9 @@ impl Plan {
         let blocks: Vec<BlockLinks> = runs.into_iter().map(|r| r.links).collect();
         self.check_cover(&blocks)?;
         let mut times = self.times;
-        let (mut links, mut three_point) = (Vec::new(), Vec::new());
+        // At their length: the solve holds them to the end.
+        let mut links = Vec::with_capacity(blocks.iter().map(|b| b.two_point.len()).sum());
+        let mut three_point = Vec::with_capacity(blocks.iter().map(|b| b.three_point.len()).sum());
         for block in blocks {
             links.extend(block.two_point);
             three_point.extend(block.three_point);
@@ -643,10 +646,11 @@ impl Plan {
                                   resolve: bool,
                                   times: &mut PhaseTimes| {
             let clock = Instant::now();
-            let resolved = if resolve {
-                resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0
-            } else {
-                links.to_vec()
+            let resolved = match resolve {
+                true => Cow::Owned(
+                    resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0,
+                ),
+                false => Cow::Borrowed(links),
             };
             let trees = element_trees(
                 scene,
@@ -663,14 +667,18 @@ impl Plan {
                 lights: &light_links,
             };
             let mut system = System::assemble(&ctx, triples, trees, links, times);
+            // The system holds what it needs of them: the sweeps need not
+            // hold them too.
+            let counts = LinkCounts::of(resolved.iter());
+            drop(resolved);
             let sweeps = system.solve(scene, settings, progress, times)?;
-            Ok::<_, Error>((system, sweeps, resolved))
+            Ok::<_, Error>((system, sweeps, counts))
         };
         let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
         // The loop refines the links further; a checkpoint keeps the first
         // projection's.
         let projected = looping.then(|| (links.clone(), three_point.clone()));
-        let (mut system, mut sweeps, mut resolved) =
+        let (mut system, mut sweeps, mut counts) =
             assemble_and_solve(&links, &three_point, !looping, &mut times)?;
         let mut passes = 1;
         let mut final_system = !looping;
@@ -701,12 +709,11 @@ impl Plan {
             }
             passes += 1;
             final_system = passes == settings.max_refine_passes;
-            (system, sweeps, resolved) =
+            (system, sweeps, counts) =
                 assemble_and_solve(&links, &three_point, final_system, &mut times)?;
         }
         if !final_system {
-            (system, sweeps, resolved) =
-                assemble_and_solve(&links, &three_point, true, &mut times)?;
+            (system, sweeps, counts) = assemble_and_solve(&links, &three_point, true, &mut times)?;
         }
 
         let stats = Stats {
@@ -727,7 +734,7 @@ impl Plan {
                 scene,
                 settings,
                 &system.trees,
-                &resolved,
+                counts,
                 &system.interactions.directional,
                 three_point.len(),
                 sweeps,

@@ -70,7 +70,7 @@ use crate::refine::refine_further;
 use crate::refine::two_point_projection::{linked_pairs, refine_pair, Link};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Rgb, Scene};
-use crate::solve::stats::{PhaseTimes, Stats, Sweeps};
+use crate::solve::stats::{LinkCounts, PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::BTreeSet;
@@ -511,7 +511,15 @@ impl<'a> Shooting<'a> {
             exchanging_pairs: self.pairs.len(),
             kernel_pairs: self.links.iter().filter(|l| l.is_some()).count(),
             times: self.times,
-            ..Stats::new(scene, self.settings, trees, self.links(), &[], 0, sweeps)
+            ..Stats::new(
+                scene,
+                self.settings,
+                trees,
+                LinkCounts::of(self.links()),
+                &[],
+                0,
+                sweeps,
+            )
         }
     }
 }

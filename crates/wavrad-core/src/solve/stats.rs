@@ -183,30 +183,27 @@ impl Stats {
         })
     }
 
-    /// The counts of a gathering solve over `trees` and the two-point
-    /// `links`, `three_point_interactions` three-point links into the
-    /// `directional` structures, after `sweeps`; one refine pass, no times
-    /// (the solvers fill in those and their own fields).
-    pub(crate) fn new<'l>(
+    /// The counts of a gathering solve over `trees` and two-point links
+    /// counted as `links`, `three_point_interactions` three-point links
+    /// into the `directional` structures, after `sweeps`; one refine pass,
+    /// no times (the solvers fill in those and their own fields).
+    pub(crate) fn new(
         scene: &Scene,
         settings: &SolveSettings,
         trees: &[ElementTree],
-        links: impl IntoIterator<Item = &'l Link>,
+        links: LinkCounts,
         directional: &[Directional],
         three_point_interactions: usize,
         sweeps: Sweeps,
     ) -> Stats {
         let nodes_per_level = add_counts(trees.iter().map(ElementTree::count_per_level));
-        let mut interactions_per_level = vec![0; nodes_per_level.len().max(1)];
-        let mut two_point_interactions = 0;
-        for l in links {
-            two_point_interactions += 1;
-            let level = l.a.level.max(l.c.level) as usize;
-            if interactions_per_level.len() <= level {
-                interactions_per_level.resize(level + 1, 0);
-            }
-            interactions_per_level[level] += 1;
-        }
+        let LinkCounts(mut interactions_per_level) = links;
+        let two_point_interactions = interactions_per_level.iter().sum();
+        let levels = interactions_per_level
+            .len()
+            .max(nodes_per_level.len())
+            .max(1);
+        interactions_per_level.resize(levels, 0);
         Stats {
             surfaces: scene.surfaces.len(),
             two_point_nodes: trees.iter().map(|t| t.nodes.len()).sum(),
@@ -241,6 +238,26 @@ impl Stats {
             projected_items: 0,
             peak_memory_bytes: peak_memory_bytes(),
         }
+    }
+}
+
+/// Two-point links counted by level (the deeper of their two elements'):
+/// all [`Stats`] keeps of them, so that a solve need not hold the links.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct LinkCounts(Vec<usize>);
+
+impl LinkCounts {
+    /// The counts of `links`.
+    pub(crate) fn of<'l>(links: impl IntoIterator<Item = &'l Link>) -> LinkCounts {
+        let mut per_level = Vec::new();
+        for l in links {
+            let level = l.a.level.max(l.c.level) as usize;
+            if per_level.len() <= level {
+                per_level.resize(level + 1, 0);
+            }
+            per_level[level] += 1;
+        }
+        LinkCounts(per_level)
     }
 }
 
