@@ -543,6 +543,18 @@ impl ClusterTransfers {
         if self.clusters != ClusterTree::default() && self.clusters != ClusterTree::build(scene) {
             return Err("the cluster tree is not the scene's".into());
         }
+        let links = self.links(trees)?;
+        if ClusterTransfers::new(scene, self.clusters.clone(), trees, &links) != *self {
+            return Err("the cluster links are not arranged as their ends say".into());
+        }
+        Ok(())
+    }
+
+    /// The cluster links these transfers arrange, in their order, with the
+    /// element `trees` they were arranged with ([`ClusterTransfers::new`]
+    /// of them gives these transfers); an error naming the first whose end
+    /// is out of range or whose visibility is not a fraction.
+    pub fn links(&self, trees: &[ElementTree]) -> Result<Vec<ClusterLink>, String> {
         let element = |e: u32| {
             let m = self.elements.get(e as usize)?;
             let tree = trees.get(m.surface as usize)?;
@@ -550,7 +562,7 @@ impl ClusterTransfers {
             Some(End::Element(ElementRef::new(m.surface, node.id)))
         };
         let clusters = self.clusters.nodes.len();
-        let links = (self.links.iter().enumerate())
+        (self.links.iter().enumerate())
             .map(|(i, t)| {
                 let ends = t.sides.map(|side| match side {
                     Side::Cluster(c) => ((c as usize) < clusters).then_some(End::Cluster(c)),
@@ -567,11 +579,7 @@ impl ClusterTransfers {
                     )),
                 }
             })
-            .collect::<Result<Vec<_>, _>>()?;
-        if ClusterTransfers::new(scene, self.clusters.clone(), trees, &links) != *self {
-            return Err("the cluster links are not arranged as their ends say".into());
-        }
-        Ok(())
+            .collect()
     }
 
     /// Number of cluster links.
@@ -1289,6 +1297,8 @@ mod tests {
             })
             .collect();
         let transfers = ClusterTransfers::new(&scene, clusters.clone(), &trees, &links);
+        // What a checkpoint keeps of them.
+        assert_eq!(transfers.links(&trees), Ok(links.to_vec()));
         let far_field = transfers.far_field(&radiance, None, None);
 
         // Each member of each end on its own: the sources that face the

@@ -599,7 +599,7 @@ impl Plan {
     /// [`Plan::finish`] from `runs` of items, the first `resumed` of which
     /// were taken from a checkpoint.
     fn finish_runs(
-        self,
+        mut self,
         mut runs: Vec<Run>,
         resumed: usize,
         progress: &dyn Progress,
@@ -620,12 +620,14 @@ impl Plan {
             times.kernels_s += block.kernels_s;
         }
 
+        // The final system holds the cluster links; a checkpoint gets them
+        // back from it.
+        let mut cluster_links = std::mem::take(&mut self.linking.cluster_links);
         let Plan {
             projector: Projector {
                 scene, settings, ..
             },
             clusters,
-            linking,
             pairs,
             triples,
             ..
@@ -643,6 +645,7 @@ impl Plan {
         // solution returned always has it.
         let assemble_and_solve = |links: &[Link],
                                   three_point: &[ThreePointLink],
+                                  cluster_links: Cow<[ClusterLink]>,
                                   resolve: bool,
                                   times: &mut PhaseTimes| {
             let clock = Instant::now();
@@ -652,25 +655,16 @@ impl Plan {
                 ),
                 false => Cow::Borrowed(links),
             };
-            let trees = element_trees(
-                scene,
-                &resolved,
-                three_point,
-                &linking.cluster_links,
-                &light_links,
-            );
+            let trees = element_trees(scene, &resolved, three_point, &cluster_links, &light_links);
             times.kernels_s += clock.elapsed().as_secs_f64();
+            let counts = LinkCounts::of(resolved.iter());
             let links = Links {
-                two_point: &resolved,
+                two_point: resolved,
                 three_point,
-                clusters: (clusters, &linking.cluster_links),
+                clusters: (clusters, cluster_links),
                 lights: &light_links,
             };
             let mut system = System::assemble(&ctx, triples, trees, links, times);
-            // The system holds what it needs of them: the sweeps need not
-            // hold them too.
-            let counts = LinkCounts::of(resolved.iter());
-            drop(resolved);
             let sweeps = system.solve(scene, settings, progress, times)?;
             Ok::<_, Error>((system, sweeps, counts))
         };
@@ -678,8 +672,13 @@ impl Plan {
         // The loop refines the links further; a checkpoint keeps the first
         // projection's.
         let projected = looping.then(|| (links.clone(), three_point.clone()));
-        let (mut system, mut sweeps, mut counts) =
-            assemble_and_solve(&links, &three_point, !looping, &mut times)?;
+        let (mut system, mut sweeps, mut counts) = assemble_and_solve(
+            &links,
+            &three_point,
+            held(&mut cluster_links, !looping),
+            !looping,
+            &mut times,
+        )?;
         let mut passes = 1;
         let mut final_system = !looping;
         while looping && passes < settings.max_refine_passes && !progress.interrupted() {
@@ -709,11 +708,22 @@ impl Plan {
             }
             passes += 1;
             final_system = passes == settings.max_refine_passes;
-            (system, sweeps, counts) =
-                assemble_and_solve(&links, &three_point, final_system, &mut times)?;
+            (system, sweeps, counts) = assemble_and_solve(
+                &links,
+                &three_point,
+                held(&mut cluster_links, final_system),
+                final_system,
+                &mut times,
+            )?;
         }
         if !final_system {
-            (system, sweeps, counts) = assemble_and_solve(&links, &three_point, true, &mut times)?;
+            (system, sweeps, counts) = assemble_and_solve(
+                &links,
+                &three_point,
+                held(&mut cluster_links, true),
+                true,
+                &mut times,
+            )?;
         }
 
         let stats = Stats {
@@ -728,7 +738,7 @@ impl Plan {
             projected_items: self.items().end - resumed,
             exchanging_pairs: pairs.len(),
             kernel_pairs: pairs.len(),
-            cluster_links: linking.cluster_links.len(),
+            cluster_links: system.interactions.clusters.len(),
             times,
             ..Stats::new(
                 scene,
@@ -744,7 +754,10 @@ impl Plan {
         let items = self.items().end;
         let checkpoint = stats.stopped.map(|_| {
             let (links, three_point) = projected.unwrap_or((links, three_point));
-            Checkpoint::new(self.linking, items, &spans, links, three_point)
+            let mut linking = self.linking;
+            linking.cluster_links = (system.interactions.clusters.links(&system.trees))
+                .expect("a solve's cluster transfers name its own elements");
+            Checkpoint::new(linking, items, &spans, links, three_point)
         });
         let Projector { scene, tracer, .. } = self.projector;
         Ok(Solution {
@@ -851,13 +864,23 @@ fn check_light(scene: &Scene) -> Result<()> {
     }
 }
 
-/// Every link of one projection, as the system is assembled from them.
-#[derive(Clone, Copy)]
+/// Every link of one projection, as the system is assembled from them
+/// (the two-point and cluster links it is handed are dropped once
+/// arranged).
 struct Links<'a> {
-    two_point: &'a [Link],
+    two_point: Cow<'a, [Link]>,
     three_point: &'a [ThreePointLink],
-    clusters: (&'a ClusterTree, &'a [ClusterLink]),
+    clusters: (&'a ClusterTree, Cow<'a, [ClusterLink]>),
     lights: &'a [LightLink],
+}
+
+/// `links`, handed over (`last`: the final system's, which holds them
+/// from then on) or lent.
+fn held(links: &mut Vec<ClusterLink>, last: bool) -> Cow<'_, [ClusterLink]> {
+    match last {
+        true => Cow::Owned(std::mem::take(links)),
+        false => Cow::Borrowed(links),
+    }
 }
 
 /// The linear system of one set of links and its solution.
@@ -972,13 +995,15 @@ impl System {
             ctx.scene,
             &trees,
             exposure,
-            links,
+            &links,
             three_point,
             &pairs,
             directional,
         );
+        drop(links);
         interactions.clusters =
-            ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, cluster_links);
+            ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, &cluster_links);
+        drop(cluster_links);
         interactions.limit_reflection(ctx.scene, &trees);
         interactions.link_lights(ctx, &trees, lights);
         let radiance = ctx
@@ -1386,9 +1411,9 @@ mod tests {
         let doubled: Vec<Link> = links.iter().chain(&links).copied().collect();
         let trees = element_trees(ctx.scene, &doubled, &[], &[], &[]);
         let links = Links {
-            two_point: &doubled,
+            two_point: Cow::Owned(doubled),
             three_point: &[],
-            clusters: (&ClusterTree::default(), &[]),
+            clusters: (&ClusterTree::default(), Cow::Borrowed(&[])),
             lights: &[],
         };
         System::assemble(ctx, &[], trees, links, &mut PhaseTimes::default())

@@ -73,6 +73,7 @@ use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{LinkCounts, PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::collections::BTreeSet;
 use std::ops::ControlFlow;
 use std::time::Instant;
@@ -242,9 +243,9 @@ pub fn solve_shooting(
     let trees = super::element_trees(scene, &links, &[], &[], &[]);
     shooting.times.kernels_s += clock.elapsed().as_secs_f64();
     let links = Links {
-        two_point: &links,
+        two_point: Cow::Owned(links),
         three_point: &[],
-        clusters: (&ClusterTree::default(), &[]),
+        clusters: (&ClusterTree::default(), Cow::Borrowed(&[])),
         lights: &[],
     };
     let mut system = System::assemble(&ctx, &[], trees, links, &mut shooting.times);
