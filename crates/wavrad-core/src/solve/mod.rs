@@ -642,18 +642,22 @@ impl Plan {
         // (`resolve_emitter_links`), then arrange the links and solve the
         // system they make. The refine–solve loop's intermediate solutions
         // only estimate where light flows, so they skip the resolution; the
-        // solution returned always has it.
-        let assemble_and_solve = |links: &[Link],
-                                  three_point: &[ThreePointLink],
-                                  cluster_links: Cow<[ClusterLink]>,
-                                  resolve: bool,
-                                  times: &mut PhaseTimes| {
+        // solution returned always has it, and its system, the last, takes
+        // the cluster links.
+        let mut assemble_and_solve = |links: &[Link],
+                                      three_point: &[ThreePointLink],
+                                      resolve: bool,
+                                      times: &mut PhaseTimes| {
             let clock = Instant::now();
             let resolved = match resolve {
                 true => Cow::Owned(
                     resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0,
                 ),
                 false => Cow::Borrowed(links),
+            };
+            let cluster_links = match resolve {
+                true => Cow::Owned(std::mem::take(&mut cluster_links)),
+                false => Cow::Borrowed(&cluster_links[..]),
             };
             let trees = element_trees(scene, &resolved, three_point, &cluster_links, &light_links);
             times.kernels_s += clock.elapsed().as_secs_f64();
@@ -672,13 +676,8 @@ impl Plan {
         // The loop refines the links further; a checkpoint keeps the first
         // projection's.
         let projected = looping.then(|| (links.clone(), three_point.clone()));
-        let (mut system, mut sweeps, mut counts) = assemble_and_solve(
-            &links,
-            &three_point,
-            held(&mut cluster_links, !looping),
-            !looping,
-            &mut times,
-        )?;
+        let (mut system, mut sweeps, mut counts) =
+            assemble_and_solve(&links, &three_point, !looping, &mut times)?;
         let mut passes = 1;
         let mut final_system = !looping;
         while looping && passes < settings.max_refine_passes && !progress.interrupted() {
@@ -708,22 +707,11 @@ impl Plan {
             }
             passes += 1;
             final_system = passes == settings.max_refine_passes;
-            (system, sweeps, counts) = assemble_and_solve(
-                &links,
-                &three_point,
-                held(&mut cluster_links, final_system),
-                final_system,
-                &mut times,
-            )?;
+            (system, sweeps, counts) =
+                assemble_and_solve(&links, &three_point, final_system, &mut times)?;
         }
         if !final_system {
-            (system, sweeps, counts) = assemble_and_solve(
-                &links,
-                &three_point,
-                held(&mut cluster_links, true),
-                true,
-                &mut times,
-            )?;
+            (system, sweeps, counts) = assemble_and_solve(&links, &three_point, true, &mut times)?;
         }
 
         let stats = Stats {
@@ -872,15 +860,6 @@ struct Links<'a> {
     three_point: &'a [ThreePointLink],
     clusters: (&'a ClusterTree, Cow<'a, [ClusterLink]>),
     lights: &'a [LightLink],
-}
-
-/// `links`, handed over (`last`: the final system's, which holds them
-/// from then on) or lent.
-fn held(links: &mut Vec<ClusterLink>, last: bool) -> Cow<'_, [ClusterLink]> {
-    match last {
-        true => Cow::Owned(std::mem::take(links)),
-        false => Cow::Borrowed(links),
-    }
 }
 
 /// The linear system of one set of links and its solution.
