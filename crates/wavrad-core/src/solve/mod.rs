@@ -7,6 +7,7 @@
 pub mod checkpoint;
 pub mod cluster_gather;
 pub mod direction_cells;
+mod extrapolation;
 pub mod gather;
 pub mod glossy_clusters;
 pub mod push_pull;
@@ -40,6 +41,7 @@ use crate::{Error, Result};
 use checkpoint::{merged, runs_of, Run, RunSpan};
 pub use checkpoint::{resume, Checkpoint, CheckpointView, Saver, Unfinished};
 use cluster_gather::{ClusterTransfers, FarField};
+use extrapolation::Extrapolation;
 use gather::{Directional, Interactions};
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -1014,7 +1016,9 @@ impl System {
     /// error when the changes keep growing ([`Divergence`]). Measured in
     /// power, a room lit by a small, intense emitter (a bulb in a lamp)
     /// converges as its own light does, not as a fraction of the bulb's
-    /// radiance.
+    /// radiance. Once the change shrinks by a steady ratio, the sweeps
+    /// still to come are added at once ([`extrapolation`]), and the sweeps
+    /// that follow take the residual on from there.
     ///
     /// A scene whose integrator limits the path length
     /// ([`crate::scene::RenderHints::max_depth`]) is swept Jacobi's way
@@ -1046,6 +1050,7 @@ impl System {
         let change = |new: Rgb, old: Rgb| (new - old).map(f64::abs).max_channel();
         let (mut iterations, mut residual) = (0u32, f64::INFINITY);
         let mut divergence = Divergence::default();
+        let mut extrapolation = Extrapolation::default();
         // Each surface's change of power in the last sweep, and the power
         // it sends after it.
         let mut changes = vec![0.0f64; scene.surfaces.len()];
@@ -1061,13 +1066,14 @@ impl System {
             // The sweep before's glossy light alone, not its links' sends.
             let lobes = std::mem::take(&mut far).lobes();
             far = interactions.far_field(scene, trees, (radiance, directional), Some(&lobes));
-            // With a bounce limit, the radiance before this sweep.
-            let before = bounces.map(|_| (radiance.clone(), directional.clone()));
+            // The radiance before this sweep: read by the sweep with a
+            // bounce limit, else what an extrapolation extends.
+            let before = (radiance.clone(), directional.clone());
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 (changes[p], leaving[p]) = (0.0, 0.0);
                 if let Some(rho) = surface.brdf.lambertian() {
-                    let read = match &before {
-                        Some((r, d)) => (&r[..], &d[..]),
+                    let read = match bounces {
+                        Some(_) => (&before.0[..], &before.1[..]),
                         None => (&radiance[..], &directional[..]),
                     };
                     let mut gathered = interactions.gather(p, rho, &trees[p], read, &far);
@@ -1087,8 +1093,8 @@ impl System {
                     radiance[p] = updated;
                 }
                 for &s in &structures_of[p] {
-                    let gathered = match &before {
-                        Some((r, d)) => interactions.gather_three_point(s, (r, d), &far),
+                    let gathered = match bounces {
+                        Some(_) => interactions.gather_three_point(s, (&before.0, &before.1), &far),
                         None => interactions.gather_three_point(s, (radiance, directional), &far),
                     };
                     let tree = &interactions.directional[s].tree;
@@ -1114,6 +1120,13 @@ impl System {
                     surfaces: fastest_changing(scene, &changes),
                 });
             }
+            // A bounce limit counts the reflections each sweep adds: none
+            // is skipped.
+            let factor = extrapolation.record(changed).filter(|_| bounces.is_none());
+            if let Some(factor) = factor.filter(|_| residual > settings.tolerance) {
+                extend(radiance, &before.0, factor);
+                extend(directional, &before.1, factor);
+            }
         }
         progress.finish();
         times.solve_s += clock.elapsed().as_secs_f64();
@@ -1121,6 +1134,16 @@ impl System {
             iterations,
             residual,
         })
+    }
+}
+
+/// Adds `factor` times the change from `before` to every coefficient of
+/// `now` ([`extrapolation`]).
+fn extend(now: &mut [Vec<Rgb>], before: &[Vec<Rgb>], factor: f64) {
+    for (now, before) in now.iter_mut().zip(before) {
+        for (x, &b) in now.iter_mut().zip(before) {
+            *x = *x + (*x - b) * factor;
+        }
     }
 }
 
