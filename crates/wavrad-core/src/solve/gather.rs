@@ -379,17 +379,31 @@ impl Interactions {
                 .index_of(id)
                 .expect("link element is in its tree")
         };
+        // A surface with neither lobe reflects nothing through two-point links.
+        let reflects: Vec<bool> = (scene.surfaces.iter())
+            .map(|s| {
+                s.brdf.lambertian().is_some()
+                    || s.brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
+            })
+            .collect();
+        // Each receiving surface's transfers, counted first: a scene's
+        // millions of links fill vectors of their final sizes.
+        let mut counts = vec![0usize; scene.surfaces.len()];
+        for l in links {
+            for p in [l.p, l.r] {
+                counts[p as usize] += usize::from(reflects[p as usize]);
+            }
+        }
+        for (incoming, &n) in out.incoming.iter_mut().zip(&counts) {
+            incoming.reserve_exact(n);
+        }
         // The children's shares of each transfer's link, (the receiver's,
         // the source's), beside `incoming` until the gradients and the
         // sources' children are made.
-        let mut shares_of = vec![Vec::new(); scene.surfaces.len()];
+        let mut shares_of: Vec<Vec<_>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
         for l in links {
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
-                // A surface with neither lobe reflects nothing through two-point links.
-                let brdf = &scene.surfaces[p as usize].brdf;
-                if brdf.lambertian().is_none()
-                    && !brdf.flags().contains(BrdfFlags::GLOSSY_REFLECTION)
-                {
+                if !reflects[p as usize] {
                     continue;
                 }
                 let receiver = node(p, a);
@@ -405,13 +419,12 @@ impl Interactions {
                 shares_of[p as usize].push((l.shares_into(of_a), l.shares_into(!of_a)));
             }
         }
-        for (p, shares) in shares_of.into_iter().enumerate() {
-            let (tree, exposure) = (&trees[p], &out.exposure[p][..]);
-            let all_exposure = &out.exposure;
-            out.incoming[p]
-                .par_iter_mut()
-                .zip(shares)
-                .for_each(|(t, (into, from))| {
+        let all_exposure = &out.exposure;
+        (out.incoming.par_iter_mut().zip(shares_of).enumerate())
+            .with_max_len(64)
+            .for_each(|(p, (incoming, shares))| {
+                let (tree, exposure) = (&trees[p], &all_exposure[p][..]);
+                for (t, (into, from)) in incoming.iter_mut().zip(shares) {
                     let (r, c) = t.source.element();
                     let source = &trees[r as usize].nodes[c as usize].patch;
                     let g = receiver_gradient(tree, exposure, t.receiver as usize, source, into);
@@ -419,15 +432,19 @@ impl Interactions {
                     let receiver = &tree.nodes[t.receiver as usize].patch;
                     let (source_tree, exposure) = (&trees[r as usize], &all_exposure[r as usize]);
                     read_through_children(source_tree, exposure, &mut t.source, receiver, from);
-                });
-        }
-        for p in 0..out.incoming.len() {
-            let transfers = std::mem::take(&mut out.incoming[p]);
-            let mut resolved = Vec::with_capacity(transfers.len());
-            for t in transfers {
-                out.resolve_highlight(trees, p, t, &mut resolved);
+                }
+            });
+        // Only a glossy source's transfers split; without directional
+        // structures there is none.
+        if !out.directional.is_empty() {
+            for p in 0..out.incoming.len() {
+                let transfers = std::mem::take(&mut out.incoming[p]);
+                let mut resolved = Vec::with_capacity(transfers.len());
+                for t in transfers {
+                    out.resolve_highlight(trees, p, t, &mut resolved);
+                }
+                out.incoming[p] = resolved;
             }
-            out.incoming[p] = resolved;
         }
         for l in three_point {
             let s = out.structure_of[&(l.p, l.q)];
