@@ -91,6 +91,11 @@ const _: () = assert!(env!("CARGO_PKG_VERSION").len() <= WRITER_LEN);
 /// time.
 const ZSTD_LEVEL: i32 = 3;
 
+/// zstd's worker threads for the body, at most. Its multithreaded frames
+/// are the same bytes for any number of workers, so a file does not depend
+/// on the machine that wrote it.
+const ZSTD_WORKERS: usize = 8;
+
 /// How many times its compressed size a body may decompress to: real
 /// solutions compress about 2–4×, and the bound keeps a crafted file from
 /// taking unbounded memory.
@@ -234,7 +239,11 @@ pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
 
 /// [`solution_file_bytes`] for a file of the kind `magic`.
 fn file_bytes(magic: &[u8; 8], encoded: &[u8]) -> std::io::Result<Vec<u8>> {
-    let body = zstd::bulk::compress(encoded, ZSTD_LEVEL)?;
+    let mut compressor = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let workers = cores.clamp(1, ZSTD_WORKERS) as u32;
+    compressor.set_parameter(zstd::zstd_safe::CParameter::NbWorkers(workers))?;
+    let body = compressor.compress(encoded)?;
     let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
     bytes.extend_from_slice(magic);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
