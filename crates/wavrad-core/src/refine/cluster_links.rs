@@ -438,9 +438,10 @@ impl<'a> Linker<'a> {
         self.settings.ratio > 0.0 && self.progress.interrupted()
     }
 
-    /// Push the link between `x` and `y`, if they exchange light.
-    fn push_link(&self, x: End, y: End, out: &mut Linking) {
-        if let Some(link) = self.cluster_link(x, y) {
+    /// Push the link between `x` and `y`, if they exchange light; `bound`
+    /// is their [`Linker::bound`].
+    fn push_link(&self, x: End, y: End, bound: f64, out: &mut Linking) {
+        if let Some(link) = self.cluster_link(x, y, bound) {
             // The link, and a share of what gathering through it holds
             // with each of the link's copies.
             let gathering = self.settings.gather_bytes.div_ceil(LINK_COPIES);
@@ -532,7 +533,7 @@ impl<'a> Linker<'a> {
                 return;
             }
             if !self.emits(a, c) && self.carries_little(a, c) {
-                self.push_link(x, y, out);
+                self.push_link(x, y, self.bound(x, y, self.heights(x, y)), out);
                 return;
             }
             // In surface order, as the projection of every pair of
@@ -554,7 +555,7 @@ impl<'a> Linker<'a> {
             return;
         }
         if whole_x && whole_y && near_enough {
-            self.push_link(x, y, out);
+            self.push_link(x, y, self.bound(x, y, heights), out);
             return;
         }
         // Plain ends nearer than the ratio that can exchange no more than
@@ -565,10 +566,12 @@ impl<'a> Linker<'a> {
             && self.plain(x)
             && self.plain(y)
             && Self::small_against_distance(&bx, &by, MAX_CLUSTER_RATIO)
-            && self.bound(x, y, heights) <= self.settings.threshold
         {
-            self.push_link(x, y, out);
-            return;
+            let bound = self.bound(x, y, heights);
+            if bound <= self.settings.threshold {
+                self.push_link(x, y, bound, out);
+                return;
+            }
         }
         // Once the budget is spent, ends apart by the coarsest ratio are
         // linked as they stand.
@@ -578,7 +581,7 @@ impl<'a> Linker<'a> {
             && self.coarsening()
         {
             self.coarse.fetch_add(1, Ordering::Relaxed);
-            self.push_link(x, y, out);
+            self.push_link(x, y, self.bound(x, y, heights), out);
             return;
         }
         // Split the larger end, unless it is an element that may not split
@@ -645,13 +648,13 @@ impl<'a> Linker<'a> {
         }
     }
 
-    /// The link between `x` and `y`, or `None` when no line between their
-    /// facing points is clear (they exchange no light). Of at most
-    /// [`CLUSTER_LINK_RAYS`] pairs of points drawn, as many facing pairs as
-    /// the link's transfer needs ([`rays_needed`]) are traced.
-    fn cluster_link(&self, x: End, y: End) -> Option<ClusterLink> {
+    /// The link between `x` and `y` (whose [`Linker::bound`] is `bound`),
+    /// or `None` when no line between their facing points is clear (they
+    /// exchange no light). Of at most [`CLUSTER_LINK_RAYS`] pairs of points
+    /// drawn, as many facing pairs as the link's transfer needs
+    /// ([`rays_needed`]) are traced.
+    fn cluster_link(&self, x: End, y: End, bound: f64) -> Option<ClusterLink> {
         let seed = end_seed(x).rotate_left(17) ^ end_seed(y);
-        let bound = self.bound(x, y, self.heights(x, y));
         let needed = rays_needed(bound, self.settings.threshold);
         let (mut facing, mut clear) = (0u32, 0u32);
         for j in 0..CLUSTER_LINK_RAYS {
