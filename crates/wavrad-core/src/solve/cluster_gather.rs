@@ -50,6 +50,7 @@ use crate::solve::glossy_clusters::{cone, GlossyReflectors, BINS, NO_BIN};
 use crate::solve::push_pull::Gathered;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::ops::AddAssign;
@@ -390,6 +391,10 @@ pub struct FarField {
     /// What each surface's root receives through its clusters' links
     /// (irradiance over π, before reflectance).
     at_roots: Vec<Rgb>,
+    /// What each surface's element nodes receive through the links at its
+    /// elements, summed per node, when worked out ahead
+    /// ([`ClusterTransfers::sum_at_elements`]); empty otherwise.
+    at_elements: Vec<Vec<Rgb>>,
 }
 
 impl FarField {
@@ -892,6 +897,7 @@ impl ClusterTransfers {
             reflectors,
             exitant,
             at_roots,
+            at_elements: Vec::new(),
         }
     }
 
@@ -1178,15 +1184,48 @@ impl ClusterTransfers {
         if root != Rgb::ZERO {
             gathered.add(0, reflectance * root, DVec3::ZERO);
         }
+        let at_elements = match far.at_elements.get(p as usize) {
+            Some(sums) => Cow::Borrowed(sums),
+            None => Cow::Owned(self.at_elements(p, &far.sent)),
+        };
+        for (node, &value) in at_elements.iter().enumerate() {
+            if value != Rgb::ZERO {
+                gathered.add(node, reflectance * value, DVec3::ZERO);
+            }
+        }
+    }
+
+    /// Work out ahead, in parallel, what every surface's elements receive
+    /// through the links at them in `far` (which [`Self::gather_into`]
+    /// otherwise evaluates surface by surface, in Gauss–Seidel's
+    /// sequential loop).
+    pub fn sum_at_elements(&self, far: &mut FarField) {
+        if far.at_roots.is_empty() {
+            return;
+        }
+        far.at_elements = (0..self.roots.len() as u32)
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|p| self.at_elements(p, &far.sent))
+            .collect();
+    }
+
+    /// What surface `p`'s element nodes receive through the links at its
+    /// elements from `sent`, per node (up to the last node that receives).
+    fn at_elements(&self, p: u32, sent: &Sent) -> Vec<Rgb> {
+        let mut sums: Vec<Rgb> = Vec::new();
         for &at in self.at_surface.of(p) {
             if let Side::Element(e) = self.links[at.0 as usize].sides[at.1 as usize] {
                 let m = &self.elements[e as usize];
-                let value = self
-                    .incoming_value(at, m.point, &far.sent)
-                    .received(m.normal);
-                gathered.add(m.node as usize, reflectance * value, DVec3::ZERO);
+                let value = self.incoming_value(at, m.point, sent).received(m.normal);
+                let node = m.node as usize;
+                if sums.len() <= node {
+                    sums.resize(node + 1, Rgb::ZERO);
+                }
+                sums[node] += value;
             }
         }
+        sums
     }
 }
 

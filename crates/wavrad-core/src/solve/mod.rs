@@ -1066,6 +1066,7 @@ impl System {
             // The sweep before's glossy light alone, not its links' sends.
             let lobes = std::mem::take(&mut far).lobes();
             far = interactions.far_field(scene, trees, (radiance, directional), Some(&lobes));
+            interactions.clusters.sum_at_elements(&mut far);
             // The radiance before this sweep: read by the sweep with a
             // bounce limit, else what an extrapolation extends.
             let before = (radiance.clone(), directional.clone());
