@@ -35,6 +35,20 @@ pub(super) struct Extrapolation {
 }
 
 impl Extrapolation {
+    /// Whether the next sweep's change may complete a run of agreeing
+    /// ratios (the last [`AGREEING_RATIOS`] − 1 agree as closely as a
+    /// complete run's must): only then must the radiance before that sweep
+    /// be kept for [`Extrapolation::record`]'s factor to extend.
+    pub(super) fn may_extrapolate_next(&self) -> bool {
+        let Some(first) = self.ratios.len().checked_sub(AGREEING_RATIOS - 1) else {
+            return false;
+        };
+        let (lo, hi) = spread(&self.ratios[first..]);
+        // A complete run's spread is at most AGREEMENT times its last
+        // ratio, which is at most its least over (1 − AGREEMENT).
+        hi < MAX_RATIO && hi - lo <= AGREEMENT / (1.0 - AGREEMENT) * lo
+    }
+
     /// Record one sweep's change of power. `Some(q / (1 − q))`, the
     /// multiple of this sweep's change that the sweeps still to come would
     /// add, when the last [`AGREEING_RATIOS`] ratios of consecutive changes
@@ -49,9 +63,7 @@ impl Extrapolation {
         let last = self.ratios.len().checked_sub(AGREEING_RATIOS)?;
         let recent = &self.ratios[last..];
         let q = recent[AGREEING_RATIOS - 1];
-        let (lo, hi) = recent.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| {
-            (lo.min(r), hi.max(r))
-        });
+        let (lo, hi) = spread(recent);
         if !(q > 0.0 && hi < MAX_RATIO && hi - lo <= AGREEMENT * q) {
             return None;
         }
@@ -61,6 +73,13 @@ impl Extrapolation {
         };
         Some(q / (1.0 - q))
     }
+}
+
+/// The least and largest of `ratios`.
+fn spread(ratios: &[f64]) -> (f64, f64) {
+    (ratios.iter()).fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| {
+        (lo.min(r), hi.max(r))
+    })
 }
 
 #[cfg(test)]
@@ -76,10 +95,46 @@ mod tests {
         let factors: Vec<Option<f64>> = changes.iter().map(|&c| watch.record(c)).collect();
         assert_eq!(&factors[..3], &[None, None, None]);
         let factor = factors[3].expect("three agreeing ratios");
+        let mut armed = Extrapolation::default();
+        let before: Vec<bool> = (changes.iter())
+            .map(|&c| {
+                let may = armed.may_extrapolate_next();
+                armed.record(c);
+                may
+            })
+            .collect();
+        assert_eq!(before, [false, false, false, true]);
         let remainder: f64 = (4..200).map(|k| 0.5f64.powi(k)).sum();
         assert!((factor * changes[3] - remainder).abs() < 1e-12);
         // The watch starts again: the next sweep's change alone says nothing.
         assert_eq!(watch.record(0.01), None);
+    }
+
+    /// Every extrapolation was announced the sweep before
+    /// ([`Extrapolation::may_extrapolate_next`]), for changes whose ratios
+    /// wander near a steady value.
+    #[test]
+    fn every_extrapolation_is_announced() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut watch, mut change, mut extrapolated) = (Extrapolation::default(), 1.0, 0);
+        for _ in 0..100_000 {
+            let announced = watch.may_extrapolate_next();
+            change *= 0.6 + 0.03 * (uniform() - 0.5);
+            if watch.record(change).is_some() {
+                assert!(announced);
+                extrapolated += 1;
+            }
+            if change < 1e-200 {
+                change = 1.0;
+            }
+        }
+        assert!(extrapolated > 1000, "{extrapolated}");
     }
 
     /// Ratios that drift, grow towards one, or changes that vanish are not

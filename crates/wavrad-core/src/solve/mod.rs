@@ -1068,14 +1068,15 @@ impl System {
             far = interactions.far_field(scene, trees, (radiance, directional), Some(&lobes));
             interactions.clusters.sum_at_elements(&mut far);
             // The radiance before this sweep: read by the sweep with a
-            // bounce limit, else what an extrapolation extends.
-            let before = (radiance.clone(), directional.clone());
+            // bounce limit, else what an extrapolation after it extends.
+            let before = (bounces.is_some() || extrapolation.may_extrapolate_next())
+                .then(|| (radiance.clone(), directional.clone()));
             for (p, surface) in scene.surfaces.iter().enumerate() {
                 (changes[p], leaving[p]) = (0.0, 0.0);
                 if let Some(rho) = surface.brdf.lambertian() {
-                    let read = match bounces {
-                        Some(_) => (&before.0[..], &before.1[..]),
-                        None => (&radiance[..], &directional[..]),
+                    let read = match (bounces, &before) {
+                        (Some(_), Some((r, d))) => (&r[..], &d[..]),
+                        _ => (&radiance[..], &directional[..]),
                     };
                     let mut gathered = interactions.gather(p, rho, &trees[p], read, &far);
                     interactions.gather_lights(p, rho, &mut gathered);
@@ -1094,9 +1095,9 @@ impl System {
                     radiance[p] = updated;
                 }
                 for &s in &structures_of[p] {
-                    let gathered = match bounces {
-                        Some(_) => interactions.gather_three_point(s, (&before.0, &before.1), &far),
-                        None => interactions.gather_three_point(s, (radiance, directional), &far),
+                    let gathered = match (bounces, &before) {
+                        (Some(_), Some((r, d))) => interactions.gather_three_point(s, (r, d), &far),
+                        _ => interactions.gather_three_point(s, (radiance, directional), &far),
                     };
                     let tree = &interactions.directional[s].tree;
                     let exposure = Some(&interactions.pair_exposure[s][..]);
@@ -1124,9 +1125,10 @@ impl System {
             // A bounce limit counts the reflections each sweep adds: none
             // is skipped.
             let factor = extrapolation.record(changed).filter(|_| bounces.is_none());
-            if let Some(factor) = factor.filter(|_| residual > settings.tolerance) {
-                extend(radiance, &before.0, factor);
-                extend(directional, &before.1, factor);
+            let factor = factor.filter(|_| residual > settings.tolerance);
+            if let (Some(factor), Some((r, d))) = (factor, &before) {
+                extend(radiance, r, factor);
+                extend(directional, d, factor);
             }
         }
         progress.finish();
