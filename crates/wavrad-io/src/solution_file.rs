@@ -241,7 +241,7 @@ pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
 fn file_bytes(magic: &[u8; 8], encoded: &[u8]) -> std::io::Result<Vec<u8>> {
     let mut compressor = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    let workers = cores.clamp(1, ZSTD_WORKERS) as u32;
+    let workers = cores.min(ZSTD_WORKERS) as u32;
     compressor.set_parameter(zstd::zstd_safe::CParameter::NbWorkers(workers))?;
     let body = compressor.compress(encoded)?;
     let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());

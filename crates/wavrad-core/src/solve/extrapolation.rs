@@ -67,10 +67,7 @@ impl Extrapolation {
         if !(q > 0.0 && hi < MAX_RATIO && hi - lo <= AGREEMENT * q) {
             return None;
         }
-        *self = Extrapolation {
-            previous: None,
-            ratios: Vec::new(),
-        };
+        *self = Extrapolation::default();
         Some(q / (1.0 - q))
     }
 }

@@ -1123,9 +1123,9 @@ impl System {
                 });
             }
             // A bounce limit counts the reflections each sweep adds: none
-            // is skipped.
-            let factor = extrapolation.record(changed).filter(|_| bounces.is_none());
-            let factor = factor.filter(|_| residual > settings.tolerance);
+            // is skipped; nor is a converged solve extended.
+            let factor = (extrapolation.record(changed))
+                .filter(|_| bounces.is_none() && residual > settings.tolerance);
             if let (Some(factor), Some((r, d))) = (factor, &before) {
                 extend(radiance, r, factor);
                 extend(directional, d, factor);
