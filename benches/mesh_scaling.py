@@ -100,10 +100,16 @@ def mitsuba_error(wavrad: Path, scene: Path, folder: Path, spp: int) -> dict:
     """The default render's and `--mode direct`'s relRMSE against Mitsuba 3
     at `spp` (two halves of spp/2, seeds 0 and 1), the halves' noise taken
     out in quadrature; also that noise."""
+    sys.path.insert(0, str(ROOT / "scenes"))
+    import make_references
+
+    # drjit reads DRJIT_LIBLLVM_PATH when it starts: its LLVM backend needs
+    # libLLVM >= 17 (older ones abort in code generation).
+    make_references.find_libllvm()
     import mitsuba as mi
     import numpy as np
 
-    mi.set_variant("llvm_ad_rgb" if "llvm_ad_rgb" in mi.variants() else "scalar_rgb")
+    make_references.pick_variant(mi, "auto")
     loaded = mi.load_file(str(scene), res=64)
     halves = [
         np.array(mi.render(loaded, spp=spp // 2, seed=seed), dtype=np.float64) for seed in (0, 1)
