@@ -972,6 +972,11 @@ impl System {
                         .map(|l| [ElementRef::new(l.p, l.a), ElementRef::new(l.q, l.b)]),
                 ),
         );
+        // The cluster links, the largest of the plan's parts, are arranged
+        // and let go before the element links are, so that the two plans
+        // and the two arrangements are never all held at once.
+        let arranged = ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, &cluster_links);
+        drop(cluster_links);
         let mut interactions = Interactions::new(
             ctx.scene,
             &trees,
@@ -982,9 +987,7 @@ impl System {
             directional,
         );
         drop(links);
-        interactions.clusters =
-            ClusterTransfers::new(ctx.scene, clusters.clone(), &trees, &cluster_links);
-        drop(cluster_links);
+        interactions.clusters = arranged;
         interactions.limit_reflection(ctx.scene, &trees);
         interactions.link_lights(ctx, &trees, lights);
         let radiance = ctx
