@@ -44,9 +44,12 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result<
             ))
         }
     };
-    write_atomically(path, |file| match format {
-        Format::Exr => encode_exr(file, width, height, rgb),
-        Format::Png => encode_png(file, width, height, rgb),
+    write_atomically(path, |file| {
+        match format {
+            Format::Exr => encode_exr(file, width, height, rgb),
+            Format::Png => encode_png(file, width, height, rgb),
+        }
+        .map_err(|m| Error::image(path, m))
     })
 }
 
@@ -132,12 +135,11 @@ fn extension(path: &Path) -> Option<String> {
         .map(str::to_ascii_lowercase)
 }
 
-/// Encode into a temporary sibling of `path`, then rename it into place.
 /// Write `bytes` to `path` atomically (temporary file in the same folder,
 /// then rename), as [`write_image`] does; for statistics and other outputs.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_atomically(path, |file| {
-        file.write_all(bytes).map_err(|e| e.to_string())
+        file.write_all(bytes).map_err(|e| Error::io(path, e))
     })
 }
 
@@ -180,12 +182,15 @@ fn temporary_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
         })
 }
 
-fn write_atomically(
+/// Write `path` atomically: `encode` writes a temporary sibling of it,
+/// which is then renamed into place; on an error nothing is renamed and the
+/// temporary file is removed, so `path` is either what it was or complete.
+pub(crate) fn write_atomically(
     path: &Path,
-    encode: impl FnOnce(&mut fs::File) -> std::result::Result<(), String>,
+    encode: impl FnOnce(&mut fs::File) -> Result<()>,
 ) -> Result<()> {
     let mut tmp = temporary_beside(path)?;
-    encode(tmp.as_file_mut()).map_err(|m| Error::image(path, m))?;
+    encode(tmp.as_file_mut())?;
     tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
     // Temporary files are private (0600); give the result ordinary
     // permissions, or those of the file it replaces.

@@ -61,7 +61,7 @@ pub use checkpoint_file::{
 use crate::{Error, LoadOptions, Result};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
-use std::io::Read;
+use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use wavrad_core::geometry::hierarchy::ElementTree;
 use wavrad_core::geometry::tracing::SceneTracer;
@@ -221,40 +221,149 @@ pub fn write_solution(path: &Path, solution: &Solution, source: Option<&Source>)
     write_body(path, &MAGIC, &Body::of(solution, source))
 }
 
-/// Write `body` to `path` atomically, in a file of the kind `magic`.
+/// Write `body` to `path` atomically, in a file of the kind `magic`. The
+/// body is encoded and compressed as it is written, so neither it nor its
+/// compressed bytes are ever held whole: a large solve's file costs no more
+/// memory than the solution it holds.
 fn write_body(path: &Path, magic: &[u8; 8], body: &impl Serialize) -> Result<()> {
-    let encoded = postcard::to_allocvec(body).map_err(|e| unencodable(path, e))?;
-    let bytes = file_bytes(magic, &encoded).map_err(|e| Error::io(path, e))?;
-    crate::write_atomic(path, &bytes)
+    crate::image::write_atomically(path, |file| {
+        write_file(file, magic, |out| encode(body, out)).map_err(|e| Error::io(path, e))
+    })
+}
+
+/// Write `body` in postcard to `out` as it is encoded. An error of `out`
+/// is returned as it came (postcard would report any as a full buffer);
+/// a body postcard cannot write (a path that is not UTF-8) is invalid data.
+fn encode(body: &impl Serialize, out: &mut dyn Write) -> std::io::Result<()> {
+    let mut out = Recording::new(out);
+    let encoded = postcard::to_io(body, &mut out).map(drop);
+    out.into_result()?;
+    encoded.map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// The bytes of a solution file whose body, before compression, is
 /// `encoded` (a [`Solution`] in postcard): the header, with the body's
-/// length and checksum, then the body compressed. [`write_solution`]
-/// writes these; tools that make files by other means (the fuzz targets,
-/// which fuzz the body behind a checksum that matches it) use it too.
+/// length and checksum, then the body compressed, as [`write_solution`]
+/// writes them. Tools that make files by other means (the fuzz targets,
+/// which fuzz the body behind a checksum that matches it) use it.
 pub fn solution_file_bytes(encoded: &[u8]) -> std::io::Result<Vec<u8>> {
     file_bytes(&MAGIC, encoded)
 }
 
 /// [`solution_file_bytes`] for a file of the kind `magic`.
 fn file_bytes(magic: &[u8; 8], encoded: &[u8]) -> std::io::Result<Vec<u8>> {
-    let mut compressor = zstd::bulk::Compressor::new(ZSTD_LEVEL)?;
+    let mut file = std::io::Cursor::new(Vec::new());
+    write_file(&mut file, magic, |out| out.write_all(encoded))?;
+    Ok(file.into_inner())
+}
+
+/// Write a file of the kind `magic` to `file`: the header, then the body
+/// that `encode` writes, compressed as it comes. The header's length and
+/// checksum are written last, once the compressed body is known.
+fn write_file<W: Write + Seek>(
+    file: &mut W,
+    magic: &[u8; 8],
+    encode: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> std::io::Result<()> {
+    file.write_all(&header(magic, 0, 0))?;
+    let mut body = Checksummed::new(BufWriter::new(&mut *file));
+    let mut compressor = zstd::stream::Encoder::new(&mut body, ZSTD_LEVEL)?;
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    let workers = cores.min(ZSTD_WORKERS) as u32;
-    compressor.set_parameter(zstd::zstd_safe::CParameter::NbWorkers(workers))?;
-    let body = compressor.compress(encoded)?;
-    let mut bytes = Vec::with_capacity(HEADER_LEN + body.len());
-    bytes.extend_from_slice(magic);
-    bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    let mut writer = [0u8; WRITER_LEN];
+    compressor.multithread(cores.min(ZSTD_WORKERS) as u32)?;
+    // postcard writes a value's few bytes at a time.
+    let mut buffered = BufWriter::new(compressor);
+    encode(&mut buffered)?;
+    buffered
+        .into_inner()
+        .map_err(|e| e.into_error())?
+        .finish()?;
+    let (length, checksum) = (body.length, body.checksum.clone().finalize());
+    body.inner.flush()?;
+    drop(body);
+    file.seek(SeekFrom::Start(0))?;
+    file.write_all(&header(magic, length, checksum))?;
+    file.seek(SeekFrom::End(0))?;
+    Ok(())
+}
+
+/// The header of a file of the kind `magic` whose compressed body is
+/// `length` bytes with the CRC-32 `checksum`.
+fn header(magic: &[u8; 8], length: u64, checksum: u32) -> [u8; HEADER_LEN] {
+    let mut header = [0u8; HEADER_LEN];
+    header[..8].copy_from_slice(magic);
+    header[8..12].copy_from_slice(&FORMAT_VERSION.to_le_bytes());
     let version = env!("CARGO_PKG_VERSION").as_bytes();
-    writer[..version.len()].copy_from_slice(version);
-    bytes.extend_from_slice(&writer);
-    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
-    bytes.extend_from_slice(&body);
-    Ok(bytes)
+    header[12..12 + version.len()].copy_from_slice(version);
+    header[44..52].copy_from_slice(&length.to_le_bytes());
+    header[52..56].copy_from_slice(&checksum.to_le_bytes());
+    header
+}
+
+/// A writer that passes bytes on and counts them and their CRC-32.
+struct Checksummed<W> {
+    inner: W,
+    length: u64,
+    checksum: crc32fast::Hasher,
+}
+
+impl<W> Checksummed<W> {
+    fn new(inner: W) -> Self {
+        Checksummed {
+            inner,
+            length: 0,
+            checksum: crc32fast::Hasher::new(),
+        }
+    }
+}
+
+impl<W: Write> Write for Checksummed<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.length += n as u64;
+        self.checksum.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// A writer that keeps the first error of the one it wraps, for
+/// [`encode`]. Its flush does nothing: postcard flushes once it has
+/// written, and a flush of the compressor would end a block there (the
+/// caller finishes the compressed body).
+struct Recording<'a> {
+    inner: &'a mut dyn Write,
+    error: Option<std::io::Error>,
+}
+
+impl<'a> Recording<'a> {
+    fn new(inner: &'a mut dyn Write) -> Self {
+        Recording { inner, error: None }
+    }
+
+    /// The first error, if any.
+    fn into_result(self) -> std::io::Result<()> {
+        self.error.map_or(Ok(()), Err)
+    }
+}
+
+impl Write for Recording<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        match self.inner.write(buf) {
+            Err(e) if e.kind() != std::io::ErrorKind::Interrupted => {
+                let kind = e.kind();
+                self.error.get_or_insert(e);
+                Err(kind.into())
+            }
+            written => written,
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 /// Read the solution in `path`, rebuild its ray queries, and check that
@@ -460,14 +569,6 @@ fn check_source(path: &Path, source: &Source, solved: &Scene) -> Result<Option<S
     }
 }
 
-/// A solution that postcard cannot write (a path that is not UTF-8).
-fn unencodable(path: &Path, e: postcard::Error) -> Error {
-    Error::io(
-        path,
-        std::io::Error::new(std::io::ErrorKind::InvalidData, e),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -562,6 +663,61 @@ mod tests {
             write_solution(&again, b, Some(&source)).unwrap();
             assert_eq!(std::fs::read(&again).unwrap(), bytes);
         }
+    }
+
+    #[test]
+    fn a_body_written_as_it_is_encoded_makes_the_file_of_its_encoded_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, source) = solved(dir.path(), GLOSSY);
+        let (_, bytes) = written(dir.path(), &solution, Some(&source));
+        let encoded = postcard::to_allocvec(&Body::of(&solution, Some(&source))).unwrap();
+        assert_eq!(zstd::decode_all(&bytes[HEADER_LEN..]).unwrap(), encoded);
+        assert_eq!(solution_file_bytes(&encoded).unwrap(), bytes);
+    }
+
+    #[test]
+    fn a_write_that_fails_reports_the_error_of_the_file() {
+        /// A file with room for `room` more bytes.
+        struct Full {
+            room: usize,
+        }
+        impl Write for Full {
+            fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+                if self.room == 0 {
+                    return Err(std::io::ErrorKind::StorageFull.into());
+                }
+                let n = buf.len().min(self.room);
+                self.room -= n;
+                Ok(n)
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        impl Seek for Full {
+            fn seek(&mut self, _: SeekFrom) -> std::io::Result<u64> {
+                Ok(0)
+            }
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let (solution, _) = solved(dir.path(), "");
+        let body = Body::of(&solution, None);
+        for room in [0, 100, 10_000] {
+            let e = write_file(&mut Full { room }, &MAGIC, |out| encode(&body, out)).unwrap_err();
+            assert_eq!(
+                e.kind(),
+                std::io::ErrorKind::StorageFull,
+                "room {room}: {e}"
+            );
+        }
+        let e = encode(&body, &mut Full { room: 10 }).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::StorageFull, "{e}");
+        assert!(
+            write_file(&mut Full { room: 1 << 30 }, &MAGIC, |out| encode(
+                &body, out
+            ))
+            .is_ok()
+        );
     }
 
     #[test]
