@@ -17,7 +17,7 @@ use crate::kernel::KernelContext;
 use crate::progress::Progress;
 use crate::refine::emitter_links::EMITTER_LINK_VARIATION;
 use crate::refine::oracle::average_detail;
-use crate::refine::{concatenated, project_each};
+use crate::refine::project_each;
 use crate::scene::{Light, Patch, Rgb};
 
 /// The light of the scene's [`crate::scene::Scene::lights`] reaching one
@@ -108,7 +108,7 @@ pub fn link_lights(ctx: &KernelContext, max_level: u32, progress: &dyn Progress)
         }
         out
     });
-    concatenated(per_surface)
+    per_surface.into_links()
 }
 
 /// True when a spot's axis meets `patch`, and its beam there is narrower

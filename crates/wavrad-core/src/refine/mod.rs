@@ -56,18 +56,99 @@ impl Part {
     }
 }
 
-/// What projecting one item (a surface pair or triple, a link) made.
+/// What projecting a list of items (surface pairs or triples, links) made,
+/// item by item: every item's links in one vector, in item order, and per
+/// item how many they are and whether it was projected in full. A vector
+/// per item would cost an allocation and its spare room per item: several
+/// times the links themselves, where most items make one or two.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ItemLinks<L> {
-    /// Its links.
-    pub links: Vec<L>,
-    /// Whether it was projected in full: the work was not asked to stop
-    /// ([`Progress::interrupted`]) before it ended, so projecting it again
-    /// would make the same links. A stop that comes between an item's last
-    /// test and this one marks it unfinished too, which only costs
-    /// projecting it again.
-    pub finished: bool,
+pub struct ByItem<L> {
+    links: Vec<L>,
+    /// Per item: its number of links, and whether it was projected in full
+    /// (the work was not asked to stop, [`Progress::interrupted`], before
+    /// it ended, so projecting it again would make the same links; a stop
+    /// that comes between an item's last test and this one marks it
+    /// unfinished too, which only costs projecting it again).
+    items: Vec<(u32, bool)>,
 }
+
+impl<L> Default for ByItem<L> {
+    fn default() -> Self {
+        ByItem {
+            links: Vec::new(),
+            items: Vec::new(),
+        }
+    }
+}
+
+impl<L> ByItem<L> {
+    /// The number of items.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether it holds no item.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Add one item: its `links`, and whether it was projected in full.
+    pub fn push(&mut self, links: impl IntoIterator<Item = L>, finished: bool) {
+        let before = self.links.len();
+        self.links.extend(links);
+        let made = u32::try_from(self.links.len() - before).expect("an item's links fit a u32");
+        self.items.push((made, finished));
+    }
+
+    /// Every item's links and whether it was projected in full, in order.
+    pub fn iter(&self) -> impl Iterator<Item = (&[L], bool)> {
+        let mut rest = self.links.as_slice();
+        self.items.iter().map(move |&(made, finished)| {
+            let (links, after) = rest.split_at(made as usize);
+            rest = after;
+            (links, finished)
+        })
+    }
+
+    /// Every item's links, in order, at their length (a solve holds them
+    /// to its end).
+    pub fn into_links(mut self) -> Vec<L> {
+        self.links.shrink_to_fit();
+        self.links
+    }
+
+    /// These items as some of a longer list, the `k`-th of them where
+    /// `these[k]` is the `k`-th true value; the others made no links and
+    /// count as projected in full.
+    pub(crate) fn among(self, these: &[bool]) -> ByItem<L> {
+        let mut mine = self.items.into_iter();
+        let items = (these.iter())
+            .map(|&this| match this {
+                true => mine.next().expect("one item per true value"),
+                false => (0, true),
+            })
+            .collect();
+        debug_assert!(mine.next().is_none(), "one true value per item");
+        ByItem {
+            links: self.links,
+            items,
+        }
+    }
+
+    /// Add the items `made` in one pass, in order.
+    fn append(&mut self, made: Vec<(Vec<L>, bool)>) {
+        self.links
+            .reserve(made.iter().map(|(links, _)| links.len()).sum());
+        for (links, finished) in made {
+            self.push(links, finished);
+        }
+    }
+}
+
+/// Most items of one parallel pass of [`project_each`] and
+/// [`project_while_unspent`]: each pass's own vectors of links are held
+/// only until it ends, and the budget is looked at between passes.
+const MAX_PASS: usize = 1 << 16;
 
 /// What `project` makes of every item, in parallel and in order, one
 /// progress step each under the phase `label`; the result does not depend
@@ -79,24 +160,25 @@ pub(crate) fn project_each<T: Sync, L: Send>(
     items: &[T],
     progress: &dyn Progress,
     project: impl Fn(&T, bool) -> Vec<L> + Sync,
-) -> Vec<ItemLinks<L>> {
+) -> ByItem<L> {
     progress.start(label, items.len() as u64);
-    let out = items
-        .par_iter()
-        .map(|item| {
-            let refine = !progress.interrupted();
-            if !refine {
-                progress.cut_short(1);
-            }
-            let links = project(item, refine);
-            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
-            progress.advance(1);
-            ItemLinks {
-                links,
-                finished: refine && !progress.interrupted(),
-            }
-        })
-        .collect();
+    let mut out = ByItem::default();
+    for pass in items.chunks(MAX_PASS) {
+        out.append(
+            pass.par_iter()
+                .map(|item| {
+                    let refine = !progress.interrupted();
+                    if !refine {
+                        progress.cut_short(1);
+                    }
+                    let links = project(item, refine);
+                    progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
+                    progress.advance(1);
+                    (links, refine && !progress.interrupted())
+                })
+                .collect(),
+        );
+    }
     progress.finish();
     out
 }
@@ -106,8 +188,8 @@ pub(crate) fn project_each<T: Sync, L: Send>(
 /// were left out without being looked at.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Projected<L> {
-    /// The links of the first items, one entry per item.
-    pub items: Vec<ItemLinks<L>>,
+    /// The links of the first items.
+    pub items: ByItem<L>,
     /// Items after those, left out: no links, no quadrature.
     pub left_out: usize,
 }
@@ -115,10 +197,6 @@ pub struct Projected<L> {
 /// Items of the first parallel pass of [`project_while_unspent`]; each
 /// pass takes twice as many as the last, up to [`MAX_PASS`].
 const FIRST_PASS: usize = 1024;
-/// Most items of one parallel pass of [`project_while_unspent`]: the
-/// budget is looked at between passes, and the items waiting in a pass
-/// only cost a test each once it is spent.
-const MAX_PASS: usize = 1 << 16;
 
 /// What `project` makes of each of `items`, in parallel passes and in
 /// order, one progress step each under the phase `label`, until the work is
@@ -136,27 +214,25 @@ pub(crate) fn project_while_unspent<T: Sync, L: Send>(
     project: impl Fn(&T) -> Vec<L> + Sync,
 ) -> Projected<L> {
     progress.start(label, items.len() as u64);
-    let mut done: Vec<ItemLinks<L>> = Vec::new();
+    let mut done = ByItem::default();
     let (mut rest, mut pass) = (items, FIRST_PASS);
     while !rest.is_empty() && !progress.interrupted() {
         let (now, later) = rest.split_at(pass.min(rest.len()));
-        done.par_extend(now.par_iter().map(|item| {
-            if progress.interrupted() {
-                progress.left_out(1);
-                progress.advance(1);
-                return ItemLinks {
-                    links: Vec::new(),
-                    finished: false,
-                };
-            }
-            let links = project(item);
-            progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
-            progress.advance(1);
-            ItemLinks {
-                links,
-                finished: !progress.interrupted(),
-            }
-        }));
+        done.append(
+            now.par_iter()
+                .map(|item| {
+                    if progress.interrupted() {
+                        progress.left_out(1);
+                        progress.advance(1);
+                        return (Vec::new(), false);
+                    }
+                    let links = project(item);
+                    progress.holding(std::mem::size_of_val(links.as_slice()) as u64);
+                    progress.advance(1);
+                    (links, !progress.interrupted())
+                })
+                .collect(),
+        );
         rest = later;
         pass = (2 * pass).min(MAX_PASS);
     }
@@ -168,16 +244,6 @@ pub(crate) fn project_while_unspent<T: Sync, L: Send>(
         items: done,
         left_out: rest.len(),
     }
-}
-
-/// The links of every item in order, concatenated (at their length: a
-/// solve holds them to its end).
-pub fn concatenated<L>(items: Vec<ItemLinks<L>>) -> Vec<L> {
-    let mut links = Vec::with_capacity(items.iter().map(|item| item.links.len()).sum());
-    for item in items {
-        links.extend(item.links);
-    }
-    links
 }
 
 /// Replace every link by what `refine` makes of it, in parallel and in
@@ -196,9 +262,9 @@ pub(crate) fn refine_each<L: Copy + PartialEq + Send + Sync>(
     let changed = per_link
         .iter()
         .zip(links)
-        .filter(|(new, old)| new.links.as_slice() != [**old])
+        .filter(|((new, _), old)| *new != [**old])
         .count();
-    (concatenated(per_link), changed)
+    (per_link.into_links(), changed)
 }
 
 /// A kernel projection (two-point or three-point), named by its settings,
@@ -235,4 +301,39 @@ pub fn refine_further<P: Projection>(
     refine_each(P::PHASE, &links, progress, |l| {
         settings.refine_link(ctx, estimate, l)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+
+    #[test]
+    fn items_keep_their_own_links_across_passes() {
+        // Items 3k make none, 3k+1 one, 3k+2 two: over three passes.
+        let items: Vec<usize> = (0..2 * MAX_PASS + 5).collect();
+        let made = project_each("test", &items, &Silent, |&i, refine| {
+            assert!(refine);
+            vec![i; i % 3]
+        });
+        assert_eq!(made.len(), items.len());
+        for (i, (links, finished)) in made.iter().enumerate() {
+            assert_eq!(links, vec![i; i % 3].as_slice(), "item {i}");
+            assert!(finished);
+        }
+        let all = made.clone().into_links();
+        assert_eq!(all.len(), items.iter().map(|i| i % 3).sum::<usize>());
+        assert!(all.windows(2).all(|w| w[0] <= w[1]));
+
+        // The same items among others that made none.
+        let these: Vec<bool> = (0..2 * items.len()).map(|k| k % 2 == 1).collect();
+        let among = made.among(&these);
+        assert_eq!(among.len(), these.len());
+        for (k, (links, finished)) in among.iter().enumerate() {
+            let i = k / 2;
+            let expected = if these[k] { vec![i; i % 3] } else { Vec::new() };
+            assert_eq!(links, expected.as_slice(), "item {k}");
+            assert!(finished);
+        }
+    }
 }

@@ -21,7 +21,7 @@ use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
 use crate::refine::two_point_projection::RefineSettings;
-use crate::refine::{project_each, project_while_unspent, ItemLinks, Part, Projected, Projection};
+use crate::refine::{project_each, project_while_unspent, ByItem, Part, Projected, Projection};
 use crate::scene::brdf::{Brdf, BrdfFlags, BrdfModel, Frame};
 use crate::scene::{Patch, Rgb, Scene};
 
@@ -431,7 +431,7 @@ pub fn refine_three_point_links(
     triples: &[(u32, u32, u32)],
     receiver: impl Fn(u32) -> Patch + Sync,
     progress: &dyn Progress,
-) -> Vec<ItemLinks<ThreePointLink>> {
+) -> ByItem<ThreePointLink> {
     let unrefined = ThreePointSettings {
         refine: RefineSettings {
             max_level: 0,
@@ -556,14 +556,15 @@ mod tests {
                 .filter(|&q| q != source)
                 .map(|q| (source, 5, q))
                 .collect();
-            let links = crate::refine::concatenated(refine_three_point_links(
+            let links = refine_three_point_links(
                 &ctx,
                 settings,
                 None,
                 &triples,
                 |q| scene.surfaces[q as usize].patch,
                 &Silent,
-            ));
+            )
+            .into_links();
             let most = |level: fn(&ThreePointLink) -> u32| links.iter().map(level).max();
             [
                 most(|l| l.c.level),

@@ -17,7 +17,7 @@ use crate::kernel::KernelContext;
 use crate::progress::{Progress, Silent};
 use crate::refine::estimate::LightEstimate;
 use crate::refine::oracle::{average_detail, kernel_detail, Judge, Verdict};
-use crate::refine::{concatenated, project_each, ItemLinks, Part, Projection};
+use crate::refine::{project_each, ByItem, Part, Projection};
 use crate::scene::brdf::{BrdfFlags, BrdfModel};
 use crate::scene::{Patch, Scene, Surface};
 
@@ -463,9 +463,7 @@ pub fn refine_links(
     starts: &[[ElementRef; 2]],
     progress: &dyn Progress,
 ) -> Vec<Link> {
-    concatenated(refine_links_by_item(
-        ctx, settings, estimate, starts, progress,
-    ))
+    refine_links_by_item(ctx, settings, estimate, starts, progress).into_links()
 }
 
 /// The progress phase of the two-point projection.
@@ -487,7 +485,7 @@ pub fn refine_links_by_item(
     estimate: Option<&LightEstimate>,
     starts: &[[ElementRef; 2]],
     progress: &dyn Progress,
-) -> Vec<ItemLinks<Link>> {
+) -> ByItem<Link> {
     let linked: Vec<bool> = (starts.iter())
         .map(|&pair| has_two_point_links(ctx.scene, pair))
         .collect();
@@ -499,21 +497,11 @@ pub fn refine_links_by_item(
         max_level: 0,
         ..settings
     };
-    let mut projected = project_each(PHASE, &projected, progress, |&pair, refine| {
+    project_each(PHASE, &projected, progress, |&pair, refine| {
         let settings = if refine { settings } else { unrefined };
         refine_pair(ctx, settings, estimate, pair, progress)
     })
-    .into_iter();
-    let none = || ItemLinks {
-        links: Vec::new(),
-        finished: true,
-    };
-    (linked.into_iter())
-        .map(|linked| match linked {
-            true => projected.next().expect("one per linked pair"),
-            false => none(),
-        })
-        .collect()
+    .among(&linked)
 }
 
 /// The surface pairs (p < r) that get two-point links: those that can

@@ -12,7 +12,6 @@ use crate::geometry::hierarchy::{ElementId, ElementRef, ElementTree, Hierarchy};
 use crate::kernel::exposure::PairExposure;
 use crate::kernel::lights::{grid, reflected_towards};
 use crate::progress::Progress;
-use crate::refine::concatenated;
 use crate::refine::estimate::LightEstimate;
 use crate::refine::light_links::SKY_GRID;
 use crate::refine::three_point_projection::{refine_three_point_links, ThreePointLink};
@@ -184,14 +183,15 @@ pub(crate) fn receiver_links(
             None,
         )
     });
-    concatenated(refine_three_point_links(
+    refine_three_point_links(
         &solution.kernel_context(),
         solution.settings.receiver_refine(),
         estimate.as_ref(),
         triples,
         receiver,
         progress,
-    ))
+    )
+    .into_links()
 }
 
 /// L_{c→a}: the average radiance of `solution` leaving element `c` of

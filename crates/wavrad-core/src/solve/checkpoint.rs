@@ -42,7 +42,7 @@ use crate::refine::cluster_links::{End, Linking};
 use crate::refine::three_point_projection::ThreePointLink;
 use crate::refine::two_point_projection::Link;
 use crate::refine::{three_point_projection, two_point_projection};
-use crate::refine::{ItemLinks, Projected};
+use crate::refine::{ByItem, Projected};
 use crate::scene::Scene;
 use crate::setting::{Described, Value};
 use crate::solve::stats::PhaseTimes;
@@ -136,7 +136,7 @@ pub struct Saver<'a> {
 pub struct Run {
     /// The items and their links.
     pub links: BlockLinks,
-    /// Whether they were projected in full ([`ItemLinks::finished`]).
+    /// Whether they were projected in full (as [`ByItem`] tells of each).
     pub finished: bool,
 }
 
@@ -274,7 +274,7 @@ impl RunSpan {
 /// finished or not; the first run takes the projection's `kernels_s`.
 pub(super) fn runs_of(
     numbers: &[usize],
-    two_point: Vec<ItemLinks<Link>>,
+    two_point: ByItem<Link>,
     three_point: Projected<ThreePointLink>,
     kernels_s: f64,
 ) -> Vec<Run> {
@@ -282,35 +282,52 @@ pub(super) fn runs_of(
         numbers.len(),
         two_point.len() + three_point.items.len() + three_point.left_out
     );
-    let mut runs: Vec<Run> = Vec::new();
-    let mut two_point = two_point.into_iter();
-    let mut three_point = three_point.items.into_iter();
-    for &n in numbers {
-        let (finished, two, three) = match two_point.next() {
-            Some(item) => (item.finished, item.links, Vec::new()),
-            None => match three_point.next() {
-                Some(item) => (item.finished, Vec::new(), item.links),
-                None => (false, Vec::new(), Vec::new()),
-            },
-        };
-        match runs.last_mut() {
-            Some(run) if run.finished == finished && run.links.items.end == n => {
-                run.links.items.end = n + 1;
-                run.links.two_point.extend(two);
-                run.links.three_point.extend(three);
+    // Each item: whether it was finished, and its numbers of links.
+    let items = (two_point.iter().map(|(links, done)| (done, links.len(), 0)))
+        .chain((three_point.items.iter()).map(|(links, done)| (done, 0, links.len())))
+        .chain(std::iter::repeat((false, 0, 0)));
+    let mut spans: Vec<RunSpan> = Vec::new();
+    for (&n, (finished, two, three)) in numbers.iter().zip(items) {
+        match spans.last_mut() {
+            Some(span) if span.finished == finished && span.items.end == n => {
+                span.items.end = n + 1;
+                span.two_point += two;
+                span.three_point += three;
             }
-            _ => runs.push(Run {
-                links: BlockLinks {
-                    items: n..n + 1,
-                    two_point: two,
-                    three_point: three,
-                    kernels_s: if runs.is_empty() { kernels_s } else { 0.0 },
-                },
+            _ => spans.push(RunSpan {
+                items: n..n + 1,
+                two_point: two,
+                three_point: three,
                 finished,
             }),
         }
     }
+    // The runs' links, split off the ends of the items' (each moved once).
+    let (mut two_point, mut three_point) = (two_point.into_links(), three_point.items.into_links());
+    let mut runs: Vec<Run> = (spans.into_iter().rev())
+        .map(|span| Run {
+            links: BlockLinks {
+                two_point: last(&mut two_point, span.two_point),
+                three_point: last(&mut three_point, span.three_point),
+                items: span.items,
+                kernels_s: 0.0,
+            },
+            finished: span.finished,
+        })
+        .collect();
+    runs.reverse();
+    if let Some(first) = runs.first_mut() {
+        first.links.kernels_s = kernels_s;
+    }
     runs
+}
+
+/// The last `n` of `all`, taken off it.
+fn last<T>(all: &mut Vec<T>, n: usize) -> Vec<T> {
+    match n == all.len() {
+        true => std::mem::take(all),
+        false => all.split_off(all.len() - n),
+    }
 }
 
 /// The links of `runs` (consecutive, in order) as one block of `items`.

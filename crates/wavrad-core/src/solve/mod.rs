@@ -613,12 +613,14 @@ impl Plan {
         let blocks: Vec<BlockLinks> = runs.into_iter().map(|r| r.links).collect();
         self.check_cover(&blocks)?;
         let mut times = self.times;
-        // At their length: the solve holds them to the end.
-        let mut links = Vec::with_capacity(blocks.iter().map(|b| b.two_point.len()).sum());
-        let mut three_point = Vec::with_capacity(blocks.iter().map(|b| b.three_point.len()).sum());
+        // At their length (the solve holds them to the end), the first
+        // block's vectors grown, not copied.
+        let (mut links, mut three_point) = (Vec::new(), Vec::new());
+        let two_total = blocks.iter().map(|b| b.two_point.len()).sum();
+        let three_total = blocks.iter().map(|b| b.three_point.len()).sum();
         for block in blocks {
-            links.extend(block.two_point);
-            three_point.extend(block.three_point);
+            append_part(&mut links, block.two_point, two_total);
+            append_part(&mut three_point, block.three_point, three_total);
             times.kernels_s += block.kernels_s;
         }
 
@@ -762,6 +764,17 @@ impl Plan {
             stats,
             checkpoint,
         })
+    }
+}
+
+/// Append `part` to `all`, which holds `total` items once every part is
+/// in: the first part with any is taken as it is and grown, not copied.
+fn append_part<T>(all: &mut Vec<T>, part: Vec<T>, total: usize) {
+    if all.is_empty() {
+        *all = part;
+        all.reserve_exact(total - all.len());
+    } else {
+        all.extend(part);
     }
 }
 
