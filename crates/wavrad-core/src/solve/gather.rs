@@ -397,11 +397,14 @@ impl Interactions {
         for (incoming, &n) in out.incoming.iter_mut().zip(&counts) {
             incoming.reserve_exact(n);
         }
-        // The children's shares of each transfer's link, (the receiver's,
-        // the source's), beside `incoming` until the gradients and the
-        // sources' children are made.
-        let mut shares_of: Vec<Vec<_>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
-        for l in links {
+        // Each transfer's link and whether it is received by the link's
+        // `a` (link index · 2 + 1) or `c`, beside `incoming` until the
+        // gradients and the sources' children are made from the link's
+        // shares: 4 bytes a transfer, where its shares would be 40.
+        let mut link_of: Vec<Vec<u32>> = counts.iter().map(|&n| Vec::with_capacity(n)).collect();
+        assert!(links.len() <= 1 << 31, "at most 2^31 links");
+        for (k, l) in links.iter().enumerate() {
+            let k = k as u32;
             for (p, a, r, c, of_a) in [(l.p, l.a, l.r, l.c, true), (l.r, l.c, l.p, l.a, false)] {
                 if !reflects[p as usize] {
                     continue;
@@ -416,15 +419,17 @@ impl Interactions {
                     form_factor,
                     gradient: Vec3::ZERO,
                 });
-                shares_of[p as usize].push((l.shares_into(of_a), l.shares_into(!of_a)));
+                link_of[p as usize].push(2 * k + u32::from(of_a));
             }
         }
         let all_exposure = &out.exposure;
-        (out.incoming.par_iter_mut().zip(shares_of).enumerate())
+        (out.incoming.par_iter_mut().zip(link_of).enumerate())
             .with_max_len(64)
-            .for_each(|(p, (incoming, shares))| {
+            .for_each(|(p, (incoming, link_of))| {
                 let (tree, exposure) = (&trees[p], &all_exposure[p][..]);
-                for (t, (into, from)) in incoming.iter_mut().zip(shares) {
+                for (t, k) in incoming.iter_mut().zip(link_of) {
+                    let (l, of_a) = (&links[k as usize / 2], k % 2 == 1);
+                    let (into, from) = (l.shares_into(of_a), l.shares_into(!of_a));
                     let (r, c) = t.source.element();
                     let source = &trees[r as usize].nodes[c as usize].patch;
                     let g = receiver_gradient(tree, exposure, t.receiver as usize, source, into);
