@@ -248,6 +248,42 @@ impl Checkpoint {
     }
 }
 
+/// A value that only a checkpoint may need, held compressed until then
+/// (postcard, then zstd at its fastest level): the links of a large
+/// solve's projection and its plan's element pairs are the largest parts
+/// of it that its sweeps do not read, and most solves are not cut short.
+pub(super) struct Packed<T> {
+    bytes: Vec<u8>,
+    of: std::marker::PhantomData<T>,
+}
+
+impl<T: serde::de::DeserializeOwned> Packed<T> {
+    /// `value` packed; `S` serialises as `T` does (`&[L]` as `Vec<L>`).
+    pub(super) fn new<S: serde::Serialize + ?Sized>(value: &S) -> Packed<T> {
+        let pack = || -> std::io::Result<Vec<u8>> {
+            let mut encoder = zstd::stream::Encoder::new(Vec::new(), PACK_LEVEL)?;
+            let cores = std::thread::available_parallelism().map_or(1, usize::from);
+            encoder.multithread(cores as u32)?;
+            let mut out = std::io::BufWriter::new(encoder);
+            postcard::to_io(value, &mut out).map_err(std::io::Error::other)?;
+            out.into_inner().map_err(|e| e.into_error())?.finish()
+        };
+        Packed {
+            bytes: pack().expect("packing into memory does not fail"),
+            of: std::marker::PhantomData,
+        }
+    }
+
+    /// The value packed.
+    pub(super) fn unpack(&self) -> T {
+        let encoded = zstd::decode_all(&self.bytes[..]).expect("a packed value unpacks");
+        postcard::from_bytes(&encoded).expect("a packed value decodes")
+    }
+}
+
+/// zstd's level for [`Packed`] values: its fastest regular level.
+const PACK_LEVEL: i32 = 1;
+
 /// Where one run's links lie in the concatenation of a projection's links.
 #[derive(Debug, Clone)]
 pub(super) struct RunSpan {
@@ -683,6 +719,56 @@ mod tests {
             assert_eq!(resumed.checkpoint, None);
             assert_eq!(resumed.stats.stopped, None);
         }
+    }
+
+    /// Asks to stop once the sweeps have started, the projection done.
+    #[derive(Default)]
+    struct StopInSweeps(std::sync::atomic::AtomicBool);
+
+    impl Progress for StopInSweeps {
+        fn start(&self, phase: &str, _total: u64) {
+            if phase == "solving" {
+                self.0.store(true, std::sync::atomic::Ordering::SeqCst);
+            }
+        }
+        fn interrupted(&self) -> bool {
+            self.0.load(std::sync::atomic::Ordering::SeqCst)
+        }
+    }
+
+    #[test]
+    fn a_solve_stopped_in_its_sweeps_keeps_every_item_it_packed_and_resumes_without_projecting() {
+        let scene = glossy_box();
+        // Sweeps stop once past their first few: enough of them to stop.
+        let settings = SolveSettings {
+            tolerance: 1e-12,
+            ..coarse()
+        };
+        let whole = solve(&scene, &settings, &Silent).unwrap();
+        let cut = solve(&scene, &settings, &StopInSweeps::default()).unwrap();
+        assert_eq!(cut.stats.stopped, Some(Stop::Interrupted));
+        assert!(cut.stats.iterations < whole.stats.iterations);
+        let checkpoint = cut.checkpoint.clone().expect("a checkpoint");
+        assert_eq!(checkpoint.unfinished().len(), 0);
+        assert_eq!(checkpoint.finished_items(), whole.stats.projected_items);
+        let plan = crate::solve::plan(&scene, &settings, &Silent).unwrap();
+        assert_eq!(checkpoint.linking.element_pairs, plan.element_pairs());
+        let resumed = resume(&scene, &settings, cut.unfinished().unwrap(), None, &Silent).unwrap();
+        assert_eq!(resumed.stats.projected_items, 0);
+        assert_eq!(resumed.radiance, whole.radiance);
+        assert_eq!(resumed.directional, whole.directional);
+    }
+
+    #[test]
+    fn packed_values_unpack_as_they_were() {
+        let links: Vec<(u32, f64)> = (0..100_000).map(|k| (k % 7, f64::from(k).sqrt())).collect();
+        let pairs = vec![[1u64, 2], [3, 4]];
+        type Both = (Vec<(u32, f64)>, Vec<[u64; 2]>);
+        let packed: Packed<Both> = Packed::new(&(&links, &pairs[..]));
+        assert!(packed.bytes.len() < std::mem::size_of_val(&links[..]));
+        assert_eq!(packed.unpack(), (links, pairs));
+        let empty: Packed<Vec<u8>> = Packed::new(&Vec::<u8>::new());
+        assert_eq!(empty.unpack(), Vec::<u8>::new());
     }
 
     #[test]

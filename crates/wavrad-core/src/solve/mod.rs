@@ -38,7 +38,7 @@ use crate::refine::two_point_projection::{refine_links_by_item, Link, RefineSett
 use crate::scene::{Rgb, Scene};
 use crate::solve::stats::{LinkCounts, PhaseTimes, Stats, Sweeps};
 use crate::{Error, Result};
-use checkpoint::{merged, runs_of, Run, RunSpan};
+use checkpoint::{merged, runs_of, Packed, Run, RunSpan};
 pub use checkpoint::{resume, Checkpoint, CheckpointView, Saver, Unfinished};
 use cluster_gather::{ClusterTransfers, FarField};
 use extrapolation::Extrapolation;
@@ -613,8 +613,7 @@ impl Plan {
         let blocks: Vec<BlockLinks> = runs.into_iter().map(|r| r.links).collect();
         self.check_cover(&blocks)?;
         let mut times = self.times;
-        // At their length (the solve holds them to the end), the first
-        // block's vectors grown, not copied.
+        // The first block's vectors grown, not copied.
         let (mut links, mut three_point) = (Vec::new(), Vec::new());
         let two_total = blocks.iter().map(|b| b.two_point.len()).sum();
         let three_total = blocks.iter().map(|b| b.three_point.len()).sum();
@@ -624,8 +623,15 @@ impl Plan {
             times.kernels_s += block.kernels_s;
         }
 
-        // The final system holds the cluster links; a checkpoint gets them
-        // back from it.
+        // What a checkpoint would need and the sweeps do not read is packed:
+        // the projection's links (which the refine–solve loop refines
+        // further) and the plan's element pairs. The final system holds the
+        // cluster links; a checkpoint gets them back from it.
+        let items = self.items().end;
+        let projected: Packed<(Vec<Link>, Vec<ThreePointLink>)> =
+            Packed::new(&(&links, &three_point));
+        let element_pairs: Packed<Vec<[ElementRef; 2]>> =
+            Packed::new(&std::mem::take(&mut self.linking.element_pairs));
         let mut cluster_links = std::mem::take(&mut self.linking.cluster_links);
         let Plan {
             projector: Projector {
@@ -648,16 +654,20 @@ impl Plan {
         // only estimate where light flows, so they skip the resolution; the
         // solution returned always has it, and its system, the last, takes
         // the cluster links.
-        let mut assemble_and_solve = |links: &[Link],
+        // The final system takes the links and lets them go once resolved.
+        let mut assemble_and_solve = |links: Cow<[Link]>,
                                       three_point: &[ThreePointLink],
                                       resolve: bool,
                                       times: &mut PhaseTimes| {
             let clock = Instant::now();
             let resolved = match resolve {
-                true => Cow::Owned(
-                    resolve_emitter_links(&ctx, settings.refine.max_level, links, progress).0,
-                ),
-                false => Cow::Borrowed(links),
+                true => {
+                    let max_level = settings.refine.max_level;
+                    let resolved = resolve_emitter_links(&ctx, max_level, &links, progress).0;
+                    drop(links);
+                    Cow::Owned(resolved)
+                }
+                false => links,
             };
             let cluster_links = match resolve {
                 true => Cow::Owned(std::mem::take(&mut cluster_links)),
@@ -677,11 +687,12 @@ impl Plan {
             Ok::<_, Error>((system, sweeps, counts))
         };
         let looping = settings.oracle.is_weighted() && settings.max_refine_passes > 1;
-        // The loop refines the links further; a checkpoint keeps the first
-        // projection's.
-        let projected = looping.then(|| (links.clone(), three_point.clone()));
-        let (mut system, mut sweeps, mut counts) =
-            assemble_and_solve(&links, &three_point, !looping, &mut times)?;
+        let (mut system, mut sweeps, mut counts) = assemble_and_solve(
+            taken(&mut links, !looping),
+            &three_point,
+            !looping,
+            &mut times,
+        )?;
         let mut passes = 1;
         let mut final_system = !looping;
         while looping && passes < settings.max_refine_passes && !progress.interrupted() {
@@ -711,11 +722,16 @@ impl Plan {
             }
             passes += 1;
             final_system = passes == settings.max_refine_passes;
-            (system, sweeps, counts) =
-                assemble_and_solve(&links, &three_point, final_system, &mut times)?;
+            (system, sweeps, counts) = assemble_and_solve(
+                taken(&mut links, final_system),
+                &three_point,
+                final_system,
+                &mut times,
+            )?;
         }
         if !final_system {
-            (system, sweeps, counts) = assemble_and_solve(&links, &three_point, true, &mut times)?;
+            (system, sweeps, counts) =
+                assemble_and_solve(taken(&mut links, true), &three_point, true, &mut times)?;
         }
 
         let stats = Stats {
@@ -727,7 +743,7 @@ impl Plan {
             unplanned_triples: self.unplanned_triples,
             left_out_items: self.projector.budget.left_out_items(),
             resumed_items: resumed,
-            projected_items: self.items().end - resumed,
+            projected_items: items - resumed,
             exchanging_pairs: pairs.len(),
             kernel_pairs: pairs.len(),
             cluster_links: system.interactions.clusters.len(),
@@ -743,10 +759,10 @@ impl Plan {
             )
         };
         let (settings, pairs) = (*settings, pairs.clone());
-        let items = self.items().end;
         let checkpoint = stats.stopped.map(|_| {
-            let (links, three_point) = projected.unwrap_or((links, three_point));
+            let (links, three_point) = projected.unpack();
             let mut linking = self.linking;
+            linking.element_pairs = element_pairs.unpack();
             linking.cluster_links = (system.interactions.clusters.links(&system.trees))
                 .expect("a solve's cluster transfers name its own elements");
             Checkpoint::new(linking, items, &spans, links, three_point)
@@ -764,6 +780,15 @@ impl Plan {
             stats,
             checkpoint,
         })
+    }
+}
+
+/// `links` as a system takes them: the `last` one's own, taken, else
+/// borrowed (the refine–solve loop refines them further).
+fn taken(links: &mut Vec<Link>, last: bool) -> Cow<'_, [Link]> {
+    match last {
+        true => Cow::Owned(std::mem::take(links)),
+        false => Cow::Borrowed(&links[..]),
     }
 }
 
